@@ -1,0 +1,515 @@
+#include "Bake.h"
+
+#include "Error.h"
+
+#include <openvdb/tools/LevelSetTracker.h>
+#include <openvdb/tools/SignedFloodFill.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+namespace rockvdb {
+
+using openvdb::Coord;
+using openvdb::CoordBBox;
+using openvdb::FloatGrid;
+using FloatTree = openvdb::FloatTree;
+using LeafT = FloatTree::LeafNodeType;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0)
+{
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+constexpr int kLeafDim = 8;
+constexpr int kLeafVoxels = 512;
+constexpr int kPadDim = 10; // leaf plus a one-voxel apron for central differences
+
+// Bytes per active voxel of a narrow band: 4 B value in partly filled leaves (~60% active)
+// plus masks, node tables and the attribute grid when present.
+constexpr double kBytesPerActive = 8.0;
+constexpr double kBytesPerLeaf = sizeof(LeafT) + 96;
+
+struct Domain
+{
+    CoordBBox box;      // voxels that may become active (inclusive)
+    double bandField;   // |f| threshold for candidate leaves (field units)
+    double lipschitz;
+    float background;
+    bool renormalize;
+};
+
+Domain makeDomain(const Field& field, const BakeSettings& s)
+{
+    Domain d;
+    const double dx = s.voxelSize;
+    d.background = float(s.halfWidth * dx);
+    d.renormalize = s.renormalize == Renormalize::On ||
+                    (s.renormalize == Renormalize::Auto && !field.exact());
+    const double bandScale = d.renormalize ? s.renormBandScale : 1.0;
+    d.lipschitz = std::max(1.0, field.lipschitz());
+    // Band in field units: voxels within distance band·bandScale have |f| <= L·that.
+    d.bandField = double(d.background) * bandScale * (d.renormalize ? d.lipschitz : 1.0);
+
+    BBoxd world = field.bounds();
+    const bool bounded = isBounded(world);
+    if (!bounded && !s.region) {
+        fail<ValueError>("bake: the field is unbounded (a plane or half-space); give a region");
+    }
+    if (bounded) world.expand(double(d.background) * bandScale + 2 * dx);
+    CoordBBox box;
+    if (bounded) {
+        box = CoordBBox(Coord(int(std::floor(std::max(world.min()[0] / dx, -1e9))),
+                              int(std::floor(std::max(world.min()[1] / dx, -1e9))),
+                              int(std::floor(std::max(world.min()[2] / dx, -1e9)))),
+                        Coord(int(std::ceil(std::min(world.max()[0] / dx, 1e9))),
+                              int(std::ceil(std::min(world.max()[1] / dx, 1e9))),
+                              int(std::ceil(std::min(world.max()[2] / dx, 1e9)))));
+    }
+    if (s.region) {
+        // Half-open on voxel centres: index i is inside iff min <= i·dx < max.
+        const BBoxd& r = *s.region;
+        const double tol = 1e-9;
+        Coord lo, hi;
+        for (int a = 0; a < 3; ++a) {
+            const double l = std::ceil(r.min()[a] / dx - tol);
+            const double h = std::ceil(r.max()[a] / dx - tol) - 1;
+            if (std::abs(l) > 1e9 || std::abs(h) > 1e9) {
+                fail<ValueError>("bake: region is too large for voxel size ", dx,
+                                 " (more than 1e9 voxels along an axis)");
+            }
+            lo[a] = int(l);
+            hi[a] = int(h);
+        }
+        const CoordBBox rbox(lo, hi);
+        box = bounded ? CoordBBox(Coord::maxComponent(box.min(), rbox.min()),
+                                  Coord::minComponent(box.max(), rbox.max()))
+                      : rbox;
+    }
+    d.box = box;
+    return d;
+}
+
+// A node of the culling hierarchy: voxels [origin, origin + size - 1].
+struct Node
+{
+    Coord origin;
+    int size;
+};
+
+class Baker
+{
+public:
+    Baker(const Field& f, const BakeSettings& s, const Domain& d,
+          openvdb::util::NullInterrupter* interrupt)
+        : mField(f), mS(s), mD(d), mDx(float(s.voxelSize)), mInterrupt(interrupt)
+    {
+        // Values at or beyond this magnitude all end up as ±background: without
+        // renormalisation that is the background itself; with it, a voxel in the band reads
+        // neighbours up to L·(band + 1 voxel) away in field units.
+        mClampBand = d.renormalize
+            ? float((d.bandField + d.lipschitz * s.voxelSize) * 1.01)
+            : d.background;
+    }
+
+    BakeResult run()
+    {
+        BakeResult result;
+        const auto t0 = Clock::now();
+        std::vector<Coord> candidates = cull();
+        result.stats.candidateLeaves = candidates.size();
+        result.stats.cullSeconds = since(t0);
+        checkInterrupt(10);
+
+        const auto t1 = Clock::now();
+        std::vector<LeafT*> leaves(candidates.size(), nullptr);
+        std::vector<LeafT*> attrs(mS.withAttribute ? candidates.size() : 0, nullptr);
+        fill(candidates, leaves, attrs);
+        result.stats.fillSeconds = since(t1);
+
+        const auto t2 = Clock::now();
+        auto surface = FloatGrid::create(mD.background);
+        auto xform = openvdb::math::Transform::createLinearTransform(mS.voxelSize);
+        surface->setTransform(xform);
+        surface->setGridClass(openvdb::GRID_LEVEL_SET);
+        surface->setName(mS.gridName);
+        FloatGrid::Ptr attribute;
+        if (mS.withAttribute) {
+            attribute = FloatGrid::create(kNoId);
+            attribute->setTransform(xform);
+            attribute->setGridClass(openvdb::GRID_UNKNOWN);
+            attribute->setName(mS.attributeName);
+        }
+        FloatTree& tree = surface->tree();
+        for (size_t i = 0; i < leaves.size(); ++i) {
+            if (!leaves[i]) continue;
+            tree.addLeaf(leaves[i]);
+            if (attribute) attribute->tree().addLeaf(attrs[i]);
+            ++result.stats.leaves;
+        }
+        if (mNaN.load()) {
+            fail<ValueError>("bake: the field produced NaN values (first near leaf ",
+                             mNaNLeaf, "); check the field's parameters");
+        }
+        openvdb::tools::signedFloodFill(tree);
+        if (mS.trackerSteps > 0 && result.stats.leaves > 0) {
+            openvdb::tools::LevelSetTracker<FloatGrid> tracker(*surface);
+            tracker.setNormCount(mS.trackerSteps);
+            tracker.normalize();
+            if (attribute) {
+                // The tracker keeps the active topology; refresh ids only where both agree.
+                attribute->tree().topologyIntersection(tree);
+            }
+        }
+        result.stats.activeVoxels = size_t(tree.activeVoxelCount());
+        result.stats.fieldEvaluations = mEvals.load();
+        result.stats.renormalized = mD.renormalize;
+        result.stats.finishSeconds = since(t2);
+        result.surface = surface;
+        result.attribute = attribute;
+        return result;
+    }
+
+private:
+    void checkInterrupt(int percent)
+    {
+        if (mCancel.load(std::memory_order_relaxed)) throw Interrupted();
+        if (mInterrupt && mInterrupt->wasInterrupted(percent)) throw Interrupted();
+    }
+
+    bool pollInterrupt(int percent)
+    {
+        if (mCancel.load(std::memory_order_relaxed)) return true;
+        if (mInterrupt && mInterrupt->wasInterrupted(percent)) {
+            mCancel.store(true);
+            return true;
+        }
+        return false;
+    }
+
+    // ---- 1. hierarchical culling -------------------------------------------------------
+
+    std::vector<Coord> cull()
+    {
+        const CoordBBox& box = mD.box;
+        if (box.empty()) return {};
+        // Top nodes: the smallest power of two >= 8 giving at most ~4096 of them.
+        int top = kLeafDim;
+        auto count = [&](int size) {
+            double n = 1;
+            for (int a = 0; a < 3; ++a) {
+                n *= double(floorDiv(box.max()[a], size) - floorDiv(box.min()[a], size) + 1);
+            }
+            return n;
+        };
+        while (count(top) > 4096 && top < (1 << 20)) top *= 2;
+        std::vector<Node> tops;
+        const Coord lo(floorDiv(box.min()[0], top) * top, floorDiv(box.min()[1], top) * top,
+                       floorDiv(box.min()[2], top) * top);
+        for (int i = lo[0]; i <= box.max()[0]; i += top)
+            for (int j = lo[1]; j <= box.max()[1]; j += top)
+                for (int k = lo[2]; k <= box.max()[2]; k += top)
+                    tops.push_back({Coord(i, j, k), top});
+
+        std::vector<std::vector<Coord>> perTop(tops.size());
+        std::atomic<size_t> total{0};
+        const double limit = memoryLimit();
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, tops.size(), 1),
+            [&](const tbb::blocked_range<size_t>& r) {
+                for (size_t t = r.begin(); t != r.end(); ++t) {
+                    if (pollInterrupt(int(10.0 * double(t) / double(tops.size())))) return;
+                    visit(tops[t], perTop[t]);
+                    const size_t n = total.fetch_add(perTop[t].size()) + perTop[t].size();
+                    if (double(n) * (kBytesPerLeaf + kLeafVoxels * 4.0) > limit) {
+                        mOverflow.store(true);
+                        mCancel.store(true);
+                        return;
+                    }
+                }
+            });
+        if (mOverflow.load()) {
+            fail<ValueError>("bake: the narrow band needs more than ", formatBytes(limit),
+                             " (over ", total.load(), " leaves); use a larger voxel size or a "
+                             "smaller region");
+        }
+        checkInterrupt(10);
+        std::vector<Coord> out;
+        out.reserve(total.load());
+        for (auto& v : perTop) out.insert(out.end(), v.begin(), v.end());
+        return out;
+    }
+
+    static int floorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+    bool overlaps(const Node& n) const
+    {
+        const CoordBBox nb(n.origin, n.origin.offsetBy(n.size - 1));
+        return nb.hasOverlap(mD.box);
+    }
+
+    void visit(const Node& n, std::vector<Coord>& out)
+    {
+        if (!overlaps(n)) return;
+        const double half = 0.5 * double(n.size - 1);
+        const Vec3d c((n.origin[0] + half) * mS.voxelSize, (n.origin[1] + half) * mS.voxelSize,
+                      (n.origin[2] + half) * mS.voxelSize);
+        const double halfDiag = half * std::sqrt(3.0) * mS.voxelSize;
+        const float v = mField.eval(c);
+        mEvals.fetch_add(1, std::memory_order_relaxed);
+        // 1% and half a voxel of slack absorb float rounding in the field.
+        if (std::abs(double(v)) > (mD.lipschitz * halfDiag + mD.bandField) * 1.01 +
+                                      0.5 * mS.voxelSize) {
+            return;
+        }
+        if (n.size == kLeafDim) {
+            out.push_back(n.origin);
+            return;
+        }
+        const int h = n.size / 2;
+        for (int i = 0; i < 2; ++i)
+            for (int j = 0; j < 2; ++j)
+                for (int k = 0; k < 2; ++k)
+                    visit({n.origin.offsetBy(i * h, j * h, k * h), h}, out);
+    }
+
+    // ---- 2. leaf filling ----------------------------------------------------------------
+
+    void fill(const std::vector<Coord>& cand, std::vector<LeafT*>& leaves,
+              std::vector<LeafT*>& attrs)
+    {
+        const size_t n = cand.size();
+        std::atomic<size_t> done{0};
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16),
+            [&](const tbb::blocked_range<size_t>& r) {
+                const int pct = 10 + int(85.0 * double(done.load()) / double(std::max<size_t>(n, 1)));
+                if (pollInterrupt(pct)) return;
+                Scratch scratch;
+                for (size_t i = r.begin(); i != r.end(); ++i) {
+                    fillLeaf(cand[i], scratch, leaves[i], attrs.empty() ? nullptr : &attrs[i]);
+                }
+                done.fetch_add(r.size(), std::memory_order_relaxed);
+            });
+        if (mCancel.load()) {
+            for (auto* l : leaves) delete l;
+            for (auto* l : attrs) delete l;
+            throw Interrupted();
+        }
+    }
+
+    struct Scratch
+    {
+        BatchBuffer pts;
+        alignas(64) float val[kMaxBatch];
+        alignas(64) float id[kMaxBatch];
+        alignas(64) float out[kLeafVoxels];
+        alignas(64) float outId[kLeafVoxels];
+    };
+
+    void fillLeaf(const Coord& origin, Scratch& s, LeafT*& leafOut, LeafT** attrOut)
+    {
+        const float dx = mDx;
+        const bool withId = attrOut != nullptr;
+        if (!mD.renormalize) {
+            // Leaf offset n = (x << 6) | (y << 3) | z, as in LeafNode::coordToOffset.
+            for (int n = 0; n < kLeafVoxels; ++n) {
+                s.pts.x[n] = float(origin[0] + (n >> 6)) * dx;
+                s.pts.y[n] = float(origin[1] + ((n >> 3) & 7)) * dx;
+                s.pts.z[n] = float(origin[2] + (n & 7)) * dx;
+            }
+            s.pts.n = kLeafVoxels;
+            s.pts.center = Vec3f(float(origin[0] + 3.5) * dx, float(origin[1] + 3.5) * dx,
+                                 float(origin[2] + 3.5) * dx);
+            s.pts.radius = 3.5f * 1.7320508f * dx;
+            s.pts.band = mClampBand;
+            if (withId) mField.evalIdBatch(s.pts.view(), s.out, s.outId);
+            else mField.evalBatch(s.pts.view(), s.out);
+            mEvals.fetch_add(kLeafVoxels, std::memory_order_relaxed);
+        } else {
+            // Padded block: p = (x+1)·100 + (y+1)·10 + (z+1) for x, y, z in [-1, 8].
+            for (int p = 0; p < kPadDim * kPadDim * kPadDim; ++p) {
+                s.pts.x[p] = float(origin[0] - 1 + p / 100) * dx;
+                s.pts.y[p] = float(origin[1] - 1 + (p / 10) % 10) * dx;
+                s.pts.z[p] = float(origin[2] - 1 + p % 10) * dx;
+            }
+            s.pts.n = kPadDim * kPadDim * kPadDim;
+            s.pts.center = Vec3f(float(origin[0] + 3.5) * dx, float(origin[1] + 3.5) * dx,
+                                 float(origin[2] + 3.5) * dx);
+            s.pts.radius = 4.5f * 1.7320508f * dx;
+            s.pts.band = mClampBand;
+            if (withId) mField.evalIdBatch(s.pts.view(), s.val, s.id);
+            else mField.evalBatch(s.pts.view(), s.val);
+            mEvals.fetch_add(size_t(s.pts.n), std::memory_order_relaxed);
+            const float inv2dx = 0.5f / dx;
+            for (int n = 0; n < kLeafVoxels; ++n) {
+                const int p = ((n >> 6) + 1) * 100 + (((n >> 3) & 7) + 1) * 10 + (n & 7) + 1;
+                const float gx = (s.val[p + 100] - s.val[p - 100]) * inv2dx;
+                const float gy = (s.val[p + 10] - s.val[p - 10]) * inv2dx;
+                const float gz = (s.val[p + 1] - s.val[p - 1]) * inv2dx;
+                const float g = std::sqrt(gx * gx + gy * gy + gz * gz);
+                // f/|∇f|: first-order distance; |∇f| ~ 0 only far from the surface.
+                s.out[n] = g > 1e-6f ? s.val[p] / g : s.val[p];
+                if (withId) s.outId[n] = s.id[p];
+            }
+        }
+
+        const float bg = mD.background;
+        uint64_t words[kLeafVoxels / 64];
+        bool nan = false;
+        uint64_t any = 0;
+        for (int w = 0; w < kLeafVoxels / 64; ++w) {
+            uint64_t word = 0;
+            float* v = s.out + w * 64;
+            for (int b = 0; b < 64; ++b) {
+                nan |= std::isnan(v[b]);
+                const float c = std::min(std::max(v[b], -bg), bg);
+                v[b] = c;
+                word |= uint64_t(std::abs(c) < bg) << b;
+            }
+            words[w] = word;
+            any |= word;
+        }
+        // Voxels outside a region clip are inactive (their values keep the sign).
+        if (any && !mD.box.isInside(CoordBBox(origin, origin.offsetBy(kLeafDim - 1)))) {
+            any = 0;
+            for (int n = 0; n < kLeafVoxels; ++n) {
+                const Coord ijk = origin.offsetBy(n >> 6, (n >> 3) & 7, n & 7);
+                if (!mD.box.isInside(ijk)) words[n >> 6] &= ~(uint64_t(1) << (n & 63));
+            }
+            for (auto w : words) any |= w;
+        }
+        if (nan && !mNaN.exchange(true)) mNaNLeaf = origin;
+        if (!any) return;
+
+        auto* leaf = new LeafT(origin, bg);
+        std::copy(s.out, s.out + kLeafVoxels, leaf->buffer().data());
+        auto& mask = leaf->getValueMask();
+        for (int w = 0; w < kLeafVoxels / 64; ++w) mask.template getWord<uint64_t>(w) = words[w];
+        leafOut = leaf;
+        if (withId) {
+            auto* attr = new LeafT(origin, kNoId);
+            float* a = attr->buffer().data();
+            for (int n = 0; n < kLeafVoxels; ++n) {
+                a[n] = (words[n >> 6] >> (n & 63)) & 1 ? s.outId[n] : kNoId;
+            }
+            auto& am = attr->getValueMask();
+            for (int w = 0; w < kLeafVoxels / 64; ++w) am.template getWord<uint64_t>(w) = words[w];
+            *attrOut = attr;
+        }
+    }
+
+    double memoryLimit() const
+    {
+        return mS.maxMemoryBytes > 0 ? mS.maxMemoryBytes : 0.75 * physicalMemoryBytes();
+    }
+
+    const Field& mField;
+    const BakeSettings& mS;
+    const Domain& mD;
+    const float mDx;
+    float mClampBand;
+    openvdb::util::NullInterrupter* mInterrupt;
+    std::atomic<bool> mCancel{false};
+    std::atomic<bool> mOverflow{false};
+    std::atomic<bool> mNaN{false};
+    Coord mNaNLeaf;
+    std::atomic<size_t> mEvals{0};
+};
+
+} // namespace
+
+Renormalize renormalizeFromString(const std::string& s)
+{
+    if (s == "auto") return Renormalize::Auto;
+    if (s == "off" || s == "false" || s == "0") return Renormalize::Off;
+    if (s == "on" || s == "true" || s == "1") return Renormalize::On;
+    fail<ValueError>("bake: renormalize must be auto, on or off (got '", s, "')");
+}
+
+void BakeSettings::validate() const
+{
+    require(std::isfinite(voxelSize) && voxelSize > 0, "bake", "voxel size", "> 0", voxelSize);
+    require(voxelSize >= 1e-6, "bake", "voxel size", ">= 1e-6 m", voxelSize);
+    require(std::isfinite(halfWidth) && halfWidth >= 1 && halfWidth <= 64, "bake",
+            "half width", "in [1, 64] voxels", halfWidth);
+    require(std::isfinite(renormBandScale) && renormBandScale >= 1 && renormBandScale <= 8,
+            "bake", "renormalisation band scale", "in [1, 8]", renormBandScale);
+    require(trackerSteps >= 0 && trackerSteps <= 100, "bake", "tracker steps", "in [0, 100]",
+            trackerSteps);
+    require(std::isfinite(maxMemoryBytes) && maxMemoryBytes >= 0, "bake", "memory limit",
+            ">= 0", maxMemoryBytes);
+    if (gridName.empty()) fail<ValueError>("bake: grid name must not be empty");
+    if (region) {
+        const BBoxd& r = *region;
+        for (int a = 0; a < 3; ++a) {
+            require(std::isfinite(r.min()[a]) && std::isfinite(r.max()[a]) &&
+                        r.min()[a] < r.max()[a],
+                    "bake", "region", "finite with min < max on every axis",
+                    std::to_string(r.min()[a]) + ".." + std::to_string(r.max()[a]));
+        }
+    }
+}
+
+double physicalMemoryBytes()
+{
+    const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
+    return pages > 0 && size > 0 ? double(pages) * double(size) : 8e9;
+}
+
+std::string formatBytes(double bytes)
+{
+    const char* units[] = {"B", "KB", "MB", "GB", "TB", "PB", "EB"};
+    int u = 0;
+    while (bytes >= 1000 && u < 6) { bytes /= 1000; ++u; }
+    char buf[32];
+    std::snprintf(buf, sizeof buf, u ? "%.1f %s" : "%.0f %s", bytes, units[u]);
+    return buf;
+}
+
+BakeEstimate estimateBake(const Field& field, const BakeSettings& s)
+{
+    s.validate();
+    const Domain d = makeDomain(field, s);
+    BakeEstimate e;
+    e.indexBox = d.box;
+    if (d.box.empty()) { e.empty = true; return e; }
+    // Active voxels ~ surface area of the domain box (an upper-ish bound for convex shapes)
+    // times the band thickness, never more than the voxels of the box itself.
+    const Coord ext = d.box.extents();
+    const double a = ext[0], b = ext[1], c = ext[2];
+    const double bandVoxels = 2.0 * s.halfWidth * (d.renormalize ? s.renormBandScale : 1.0);
+    e.activeVoxels = std::min(2.0 * (a * b + b * c + c * a) * bandVoxels, a * b * c);
+    e.bytes = e.activeVoxels * kBytesPerActive * (s.withAttribute ? 2.0 : 1.0);
+    return e;
+}
+
+BakeResult bake(const Field& field, const BakeSettings& s,
+                openvdb::util::NullInterrupter* interrupt)
+{
+    s.validate();
+    const BakeEstimate est = estimateBake(field, s);
+    const double limit = s.maxMemoryBytes > 0 ? s.maxMemoryBytes : 0.75 * physicalMemoryBytes();
+    if (est.bytes > limit) {
+        fail<ValueError>("bake: refusing to bake: about ", formatBytes(est.bytes), " needed (~",
+                         est.activeVoxels, " active voxels at voxel size ", s.voxelSize,
+                         " m) exceeds the ", formatBytes(limit), " limit");
+    }
+    const Domain d = makeDomain(field, s);
+    if (interrupt) interrupt->start("bake");
+    Baker baker(field, s, d, interrupt);
+    BakeResult r = baker.run();
+    if (interrupt) interrupt->end();
+    return r;
+}
+
+} // namespace rockvdb

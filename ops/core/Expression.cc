@@ -1,0 +1,233 @@
+#include "Expression.h"
+
+#include "Combinators.h"
+#include "Error.h"
+#include "Heightfield.h"
+#include "Primitives.h"
+
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <iterator>
+#include <set>
+#include <sys/stat.h>
+
+namespace rockvdb {
+
+using nlohmann::json;
+
+namespace {
+
+class Builder
+{
+public:
+    explicit Builder(const ExpressionContext& ctx) : mCtx(ctx) {}
+
+    FieldPtr build(const json& n, const std::string& path)
+    {
+        if (!n.is_object()) bad(path, "expected an object with a \"type\"");
+        if (!n.contains("type") || !n["type"].is_string()) bad(path, "missing \"type\"");
+        const std::string type = n["type"];
+        FieldPtr f;
+        try {
+            f = buildTyped(type, n, path);
+        } catch (const ValueError& e) {
+            const std::string msg = e.what();
+            if (msg.rfind("expression", 0) == 0) throw;
+            bad(path, msg);
+        }
+        if (n.contains("id")) f = tag(f, float(num(n, "id", path)));
+        return f;
+    }
+
+private:
+    FieldPtr buildTyped(const std::string& type, const json& n, const std::string& path)
+    {
+        if (type == "sphere") {
+            allow(n, path, {"center", "radius"});
+            return sphere(vec(n, "center", path, Vec3d(0)), num(n, "radius", path));
+        }
+        if (type == "box") {
+            allow(n, path, {"center", "size", "rounding"});
+            return box(vec(n, "center", path, Vec3d(0)), vec(n, "size", path) * 0.5,
+                       num(n, "rounding", path, 0.0));
+        }
+        if (type == "capsule") {
+            allow(n, path, {"a", "b", "radius"});
+            return capsule(vec(n, "a", path), vec(n, "b", path), num(n, "radius", path));
+        }
+        if (type == "plane") {
+            allow(n, path, {"point", "normal"});
+            return halfSpace(vec(n, "point", path, Vec3d(0)), vec(n, "normal", path));
+        }
+        if (type == "polytope") {
+            allow(n, path, {"planes", "smooth"});
+            const json& ps = field(n, "planes", path);
+            if (!ps.is_array()) bad(path + "/planes", "expected an array of [nx, ny, nz, d]");
+            std::vector<Plane> planes;
+            for (size_t i = 0; i < ps.size(); ++i) {
+                const json& p = ps[i];
+                if (!p.is_array() || p.size() != 4 || !std::all_of(p.begin(), p.end(),
+                        [](const json& v) { return v.is_number(); })) {
+                    bad(path + "/planes/" + std::to_string(i), "expected [nx, ny, nz, d]");
+                }
+                planes.push_back({Vec3d(p[0].get<double>(), p[1].get<double>(),
+                                        p[2].get<double>()), p[3].get<double>()});
+            }
+            return convexPolytope(planes, num(n, "smooth", path, 0.0));
+        }
+        if (type == "union" || type == "intersection" || type == "difference") {
+            allow(n, path, {"children", "smooth"});
+            const json& cs = field(n, "children", path);
+            if (!cs.is_array() || cs.empty()) bad(path + "/children", "expected a non-empty array");
+            std::vector<FieldPtr> children;
+            for (size_t i = 0; i < cs.size(); ++i) {
+                children.push_back(build(cs[i], path + "/children/" + std::to_string(i)));
+            }
+            return csg(csgOpFromString(type), children, num(n, "smooth", path, 0.0));
+        }
+        if (type == "transform") {
+            allow(n, path, {"translate", "rotate", "scale", "child"});
+            Vec3d scale(1.0);
+            if (n.contains("scale") && n["scale"].is_number()) scale = Vec3d(n["scale"].get<double>());
+            else if (n.contains("scale")) scale = vec(n, "scale", path);
+            const FieldPtr child = build(field(n, "child", path), path + "/child");
+            return transform(child, makeTransform(vec(n, "translate", path, Vec3d(0)),
+                                                  vec(n, "rotate", path, Vec3d(0)), scale));
+        }
+        if (type == "warp") {
+            allow(n, path, {"amplitude", "frequency", "octaves", "seed", "lacunarity", "gain",
+                            "child"});
+            const FieldPtr child = build(field(n, "child", path), path + "/child");
+            return warp(child, noiseDisplacement(num(n, "amplitude", path),
+                                                 num(n, "frequency", path, 1.0),
+                                                 int(num(n, "octaves", path, 3)), seed(n, path),
+                                                 num(n, "lacunarity", path, 2.0),
+                                                 num(n, "gain", path, 0.5)));
+        }
+        if (type == "heightfield") {
+            allow(n, path, {"file", "cell_size", "height_scale", "base_depth"});
+            const json& f = field(n, "file", path);
+            if (!f.is_string()) bad(path + "/file", "expected a path string");
+            std::string file = f.get<std::string>();
+            if (!file.empty() && file[0] != '/') file = mCtx.baseDir + "/" + file;
+            auto hf = std::make_shared<Heightfield>(loadHeightfield(
+                file, num(n, "cell_size", path, 1.0), num(n, "height_scale", path, 1.0)));
+            HeightfieldSettings hs;
+            hs.baseDepth = num(n, "base_depth", path, 1.0);
+            hs.exactDistance = mCtx.exactDistance;
+            return heightfieldField(hf, hs);
+        }
+        if (type == "noise_terrain") {
+            allow(n, path, {"samples", "cell_size", "amplitude", "frequency", "octaves", "seed",
+                            "base_depth", "lacunarity", "gain"});
+            const json& s = field(n, "samples", path);
+            if (!s.is_array() || s.size() != 2 || !s[0].is_number_integer() ||
+                !s[1].is_number_integer()) {
+                bad(path + "/samples", "expected [nx, ny] integers");
+            }
+            noise::Fbm fbm;
+            fbm.frequency = num(n, "frequency", path, 0.1);
+            fbm.octaves = int(num(n, "octaves", path, 5));
+            fbm.lacunarity = num(n, "lacunarity", path, 2.0);
+            fbm.gain = num(n, "gain", path, 0.5);
+            auto hf = std::make_shared<Heightfield>(noiseHeightfield(
+                s[0].get<int>(), s[1].get<int>(), num(n, "cell_size", path, 1.0),
+                num(n, "amplitude", path, 1.0), fbm, seed(n, path)));
+            HeightfieldSettings hs;
+            hs.baseDepth = num(n, "base_depth", path, 1.0);
+            hs.exactDistance = mCtx.exactDistance;
+            return heightfieldField(hf, hs);
+        }
+        bad(path + "/type", "unknown type '" + type + "'");
+    }
+
+    [[noreturn]] static void bad(const std::string& path, const std::string& what)
+    {
+        fail<ValueError>("expression: at ", path.empty() ? "/" : path, ": ", what);
+    }
+
+    static void allow(const json& n, const std::string& path, std::set<std::string> keys)
+    {
+        keys.insert("type");
+        keys.insert("id");
+        for (auto it = n.begin(); it != n.end(); ++it) {
+            if (!keys.count(it.key())) bad(path, "unknown key '" + it.key() + "'");
+        }
+    }
+
+    static const json& field(const json& n, const char* key, const std::string& path)
+    {
+        if (!n.contains(key)) bad(path, std::string("missing \"") + key + "\"");
+        return n[key];
+    }
+
+    static double num(const json& n, const char* key, const std::string& path)
+    {
+        const json& v = field(n, key, path);
+        if (!v.is_number()) bad(path + "/" + key, "expected a number");
+        return v.get<double>();
+    }
+    static double num(const json& n, const char* key, const std::string& path, double def)
+    {
+        return n.contains(key) ? num(n, key, path) : def;
+    }
+
+    static Vec3d vec(const json& n, const char* key, const std::string& path)
+    {
+        const json& v = field(n, key, path);
+        if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() ||
+            !v[2].is_number()) {
+            bad(path + "/" + key, "expected [x, y, z]");
+        }
+        return Vec3d(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+    }
+    static Vec3d vec(const json& n, const char* key, const std::string& path, const Vec3d& def)
+    {
+        return n.contains(key) ? vec(n, key, path) : def;
+    }
+
+    uint64_t seed(const json& n, const std::string& path) const
+    {
+        if (!n.contains("seed")) return mCtx.seed;
+        const json& v = n["seed"];
+        if (!v.is_number_integer() || v.get<int64_t>() < 0) bad(path + "/seed", "expected an integer >= 0");
+        return v.get<uint64_t>();
+    }
+
+    const ExpressionContext& mCtx;
+};
+
+} // namespace
+
+FieldPtr fieldFromJson(const json& node, const ExpressionContext& ctx)
+{
+    return Builder(ctx).build(node, "");
+}
+
+FieldPtr fieldFromJsonText(const std::string& text, const ExpressionContext& ctx)
+{
+    json j;
+    try {
+        j = json::parse(text);
+    } catch (const json::parse_error& e) {
+        fail<ValueError>("expression: malformed JSON: ", e.what());
+    }
+    return fieldFromJson(j, ctx);
+}
+
+json readJsonFile(const std::string& path)
+{
+    struct stat st;
+    if (::stat(path.c_str(), &st) != 0) fail<IoError>("cannot read '", path, "': no such file");
+    std::ifstream f(path);
+    if (!f) fail<IoError>("cannot read '", path, "'");
+    const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    try {
+        return json::parse(text);
+    } catch (const json::parse_error& e) {
+        fail<ValueError>("malformed JSON in '", path, "': ", e.what());
+    }
+}
+
+} // namespace rockvdb

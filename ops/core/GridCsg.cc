@@ -1,0 +1,109 @@
+#include "GridCsg.h"
+
+#include "Error.h"
+#include "VdbIO.h"
+
+#include <openvdb/tools/Composite.h>
+#include <openvdb/tools/FastSweeping.h>
+#include <openvdb/tools/GridTransformer.h>
+#include <openvdb/tools/Prune.h>
+#include <openvdb/tools/SignedFloodFill.h>
+#include <openvdb/tree/LeafManager.h>
+
+#include <cmath>
+
+namespace rockvdb {
+
+using openvdb::FloatGrid;
+
+namespace {
+
+FloatGrid::Ptr onTransformOf(const FloatGrid& g, const FloatGrid& ref)
+{
+    if (g.transform() == ref.transform()) return g.deepCopy();
+    auto out = FloatGrid::create(ref.background());
+    out->setTransform(ref.transform().copy());
+    out->setGridClass(openvdb::GRID_LEVEL_SET);
+    openvdb::tools::resampleToMatch<openvdb::tools::BoxSampler>(g, *out);
+    return out;
+}
+
+} // namespace
+
+FloatGrid::Ptr csgGrids(CsgOp op, const std::vector<FloatGrid::ConstPtr>& grids, double r)
+{
+    initialize();
+    require(!grids.empty(), "csg", "number of inputs", ">= 1", grids.size());
+    require(std::isfinite(r) && r >= 0, "csg", "smooth radius", ">= 0", r);
+    for (size_t i = 0; i < grids.size(); ++i) {
+        if (!grids[i]) fail<ValueError>("csg: input ", i, " is null");
+        requireLevelSet(*grids[i], "csg input " + std::to_string(i));
+    }
+    const FloatGrid& ref = *grids[0];
+    std::vector<FloatGrid::Ptr> in;
+    for (const auto& g : grids) in.push_back(onTransformOf(*g, ref));
+
+    FloatGrid::Ptr result = in[0];
+    if (r == 0) {
+        for (size_t i = 1; i < in.size(); ++i) {
+            switch (op) {
+            case CsgOp::Union: openvdb::tools::csgUnion(*result, *in[i]); break;
+            case CsgOp::Intersection: openvdb::tools::csgIntersection(*result, *in[i]); break;
+            case CsgOp::Difference: openvdb::tools::csgDifference(*result, *in[i]); break;
+            }
+        }
+    } else {
+        const double dx = ref.voxelSize()[0];
+        const float bg = ref.background();
+        const float rf = float(r);
+        // Values the operator needs: |result| < bg requires operands up to bg + R/6 + R.
+        const int dilation = int(std::ceil((7.0 / 6.0) * r / dx)) + 1;
+        FloatGrid::Ptr acc = openvdb::tools::dilateSdf(*result, dilation);
+        for (size_t i = 1; i < in.size(); ++i) {
+            FloatGrid::Ptr b = openvdb::tools::dilateSdf(*in[i], dilation);
+            auto out = FloatGrid::create(bg);
+            out->setTransform(ref.transform().copy());
+            out->tree().topologyUnion(acc->tree());
+            out->tree().topologyUnion(b->tree());
+            openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
+            const FloatGrid& A = *acc;
+            const FloatGrid& B = *b;
+            leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+                auto aa = A.getConstAccessor();
+                auto bb = B.getConstAccessor();
+                for (auto it = leaf.beginValueOn(); it; ++it) {
+                    const auto ijk = it.getCoord();
+                    const float va = aa.getValue(ijk), vb = bb.getValue(ijk);
+                    float v = 0;
+                    switch (op) {
+                    case CsgOp::Union: v = smoothUnion(va, vb, rf); break;
+                    case CsgOp::Intersection: v = smoothIntersection(va, vb, rf); break;
+                    case CsgOp::Difference: v = smoothDifference(va, vb, rf); break;
+                    }
+                    it.setValue(v);
+                }
+            });
+            openvdb::tools::signedFloodFill(out->tree());
+            acc = out;
+        }
+        // Clip back to the first input's band.
+        openvdb::tree::LeafManager<openvdb::FloatTree> leaves(acc->tree());
+        leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+            for (auto it = leaf.beginValueOn(); it; ++it) {
+                const float v = *it;
+                if (std::abs(v) >= bg) {
+                    it.setValue(v < 0 ? -bg : bg);
+                    it.setValueOff();
+                }
+            }
+        });
+        openvdb::tools::pruneLevelSet(acc->tree());
+        openvdb::tools::signedFloodFill(acc->tree());
+        result = acc;
+    }
+    result->setGridClass(openvdb::GRID_LEVEL_SET);
+    result->setName(ref.getName().empty() ? "surface" : ref.getName());
+    return result;
+}
+
+} // namespace rockvdb

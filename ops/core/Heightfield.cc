@@ -1,0 +1,232 @@
+#include "Heightfield.h"
+
+#include "Error.h"
+#include "Image.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rockvdb {
+
+void Heightfield::validate(const char* op) const
+{
+    require(nx >= 2 && ny >= 2, op, "heightfield size", "at least 2x2 samples",
+            std::to_string(nx) + "x" + std::to_string(ny));
+    require(std::isfinite(cellSize) && cellSize > 0, op, "cell size", "> 0", cellSize);
+    require(z.size() == size_t(nx) * size_t(ny), op, "heightfield sample count", "nx·ny",
+            z.size());
+    for (float v : z) {
+        if (!std::isfinite(v)) fail<ValueError>(op, ": heightfield holds NaN or infinite values");
+    }
+}
+
+Heightfield loadHeightfield(const std::string& path, double cellSize, double heightScale)
+{
+    require(std::isfinite(cellSize) && cellSize > 0, "heightfield", "cell size", "> 0", cellSize);
+    require(std::isfinite(heightScale), "heightfield", "height scale", "finite", heightScale);
+    const GrayImage img = readGrayImage(path, "heightfield");
+    Heightfield hf;
+    hf.nx = img.width;
+    hf.ny = img.height;
+    hf.cellSize = cellSize;
+    hf.z.resize(img.pixels.size());
+    for (size_t k = 0; k < hf.z.size(); ++k) hf.z[k] = float(double(img.pixels[k]) * heightScale);
+    return hf;
+}
+
+Heightfield noiseHeightfield(int nx, int ny, double cellSize, double amplitude,
+                             const noise::Fbm& fbm, uint64_t seed)
+{
+    fbm.validate("heightfield");
+    require(nx >= 2 && ny >= 2 && double(nx) * ny <= 1e9, "heightfield", "size",
+            "between 2x2 and 1e9 samples", std::to_string(nx) + "x" + std::to_string(ny));
+    require(std::isfinite(cellSize) && cellSize > 0, "heightfield", "cell size", "> 0", cellSize);
+    require(std::isfinite(amplitude), "heightfield", "amplitude", "finite", amplitude);
+    Heightfield hf;
+    hf.nx = nx;
+    hf.ny = ny;
+    hf.cellSize = cellSize;
+    hf.z.resize(size_t(nx) * size_t(ny));
+    const float scale = float(amplitude / fbm.amplitudeSum());
+    for (int j = 0; j < ny; ++j)
+        for (int i = 0; i < nx; ++i)
+            hf.z[size_t(j) * size_t(nx) + size_t(i)] =
+                scale * noise::fbm2(seed, fbm, float(i * cellSize), float(j * cellSize));
+    return hf;
+}
+
+namespace {
+
+// Closest distance² from p to triangle abc (Ericson, Real-Time Collision Detection §5.1.5).
+inline double pointTriangleDist2(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c)
+{
+    const Vec3d ab = b - a, ac = c - a, ap = p - a;
+    const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+    if (d1 <= 0 && d2 <= 0) return ap.lengthSqr();
+    const Vec3d bp = p - b;
+    const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+    if (d3 >= 0 && d4 <= d3) return bp.lengthSqr();
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0 && d1 >= 0 && d3 <= 0) return (ap - ab * (d1 / (d1 - d3))).lengthSqr();
+    const Vec3d cp = p - c;
+    const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+    if (d6 >= 0 && d5 <= d6) return cp.lengthSqr();
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0 && d2 >= 0 && d6 <= 0) return (ap - ac * (d2 / (d2 - d6))).lengthSqr();
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+        const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (bp - (c - b) * w).lengthSqr();
+    }
+    const double denom = 1.0 / (va + vb + vc);
+    const double v = vb * denom, w = vc * denom;
+    return (ap - ab * v - ac * w).lengthSqr();
+}
+
+class HeightfieldField final : public Field
+{
+public:
+    HeightfieldField(std::shared_ptr<const Heightfield> hf, const HeightfieldSettings& s)
+        : mHf(std::move(hf)), mS(s)
+    {
+        const Heightfield& h = *mHf;
+        mZMin = *std::min_element(h.z.begin(), h.z.end());
+        mZMax = *std::max_element(h.z.begin(), h.z.end());
+        mBase = mZMin - s.baseDepth;
+        const int cx = h.nx - 1, cy = h.ny - 1;
+        mCellMin.resize(size_t(cx) * size_t(cy));
+        mCellMax.resize(mCellMin.size());
+        double slope = 0;
+        const double c = h.cellSize;
+        for (int j = 0; j < cy; ++j)
+            for (int i = 0; i < cx; ++i) {
+                const double z00 = h.at(i, j), z10 = h.at(i + 1, j), z01 = h.at(i, j + 1),
+                             z11 = h.at(i + 1, j + 1);
+                const size_t k = size_t(j) * size_t(cx) + size_t(i);
+                mCellMin[k] = float(std::min({z00, z10, z01, z11}));
+                mCellMax[k] = float(std::max({z00, z10, z01, z11}));
+                // Gradients of the two triangles of the cell.
+                const double g1 = std::hypot(z10 - z00, z11 - z10) / c;
+                const double g2 = std::hypot(z11 - z01, z01 - z00) / c;
+                slope = std::max({slope, g1, g2});
+            }
+        mConeFactor = 1.0 / std::sqrt(1.0 + slope * slope);
+    }
+
+    void evalBatch(const Batch& b, float* out) const override
+    {
+        for (int i = 0; i < b.n; ++i) out[i] = float(eval1(Vec3d(b.x[i], b.y[i], b.z[i])));
+    }
+
+    BBoxd bounds() const override
+    {
+        return BBoxd(Vec3d(0, 0, mBase), Vec3d(mHf->width(), mHf->depth(), mZMax));
+    }
+
+    bool exact() const override { return true; }
+
+private:
+    // Height of the triangulated surface at (x, y), clamped to the footprint.
+    double heightAt(double x, double y, int& ci, int& cj) const
+    {
+        const Heightfield& h = *mHf;
+        const double u = std::clamp(x / h.cellSize, 0.0, double(h.nx - 1));
+        const double v = std::clamp(y / h.cellSize, 0.0, double(h.ny - 1));
+        ci = std::min(int(u), h.nx - 2);
+        cj = std::min(int(v), h.ny - 2);
+        const double fu = u - ci, fv = v - cj;
+        const double z00 = h.at(ci, cj), z10 = h.at(ci + 1, cj), z01 = h.at(ci, cj + 1),
+                     z11 = h.at(ci + 1, cj + 1);
+        return fu >= fv ? z00 + fu * (z10 - z00) + fv * (z11 - z10)
+                        : z00 + fv * (z01 - z00) + fu * (z11 - z01);
+    }
+
+    // Unsigned distance to the two triangles of cell (i, j), squared.
+    double cellDist2(const Vec3d& p, int i, int j) const
+    {
+        const Heightfield& h = *mHf;
+        const double c = h.cellSize;
+        const Vec3d a(i * c, j * c, h.at(i, j)), b((i + 1) * c, j * c, h.at(i + 1, j)),
+            d((i + 1) * c, (j + 1) * c, h.at(i + 1, j + 1)), e(i * c, (j + 1) * c, h.at(i, j + 1));
+        return std::min(pointTriangleDist2(p, a, b, d), pointTriangleDist2(p, a, d, e));
+    }
+
+    double surfaceDistance(const Vec3d& p) const
+    {
+        const Heightfield& h = *mHf;
+        const double c = h.cellSize;
+        int ci, cj;
+        const double v = p[2] - heightAt(p[0], p[1], ci, cj);
+        const double sign = v > 0 ? 1.0 : -1.0;
+        // Horizontal distance outside the footprint.
+        const double ox = std::max({0.0, -p[0], p[0] - h.width()});
+        const double oy = std::max({0.0, -p[1], p[1] - h.depth()});
+        const double dh = std::hypot(ox, oy);
+        // Lower bound of the distance: horizontal gap outside the footprint; the cone bound
+        // |v|/sqrt(1 + S²) inside it (S = steepest triangle slope).
+        const double lb = dh > 0 ? dh : std::abs(v) * mConeFactor;
+        const double rho = mS.exactDistance;
+        if (lb > rho) return sign * lb;
+        // Exact: search cells ring by ring around (ci, cj) while a ring can still be closer.
+        const int cx = h.nx - 1, cy = h.ny - 1;
+        const int maxRing = int(std::ceil(rho / c)) + 1;
+        double best2 = std::numeric_limits<double>::max();
+        for (int r = 0; r <= maxRing; ++r) {
+            const double ringGap = std::max(0.0, (r - 1) * c);
+            if (ringGap * ringGap >= best2) break;
+            for (int j = cj - r; j <= cj + r; ++j) {
+                if (j < 0 || j >= cy) continue;
+                const bool edgeRow = (j == cj - r || j == cj + r);
+                for (int i = ci - r; i <= ci + r; i += (edgeRow ? 1 : 2 * r)) {
+                    if (i >= 0 && i < cx) {
+                        const size_t k = size_t(j) * size_t(cx) + size_t(i);
+                        const double gx = std::max({0.0, i * c - p[0], p[0] - (i + 1) * c});
+                        const double gy = std::max({0.0, j * c - p[1], p[1] - (j + 1) * c});
+                        const double gz = std::max({0.0, double(mCellMin[k]) - p[2],
+                                                    p[2] - double(mCellMax[k])});
+                        const double lb2 = gx * gx + gy * gy + gz * gz;
+                        if (lb2 < best2) best2 = std::min(best2, cellDist2(p, i, j));
+                    }
+                    if (r == 0) break;
+                }
+            }
+        }
+        const double best = std::sqrt(best2);
+        return sign * (best <= rho ? best : std::max(rho, lb));
+    }
+
+    double eval1(const Vec3d& p) const
+    {
+        const double s = surfaceDistance(p);
+        // Footprint walls and floor: box [0, W] x [0, D] x [base, zmax + 1].
+        const Heightfield& h = *mHf;
+        const double qx = std::max(-p[0], p[0] - h.width());
+        const double qy = std::max(-p[1], p[1] - h.depth());
+        const double qz = std::max(mBase - p[2], p[2] - (mZMax + 1.0));
+        const double ox = std::max(qx, 0.0), oy = std::max(qy, 0.0), oz = std::max(qz, 0.0);
+        const double walls = std::sqrt(ox * ox + oy * oy + oz * oz) +
+                             std::min(std::max({qx, qy, qz}), 0.0);
+        return std::max(s, walls);
+    }
+
+    std::shared_ptr<const Heightfield> mHf;
+    HeightfieldSettings mS;
+    float mZMin = 0, mZMax = 0;
+    double mBase = 0, mConeFactor = 1;
+    std::vector<float> mCellMin, mCellMax;
+};
+
+} // namespace
+
+FieldPtr heightfieldField(std::shared_ptr<const Heightfield> hf, const HeightfieldSettings& s)
+{
+    if (!hf) fail<ValueError>("heightfield: heightfield is null");
+    hf->validate("heightfield");
+    require(std::isfinite(s.baseDepth) && s.baseDepth > 0, "heightfield", "base depth", "> 0",
+            s.baseDepth);
+    require(std::isfinite(s.exactDistance) && s.exactDistance > 0, "heightfield",
+            "exact distance", "> 0", s.exactDistance);
+    return std::make_shared<HeightfieldField>(std::move(hf), s);
+}
+
+} // namespace rockvdb

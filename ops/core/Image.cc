@@ -1,0 +1,263 @@
+#include "Image.h"
+
+#include "Error.h"
+#include "VdbIO.h"
+
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfIO.h>
+#include <png.h>
+
+#include <algorithm>
+#include <cmath>
+#include <csetjmp>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <sys/stat.h>
+
+namespace rockvdb {
+
+namespace {
+
+std::string readAll(const std::string& path, const char* op)
+{
+    struct stat st;
+    if (::stat(path.c_str(), &st) != 0) fail<IoError>(op, ": cannot read '", path, "': no such file");
+    if (S_ISDIR(st.st_mode)) fail<IoError>(op, ": cannot read '", path, "': it is a folder");
+    std::ifstream f(path, std::ios::binary);
+    if (!f) fail<IoError>(op, ": cannot read '", path, "'");
+    return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+// ---- PNG ------------------------------------------------------------------------------
+
+struct PngReadState
+{
+    const std::string* bytes;
+    size_t pos;
+};
+
+void pngReadFn(png_structp png, png_bytep out, png_size_t n)
+{
+    auto* s = static_cast<PngReadState*>(png_get_io_ptr(png));
+    if (s->pos + n > s->bytes->size()) png_error(png, "truncated PNG");
+    std::memcpy(out, s->bytes->data() + s->pos, n);
+    s->pos += n;
+}
+
+void pngErrorFn(png_structp png, png_const_charp msg)
+{
+    auto* err = static_cast<std::string*>(png_get_error_ptr(png));
+    if (err) *err = msg;
+    png_longjmp(png, 1);
+}
+void pngWarnFn(png_structp, png_const_charp) {}
+
+GrayImage readPng(const std::string& path, const std::string& bytes, const char* op)
+{
+    std::string err;
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &err, pngErrorFn, pngWarnFn);
+    png_infop info = png_create_info_struct(png);
+    PngReadState state{&bytes, 8};
+    GrayImage img;
+    std::vector<png_bytep> rows;
+    std::vector<uint16_t> data;
+    int bitDepth = 0, colorType = 0;
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_read_struct(&png, &info, nullptr);
+        fail<IoError>(op, ": cannot read '", path, "': ", err.empty() ? "corrupt PNG" : err);
+    }
+    png_set_read_fn(png, &state, pngReadFn);
+    png_set_sig_bytes(png, 8);
+    png_read_info(png, info);
+    bitDepth = png_get_bit_depth(png, info);
+    colorType = png_get_color_type(png, info);
+    img.width = int(png_get_image_width(png, info));
+    img.height = int(png_get_image_height(png, info));
+    if (colorType != PNG_COLOR_TYPE_GRAY || bitDepth != 16) {
+        png_destroy_read_struct(&png, &info, nullptr);
+        const char* kind = colorType == PNG_COLOR_TYPE_GRAY ? "greyscale"
+                         : colorType == PNG_COLOR_TYPE_GRAY_ALPHA ? "greyscale+alpha (2 channels)"
+                         : colorType == PNG_COLOR_TYPE_RGB ? "RGB (3 channels)"
+                         : colorType == PNG_COLOR_TYPE_RGB_ALPHA ? "RGBA (4 channels)"
+                         : "palette";
+        fail<ValueError>(op, ": '", path, "' is a ", bitDepth, "-bit ", kind,
+                         " PNG; expected a 16-bit single-channel (greyscale) PNG");
+    }
+    png_set_swap(png); // big-endian samples to host order
+    data.resize(size_t(img.width) * size_t(img.height));
+    rows.resize(size_t(img.height));
+    for (int j = 0; j < img.height; ++j) {
+        rows[size_t(j)] = reinterpret_cast<png_bytep>(data.data() + size_t(j) * size_t(img.width));
+    }
+    png_read_image(png, rows.data());
+    png_destroy_read_struct(&png, &info, nullptr);
+    img.pixels.resize(data.size());
+    for (size_t k = 0; k < data.size(); ++k) img.pixels[k] = float(data[k]) / 65535.0f;
+    return img;
+}
+
+void pngWriteFn(png_structp png, png_bytep in, png_size_t n)
+{
+    auto* out = static_cast<std::string*>(png_get_io_ptr(png));
+    out->append(reinterpret_cast<const char*>(in), n);
+}
+void pngFlushFn(png_structp) {}
+
+std::string encodePng(int width, int height, int colorType, int bitDepth,
+                      const uint8_t* data, size_t rowBytes)
+{
+    std::string out, err;
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &err, pngErrorFn, pngWarnFn);
+    png_infop info = png_create_info_struct(png);
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        fail<IoError>("png: cannot encode image: ", err);
+    }
+    png_set_write_fn(png, &out, pngWriteFn, pngFlushFn);
+    png_set_IHDR(png, info, png_uint_32(width), png_uint_32(height), bitDepth, colorType,
+                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    if (bitDepth == 16) png_set_swap(png);
+    for (int j = 0; j < height; ++j) {
+        png_write_row(png, const_cast<png_bytep>(data + size_t(j) * rowBytes));
+    }
+    png_write_end(png, nullptr);
+    png_destroy_write_struct(&png, &info);
+    return out;
+}
+
+// ---- EXR ------------------------------------------------------------------------------
+
+class MemoryIStream : public Imf::IStream
+{
+public:
+    MemoryIStream(const std::string& bytes, const std::string& name)
+        : Imf::IStream(name.c_str()), mBytes(bytes) {}
+    bool read(char c[], int n) override
+    {
+        if (mPos + uint64_t(n) > mBytes.size()) throw std::runtime_error("truncated EXR file");
+        std::memcpy(c, mBytes.data() + mPos, size_t(n));
+        mPos += uint64_t(n);
+        return mPos < mBytes.size();
+    }
+    uint64_t tellg() override { return mPos; }
+    void seekg(uint64_t pos) override { mPos = pos; }
+
+private:
+    const std::string& mBytes;
+    uint64_t mPos = 0;
+};
+
+GrayImage readExr(const std::string& path, const std::string& bytes, const char* op)
+{
+    try {
+        MemoryIStream stream(bytes, path);
+        Imf::InputFile file(stream);
+        const Imf::ChannelList& channels = file.header().channels();
+        std::vector<std::string> names;
+        for (auto it = channels.begin(); it != channels.end(); ++it) names.push_back(it.name());
+        if (names.size() != 1) {
+            std::string list;
+            for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+            fail<ValueError>(op, ": '", path, "' has ", names.size(), " channels (", list,
+                             "); expected a single-channel EXR");
+        }
+        const auto dw = file.header().dataWindow();
+        GrayImage img;
+        img.width = dw.max.x - dw.min.x + 1;
+        img.height = dw.max.y - dw.min.y + 1;
+        img.pixels.assign(size_t(img.width) * size_t(img.height), 0.0f);
+        Imf::FrameBuffer fb;
+        char* base = reinterpret_cast<char*>(img.pixels.data()) -
+                     (ptrdiff_t(dw.min.x) + ptrdiff_t(dw.min.y) * img.width) * ptrdiff_t(sizeof(float));
+        fb.insert(names[0], Imf::Slice(Imf::FLOAT, base, sizeof(float),
+                                       sizeof(float) * size_t(img.width)));
+        file.setFrameBuffer(fb);
+        file.readPixels(dw.min.y, dw.max.y);
+        return img;
+    } catch (const ValueError&) {
+        throw;
+    } catch (const std::exception& e) {
+        fail<IoError>(op, ": cannot read '", path, "': ", e.what());
+    }
+}
+
+bool endsWith(const std::string& s, const std::string& suffix)
+{
+    if (s.size() < suffix.size()) return false;
+    return std::equal(suffix.rbegin(), suffix.rend(), s.rbegin(),
+                      [](char a, char b) { return std::tolower(a) == std::tolower(b); });
+}
+
+} // namespace
+
+GrayImage readGrayImage(const std::string& path, const char* op)
+{
+    const std::string bytes = readAll(path, op);
+    static const unsigned char pngSig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    static const unsigned char exrSig[4] = {0x76, 0x2f, 0x31, 0x01};
+    GrayImage img;
+    if (bytes.size() >= 8 && std::memcmp(bytes.data(), pngSig, 8) == 0) {
+        img = readPng(path, bytes, op);
+    } else if (bytes.size() >= 4 && std::memcmp(bytes.data(), exrSig, 4) == 0) {
+        img = readExr(path, bytes, op);
+    } else {
+        fail<IoError>(op, ": cannot read '", path, "': not an EXR or PNG image");
+    }
+    if (img.width < 2 || img.height < 2) {
+        fail<ValueError>(op, ": '", path, "' is ", img.width, "x", img.height,
+                         " pixels; need at least 2x2");
+    }
+    for (float v : img.pixels) {
+        if (!std::isfinite(v)) fail<ValueError>(op, ": '", path, "' holds NaN or infinite values");
+    }
+    return img;
+}
+
+std::string encodePngRgb8(int width, int height, const std::vector<uint8_t>& rgb)
+{
+    return encodePng(width, height, PNG_COLOR_TYPE_RGB, 8, rgb.data(), size_t(width) * 3);
+}
+
+void writeGrayImage(const std::string& path, const GrayImage& image)
+{
+    if (endsWith(path, ".png")) {
+        std::vector<uint16_t> data(image.pixels.size());
+        for (size_t k = 0; k < data.size(); ++k) {
+            data[k] = uint16_t(std::lround(std::clamp(image.pixels[k], 0.0f, 1.0f) * 65535.0f));
+        }
+        writeFileAtomic(path, encodePng(image.width, image.height, PNG_COLOR_TYPE_GRAY, 16,
+                                        reinterpret_cast<const uint8_t*>(data.data()),
+                                        size_t(image.width) * 2));
+    } else if (endsWith(path, ".exr")) {
+        // OpenEXR writes through its own file API: write beside the target, then rename.
+        const std::string tmp = path + ".tmp-exr";
+        try {
+            Imf::Header header(image.width, image.height);
+            header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
+            Imf::OutputFile file(tmp.c_str(), header);
+            Imf::FrameBuffer fb;
+            fb.insert("Y", Imf::Slice(Imf::FLOAT, (char*)image.pixels.data(), sizeof(float),
+                                      sizeof(float) * size_t(image.width)));
+            file.setFrameBuffer(fb);
+            file.writePixels(image.height);
+        } catch (const std::exception& e) {
+            std::remove(tmp.c_str());
+            fail<IoError>("cannot write '", path, "': ", e.what());
+        }
+        if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+            std::remove(tmp.c_str());
+            fail<IoError>("cannot write '", path, "'");
+        }
+    } else {
+        fail<ValueError>("image: '", path, "' must end in .exr or .png");
+    }
+}
+
+} // namespace rockvdb

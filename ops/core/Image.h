@@ -1,0 +1,32 @@
+// rockvdb — single-channel images (heightfields, reliefs) and PNG output.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rockvdb {
+
+/// @brief A single-channel float image, row-major: value(i, j) = pixels[j·width + i], row 0 is
+/// the first row stored in the file.
+struct GrayImage
+{
+    int width = 0, height = 0;
+    std::vector<float> pixels;
+    float at(int i, int j) const { return pixels[size_t(j) * size_t(width) + size_t(i)]; }
+};
+
+/// @brief Read a single-channel float EXR (values as stored) or a 16-bit greyscale PNG
+/// (0..65535 mapped to 0..1), chosen by content.
+/// @throw IoError for a missing or unreadable file; ValueError for a wrong channel count or
+///        bit depth (the message says what was found).
+GrayImage readGrayImage(const std::string& path, const char* op = "image");
+
+/// @brief Encode an 8-bit RGB image (row-major, 3 bytes per pixel) as PNG bytes.
+std::string encodePngRgb8(int width, int height, const std::vector<uint8_t>& rgb);
+
+/// @brief Write a single-channel image atomically: ".exr" as 32-bit float EXR (channel "Y"),
+/// ".png" as 16-bit greyscale PNG (values clamped to [0, 1] and scaled to 0..65535).
+void writeGrayImage(const std::string& path, const GrayImage& image);
+
+} // namespace rockvdb

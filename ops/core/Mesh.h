@@ -1,0 +1,32 @@
+// rockvdb — level set to polygon mesh (tools::volumeToMesh) and OBJ / PLY export.
+#pragma once
+
+#include <openvdb/openvdb.h>
+
+#include <string>
+#include <vector>
+
+namespace rockvdb {
+
+struct Mesh
+{
+    std::vector<openvdb::Vec3s> points;   ///< world positions (m)
+    std::vector<openvdb::Vec3I> triangles; ///< outward (counter-clockwise) winding
+    std::vector<openvdb::Vec4I> quads;     ///< outward (counter-clockwise) winding
+};
+
+/// @brief Mesh the @a isovalue surface of a level set; outward-facing polygons.
+/// @param adaptivity  0 (uniform) .. 1 (most adaptive), as tools::volumeToMesh
+Mesh meshLevelSet(const openvdb::FloatGrid& grid, double isovalue = 0.0, double adaptivity = 0.0);
+
+/// @brief Signed volume enclosed by the mesh (divergence theorem); > 0 for outward winding.
+double signedVolume(const Mesh& mesh);
+
+/// @brief Write @a mesh atomically as OBJ (text) or PLY (binary little-endian), chosen by
+/// the extension of @a path; "-" writes OBJ to stdout.
+void writeMesh(const Mesh& mesh, const std::string& path);
+
+/// @brief Append @a other to @a mesh (indices offset), e.g. one mesh per block.
+void appendMesh(Mesh& mesh, const Mesh& other);
+
+} // namespace rockvdb

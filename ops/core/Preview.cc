@@ -1,0 +1,120 @@
+#include "Preview.h"
+
+#include "Error.h"
+#include "Image.h"
+#include "Random.h"
+#include "VdbIO.h"
+
+#include <openvdb/math/Ray.h>
+#include <openvdb/tools/RayIntersector.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace rockvdb {
+
+void PreviewSettings::validate() const
+{
+    require(width >= 8 && width <= 16384, "preview", "width", "in [8, 16384] pixels", width);
+    require(height >= 8 && height <= 16384, "preview", "height", "in [8, 16384] pixels", height);
+    require(std::isfinite(fov) && fov > 1 && fov < 170, "preview", "field of view",
+            "in (1, 170) degrees", fov);
+    require(std::isfinite(elevation) && elevation >= -89 && elevation <= 89, "preview",
+            "elevation", "in [-89, 89] degrees", elevation);
+    require(std::isfinite(azimuth), "preview", "azimuth", "finite", azimuth);
+    require(std::isfinite(zoom) && zoom > 0, "preview", "zoom", "> 0", zoom);
+}
+
+std::vector<uint8_t> renderPreview(const openvdb::FloatGrid& grid, const PreviewSettings& s,
+                                   const openvdb::FloatGrid* ids)
+{
+    s.validate();
+    requireLevelSet(grid, "preview input");
+    using Vec3R = openvdb::Vec3R;
+    std::vector<uint8_t> rgb(size_t(s.width) * size_t(s.height) * 3);
+    const openvdb::CoordBBox ibox = grid.evalActiveVoxelBoundingBox();
+    auto sky = [&](double t) {
+        // Vertical gradient background.
+        return Vec3R(0.80 - 0.25 * t, 0.84 - 0.22 * t, 0.90 - 0.15 * t);
+    };
+    if (grid.activeVoxelCount() == 0 || ibox.empty()) {
+        for (int j = 0; j < s.height; ++j)
+            for (int i = 0; i < s.width; ++i) {
+                const Vec3R c = sky(double(j) / s.height);
+                for (int k = 0; k < 3; ++k) rgb[(size_t(j) * s.width + i) * 3 + k] = uint8_t(c[k] * 255);
+            }
+        return rgb;
+    }
+    const openvdb::BBoxd wbox = grid.transform().indexToWorld(ibox);
+    const Vec3R center = wbox.getCenter();
+    const double radius = 0.5 * (wbox.max() - wbox.min()).length();
+    const double az = s.azimuth * M_PI / 180, el = s.elevation * M_PI / 180;
+    const Vec3R toEye(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+    const double halfFov = 0.5 * s.fov * M_PI / 180;
+    const double aspect = double(s.width) / s.height;
+    const double fit = std::min(std::tan(halfFov), std::tan(halfFov) * aspect);
+    const double dist = radius / std::sin(std::atan(fit)) * 1.02 / s.zoom;
+    const Vec3R eye = center + toEye * dist;
+    const Vec3R fwd = -toEye;
+    Vec3R right = fwd.cross(Vec3R(0, 0, 1));
+    if (right.length() < 1e-9) right = Vec3R(1, 0, 0);
+    right.normalize();
+    const Vec3R up = right.cross(fwd);
+    const Vec3R key = (toEye * 0.6 + right * -0.5 + Vec3R(0, 0, 0.9)).unit();
+
+    using Intersector = openvdb::tools::LevelSetRayIntersector<openvdb::FloatGrid>;
+    const Intersector proto(grid);
+    tbb::parallel_for(tbb::blocked_range<int>(0, s.height), [&](const tbb::blocked_range<int>& r) {
+        Intersector inter(proto);
+        auto idAcc = ids ? std::make_unique<openvdb::FloatGrid::ConstAccessor>(ids->getConstAccessor())
+                         : nullptr;
+        const double th = std::tan(halfFov);
+        for (int j = r.begin(); j != r.end(); ++j) {
+            for (int i = 0; i < s.width; ++i) {
+                const double u = ((i + 0.5) / s.width * 2 - 1) * th * aspect;
+                const double v = (1 - (j + 0.5) / s.height * 2) * th;
+                const Vec3R dir = (fwd + right * u + up * v).unit();
+                openvdb::math::Ray<double> ray(eye, dir);
+                Vec3R hit, normal;
+                Vec3R c = sky(double(j) / s.height);
+                if (inter.intersectsWS(ray, hit, normal)) {
+                    const Vec3R n = normal.lengthSqr() > 0 ? normal.unit() : -dir;
+                    Vec3R albedo(0.62, 0.58, 0.53);
+                    if (idAcc) {
+                        const auto ijk = ids->transform().worldToIndexCellCentered(hit);
+                        const float id = idAcc->getValue(ijk);
+                        if (id >= 0) {
+                            const uint64_t h = random::hash(0, 7, uint64_t(int64_t(id)));
+                            albedo = Vec3R(0.35 + 0.5 * random::toUnit(h),
+                                           0.35 + 0.5 * random::toUnit(random::mix64(h)),
+                                           0.35 + 0.5 * random::toUnit(random::mix64(h + 1)));
+                        }
+                    }
+                    const double diffuse = std::max(0.0, n.dot(key));
+                    const double skyFill = 0.5 + 0.5 * n[2];
+                    const double rim = std::pow(1 - std::max(0.0, n.dot(-dir)), 3) * 0.15;
+                    const double l = 0.78 * diffuse + 0.32 * skyFill + rim;
+                    c = Vec3R(albedo[0] * l, albedo[1] * l, albedo[2] * l);
+                }
+                uint8_t* px = &rgb[(size_t(j) * size_t(s.width) + size_t(i)) * 3];
+                for (int k = 0; k < 3; ++k) {
+                    // sRGB-ish gamma for display.
+                    px[k] = uint8_t(std::lround(255 * std::pow(std::clamp(c[k], 0.0, 1.0), 1 / 1.8)));
+                }
+            }
+        }
+    });
+    return rgb;
+}
+
+void writePreview(const openvdb::FloatGrid& grid, const std::string& path,
+                  const PreviewSettings& s, const openvdb::FloatGrid* ids)
+{
+    const auto rgb = renderPreview(grid, s, ids);
+    writeFileAtomic(path, encodePngRgb8(s.width, s.height, rgb));
+}
+
+} // namespace rockvdb

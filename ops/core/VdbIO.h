@@ -1,0 +1,53 @@
+// rockvdb — .vdb input/output, provenance metadata and OpenVDB start-up.
+#pragma once
+
+#include <openvdb/openvdb.h>
+
+#include <optional>
+#include <string>
+
+namespace rockvdb {
+
+/// @brief The library version ("0.1.0").
+const char* version();
+
+/// @brief openvdb::initialize() once (thread-safe; every entry point calls it).
+void initialize();
+
+/// @name Provenance: every grid written carries rockvdb:version, rockvdb:generator (tool or
+/// op name) and rockvdb:params (the complete parameter set as JSON, seed included).
+/// @{
+struct Provenance
+{
+    std::string version, generator, params;
+};
+void stampProvenance(openvdb::GridBase& grid, const std::string& generator,
+                     const std::string& paramsJson);
+std::optional<Provenance> provenance(const openvdb::GridBase& grid);
+/// @}
+
+/// @brief Write @a grids to @a path atomically (temporary file in the same folder, then
+/// rename), Blosc + active-mask compressed. "-" writes to stdout (refused on a terminal).
+/// @throw IoError when the folder is missing or unwritable; nothing is left behind.
+void writeGrids(const std::string& path, const openvdb::GridCPtrVec& grids);
+
+/// @brief Read every grid of @a path ("-" = stdin), fully loaded (no delayed loading).
+/// @throw IoError for a missing, non-VDB, truncated or corrupt file.
+openvdb::GridPtrVecPtr readGrids(const std::string& path);
+
+/// @brief Find grid @a name in @a grids and check it is a float level set.
+/// @throw ValueError naming the grids present, the grid type or the class found.
+openvdb::FloatGrid::Ptr findLevelSet(const openvdb::GridPtrVec& grids, const std::string& name,
+                                     const std::string& source);
+
+/// @brief readGrids + findLevelSet.
+openvdb::FloatGrid::Ptr readLevelSet(const std::string& path,
+                                     const std::string& name = "surface");
+
+/// @brief Check that @a grid is a well-formed float level set (ValueError otherwise).
+void requireLevelSet(const openvdb::GridBase& grid, const std::string& what);
+
+/// @brief Write @a bytes to @a path atomically (temporary file + rename); "-" = stdout.
+void writeFileAtomic(const std::string& path, const std::string& bytes);
+
+} // namespace rockvdb

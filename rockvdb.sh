@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# rockvdb set-up, build and run.
+#   ./rockvdb.sh demo   install missing Debian packages, build (Release, -j2), bake the demo
+#                       scene to out/demo.vdb and render out/demo.png
+#   ./rockvdb.sh test   same set-up, then run every test (C++, Python, CLI, real clients) via CTest
+#   ./rockvdb.sh build  set-up and build only
+set -euo pipefail
+cd "$(dirname "$0")"
+MODE="${1:-demo}"
+
+PACKAGES=(
+    cmake g++ make ccache pkg-config
+    libopenvdb-dev libboost-iostreams-dev libtbb-dev libopenexr-dev libblosc-dev libglm-dev
+    libcgal-dev libgmp-dev libmpfr-dev libpng-dev libcli11-dev nlohmann-json3-dev
+    pybind11-dev libboost-python-dev python3-dev python3-openvdb python3-numpy python3-pytest
+    libgtest-dev libbenchmark-dev
+    libopenvdb-tools blender
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+    SUDO=""
+    if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+    echo "rockvdb: installing ${missing[*]}" >&2
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" >&2
+fi
+
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE=/usr/bin/python3 >/dev/null
+cmake --build build -j2
+
+case "$MODE" in
+    demo)
+        mkdir -p out
+        ./samples/01_demo.sh build out
+        echo "rockvdb: wrote out/demo.vdb and out/demo.png" >&2
+        ;;
+    test)
+        cd build && ctest --output-on-failure -j2 --timeout 1500
+        ;;
+    build) ;;
+    *) echo "usage: $0 [demo|test|build]" >&2; exit 2 ;;
+esac

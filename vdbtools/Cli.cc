@@ -1,0 +1,312 @@
+#include "Cli.h"
+
+#include <core/Error.h>
+#include <core/VdbIO.h>
+
+#include <nlohmann/json.hpp>
+#include <openvdb/Exceptions.h>
+#include <tbb/global_control.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <mutex>
+#include <unistd.h>
+
+namespace rockvdb {
+namespace cli {
+
+using nlohmann::json;
+
+namespace {
+
+std::atomic<bool> gSigint{false};
+extern "C" void onSigint(int) { gSigint.store(true); }
+
+// JSON for CLI11: {"option-name": value, "subcommand": {...}}; arrays give multi-values.
+class ConfigJson : public CLI::Config
+{
+public:
+    std::string to_config(const CLI::App* app, bool defaultAlso, bool, std::string) const override
+    {
+        return toJson(app, defaultAlso).dump(2);
+    }
+
+    std::vector<CLI::ConfigItem> from_config(std::istream& input) const override
+    {
+        json j;
+        try {
+            input >> j;
+        } catch (const json::exception& e) {
+            throw CLI::ConversionError(std::string("malformed --params JSON: ") + e.what());
+        }
+        if (!j.is_object()) throw CLI::ConversionError("--params JSON must be an object");
+        std::vector<CLI::ConfigItem> items;
+        collect(j, {}, items);
+        return items;
+    }
+
+    static json toJson(const CLI::App* app, bool defaultAlso)
+    {
+        json j = json::object();
+        for (const CLI::Option* opt : app->get_options()) {
+            std::string name;
+            if (!opt->get_lnames().empty()) name = opt->get_lnames().front();
+            else if (opt->get_positional()) name = opt->get_name(true);
+            else continue;
+            if (name == "help" || name == "version" || name == "params") continue;
+            std::vector<std::string> values;
+            if (opt->count() > 0) values = opt->results();
+            else if (defaultAlso && !opt->get_default_str().empty()) {
+                std::string d = opt->get_default_str();
+                if (d.size() >= 2 && d.front() == '[' && d.back() == ']') d = d.substr(1, d.size() - 2);
+                if (d.empty()) continue;
+                values = CLI::detail::split(d, ',');
+            } else if (defaultAlso && opt->get_type_size() == 0) {
+                values = {"false"};
+            } else continue;
+            std::vector<json> typed;
+            for (auto v : values) typed.push_back(typedValue(v));
+            const bool multi = opt->get_expected_max() > 1 || typed.size() > 1;
+            j[name] = multi ? json(typed) : (typed.empty() ? json(nullptr) : typed.front());
+        }
+        for (const CLI::App* sub : app->get_subcommands({})) {
+            if (sub->count() > 0) j[sub->get_name()] = toJson(sub, defaultAlso);
+        }
+        return j;
+    }
+
+private:
+    static json typedValue(const std::string& v)
+    {
+        if (v == "true") return true;
+        if (v == "false") return false;
+        try {
+            size_t pos = 0;
+            const long long i = std::stoll(v, &pos);
+            if (pos == v.size()) return i;
+            const double d = std::stod(v, &pos);
+            if (pos == v.size()) return d;
+        } catch (...) {}
+        return v;
+    }
+
+    static std::string str(const json& v)
+    {
+        if (v.is_string()) return v.get<std::string>();
+        if (v.is_boolean()) return v.get<bool>() ? "true" : "false";
+        return v.dump();
+    }
+
+    static void collect(const json& j, std::vector<std::string> parents,
+                        std::vector<CLI::ConfigItem>& items)
+    {
+        for (auto it = j.begin(); it != j.end(); ++it) {
+            if (it->is_object()) {
+                auto p = parents;
+                p.push_back(it.key());
+                // Mark the subcommand itself so CLI11 selects it.
+                CLI::ConfigItem sub;
+                sub.parents = parents;
+                sub.name = it.key();
+                sub.inputs = {"true"};
+                items.push_back(sub);
+                collect(*it, p, items);
+                continue;
+            }
+            CLI::ConfigItem item;
+            item.parents = parents;
+            item.name = it.key();
+            if (it->is_array()) for (const auto& v : *it) item.inputs.push_back(str(v));
+            else item.inputs.push_back(str(*it));
+            items.push_back(item);
+        }
+    }
+};
+
+} // namespace
+
+Progress::Progress(std::string label, bool enabled) : mLabel(std::move(label)), mEnabled(enabled) {}
+Progress::~Progress() { end(); }
+
+void Progress::start(const char*) { mLast = -1; }
+
+void Progress::end()
+{
+    if (mEnabled && mLast >= 0) {
+        std::fprintf(stderr, "\r\033[K");
+        std::fflush(stderr);
+    }
+    mLast = -1;
+}
+
+bool Progress::wasInterrupted(int percent)
+{
+    if (mEnabled && percent >= 0) {
+        static std::mutex m;
+        std::lock_guard<std::mutex> lock(m);
+        if (percent != mLast) {
+            mLast = percent;
+            const int w = 30, filled = std::min(w, percent * w / 100);
+            std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%", mLabel.c_str(), filled,
+                         "##############################", w - filled, "", percent);
+            std::fflush(stderr);
+        }
+    }
+    return gSigint.load();
+}
+
+BakeSettings BakeOptions::settings() const
+{
+    BakeSettings s;
+    s.voxelSize = voxelSize;
+    s.halfWidth = halfWidth;
+    s.renormalize = renormalizeFromString(renormalize);
+    s.trackerSteps = trackerSteps;
+    if (!region.empty()) {
+        if (region.size() != 6) fail<ValueError>("--region needs 6 values xmin,ymin,zmin,xmax,ymax,zmax");
+        s.region = BBoxd(Vec3d(region[0], region[1], region[2]), Vec3d(region[3], region[4], region[5]));
+    }
+    require(std::isfinite(maxMemoryGB) && maxMemoryGB >= 0, "bake", "--max-memory", ">= 0 GB",
+            maxMemoryGB);
+    s.maxMemoryBytes = maxMemoryGB * 1e9;
+    s.validate();
+    return s;
+}
+
+Tool::Tool(std::string name, std::string description)
+    : mName(std::move(name)), mApp(std::move(description), mName)
+{
+    mApp.set_version_flag("--version", std::string(mName) + " (rockvdb) " + version());
+    mApp.config_formatter(std::make_shared<ConfigJson>());
+    mApp.set_config("--params", "", "Read options from a JSON file {\"option-name\": value, "
+                                    "\"subcommand\": {...}}; command-line values win");
+    mApp.add_option("--threads", mThreads, "Worker threads (0 = all cores)")
+        ->check(CLI::Range(0, 1024))->capture_default_str();
+    mApp.add_flag("-q,--quiet", mQuiet, "No progress bar or statistics on stderr");
+    mApp.get_formatter()->column_width(34);
+    mApp.option_defaults()->always_capture_default();
+}
+
+CLI::Option* Tool::addOutput(CLI::App& where, const std::string& help)
+{
+    return where.add_option("-o,--output", mOutput, help)->required();
+}
+
+void Tool::addBakeOptions(CLI::App& where)
+{
+    where.add_option("--voxel-size", mBake.voxelSize, "Voxel edge length (m)")->capture_default_str();
+    where.add_option("--half-width", mBake.halfWidth, "Narrow-band half width (voxels)")
+        ->capture_default_str();
+    where.add_option("--renormalize", mBake.renormalize,
+                     "Renormalise non-exact fields to distances: auto|on|off")
+        ->check(CLI::IsMember({"auto", "on", "off"}))->capture_default_str();
+    where.add_option("--tracker-steps", mBake.trackerSteps,
+                     "LevelSetTracker normalise steps after baking")->capture_default_str();
+    where.add_option("--region", mBake.region,
+                     "Bake only voxel centres in [min, max): xmin,ymin,zmin,xmax,ymax,zmax (m)")
+        ->delimiter(',')->expected(6);
+    where.add_option("--max-memory", mBake.maxMemoryGB,
+                     "Refuse bakes estimated above this many GB (0 = 75% of RAM)")
+        ->capture_default_str();
+}
+
+void Tool::addSeed(CLI::App& where)
+{
+    where.add_option("--seed", mSeed, "Random seed (same seed, same bits)")->capture_default_str();
+}
+
+std::string Tool::paramsJson() const
+{
+    return ConfigJson::toJson(&mApp, true).dump();
+}
+
+std::unique_ptr<Progress> Tool::progress(const std::string& label) const
+{
+    return std::make_unique<Progress>(mName + ": " + label, !mQuiet && ::isatty(STDERR_FILENO));
+}
+
+void Tool::info(const std::string& line) const
+{
+    if (!mQuiet) std::cerr << mName << ": " << line << "\n";
+}
+
+int Tool::run(int argc, char** argv, const std::function<void()>& body)
+{
+    auto error = [&](const std::string& msg, int code) {
+        std::string one = msg;
+        for (auto& c : one) if (c == '\n') c = ' ';
+        std::cerr << mName << ": error: " << one << "\n";
+        return code;
+    };
+    try {
+        mApp.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return mApp.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return mApp.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return mApp.exit(e);
+    } catch (const CLI::Success& e) {
+        return mApp.exit(e);
+    } catch (const CLI::ParseError& e) {
+        return error(std::string(e.what()) + " (see --help)", 2);
+    }
+    std::signal(SIGINT, onSigint);
+    std::signal(SIGPIPE, SIG_IGN);
+    try {
+        initialize();
+        std::unique_ptr<tbb::global_control> threads;
+        if (mThreads > 0) {
+            threads = std::make_unique<tbb::global_control>(
+                tbb::global_control::max_allowed_parallelism, size_t(mThreads));
+        }
+        body();
+        return 0;
+    } catch (const ValueError& e) {
+        return error(e.what(), 2);
+    } catch (const IoError& e) {
+        return error(e.what(), 1);
+    } catch (const Interrupted&) {
+        return error("interrupted; nothing written", 1);
+    } catch (const std::bad_alloc&) {
+        return error("out of memory; nothing written (try a larger --voxel-size)", 1);
+    } catch (const openvdb::Exception& e) {
+        return error(e.what(), 1);
+    } catch (const std::exception& e) {
+        return error(e.what(), 1);
+    }
+}
+
+BakeResult bakeAndWrite(const Tool& tool, const Field& field, const BakeSettings& settings)
+{
+    auto bar = tool.progress("baking");
+    BakeResult r = bake(field, settings, bar.get());
+    bar->end();
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "%zu active voxels in %zu leaves; cull %.3f s, fill %.3f s, finish %.3f s%s",
+                  r.stats.activeVoxels, r.stats.leaves, r.stats.cullSeconds, r.stats.fillSeconds,
+                  r.stats.finishSeconds, r.stats.renormalized ? " (renormalised)" : "");
+    tool.info(line);
+    const std::string params = tool.paramsJson();
+    openvdb::GridCPtrVec grids;
+    stampProvenance(*r.surface, tool.name(), params);
+    grids.push_back(r.surface);
+    if (r.attribute) {
+        stampProvenance(*r.attribute, tool.name(), params);
+        grids.push_back(r.attribute);
+    }
+    writeGrids(tool.output(), grids);
+    return r;
+}
+
+Vec3d toVec3(const std::vector<double>& v, const char* what)
+{
+    if (v.size() != 3) fail<ValueError>(what, " needs 3 comma-separated values (got ", v.size(), ")");
+    return Vec3d(v[0], v[1], v[2]);
+}
+
+} // namespace cli
+} // namespace rockvdb

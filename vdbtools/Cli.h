@@ -1,0 +1,102 @@
+// rockvdb — the command-line conventions every vdb_* tool follows.
+//
+//   GNU long options (CLI11), --help with defaults and units, --version, -o/--output
+//   ("-" = stdout), --params FILE.json (any option from JSON; command-line values win),
+//   --seed, --voxel-size, --half-width, --threads, --quiet, a progress bar on stderr when it
+//   is a terminal. Exit 0 on success, 1 on runtime errors, 2 on usage errors; every error is
+//   one line on stderr: "<tool>: error: <message>".
+#pragma once
+
+#include <core/Bake.h>
+
+#include <CLI/CLI.hpp>
+#include <openvdb/util/NullInterrupter.h>
+
+#include <array>
+#include <functional>
+#include <memory>
+#include <string>
+
+namespace rockvdb {
+namespace cli {
+
+/// @brief Progress bar on stderr (only when stderr is a terminal and not --quiet); also
+/// turns Ctrl-C into a clean Interrupted instead of a killed process with a partial file.
+class Progress : public openvdb::util::NullInterrupter
+{
+public:
+    Progress(std::string label, bool enabled);
+    ~Progress() override;
+    void start(const char* name = nullptr) override;
+    void end() override;
+    bool wasInterrupted(int percent = -1) override;
+
+private:
+    std::string mLabel;
+    bool mEnabled;
+    int mLast = -1;
+};
+
+/// @brief Options shared by tools that bake.
+struct BakeOptions
+{
+    double voxelSize = 0.05;
+    double halfWidth = 3.0;
+    std::string renormalize = "auto";
+    int trackerSteps = 0;
+    std::vector<double> region;  ///< xmin,ymin,zmin,xmax,ymax,zmax (m), empty = whole field
+    double maxMemoryGB = 0;
+    BakeSettings settings() const;
+};
+
+class Tool
+{
+public:
+    Tool(std::string name, std::string description);
+
+    CLI::App& app() { return mApp; }
+    const std::string& name() const { return mName; }
+
+    /// @name Shared options (call the ones the tool needs before run()).
+    /// @{
+    CLI::Option* addOutput(CLI::App& where, const std::string& help);
+    void addBakeOptions(CLI::App& where);
+    void addSeed(CLI::App& where);
+    /// @}
+
+    const BakeOptions& bake() const { return mBake; }
+    uint64_t seed() const { return mSeed; }
+    const std::string& output() const { return mOutput; }
+    bool quiet() const { return mQuiet; }
+
+    /// @brief Parse, configure threads, run @a body, map exceptions to exit codes.
+    int run(int argc, char** argv, const std::function<void()>& body);
+
+    /// @brief Every option's value (defaults included) as a JSON object: the provenance.
+    std::string paramsJson() const;
+
+    /// @brief A progress bar labelled @a label (disabled when quiet or stderr not a tty).
+    std::unique_ptr<Progress> progress(const std::string& label) const;
+
+    /// @brief Informational line on stderr (suppressed by --quiet).
+    void info(const std::string& line) const;
+
+private:
+    std::string mName;
+    CLI::App mApp;
+    BakeOptions mBake;
+    uint64_t mSeed = 0;
+    std::string mOutput;
+    int mThreads = 0;
+    bool mQuiet = false;
+};
+
+/// @brief Bake with a progress bar, print statistics, stamp provenance and write the
+/// surface (and the attribute grid, when baked) atomically to tool.output().
+BakeResult bakeAndWrite(const Tool& tool, const Field& field, const BakeSettings& settings);
+
+/// @brief Parse "x,y,z" style option values already split by CLI11 into a Vec3d.
+Vec3d toVec3(const std::vector<double>& v, const char* what);
+
+} // namespace cli
+} // namespace rockvdb

@@ -1,0 +1,78 @@
+// vdb_info — what is in a .vdb: grids, voxel size, active voxels, bounds, memory, provenance.
+#include "Cli.h"
+
+#include <core/VdbIO.h>
+
+#include <nlohmann/json.hpp>
+
+#include <iostream>
+
+using namespace rockvdb;
+
+int main(int argc, char** argv)
+{
+    cli::Tool tool("vdb_info", "Describe the grids of .vdb files: type, class, voxel size, "
+                               "active voxels, world bounds, memory and rockvdb provenance.");
+    CLI::App& app = tool.app();
+    std::vector<std::string> inputs;
+    bool asJson = false;
+    app.add_option("inputs", inputs, "Input .vdb files ('-' = stdin)")->required()->expected(1, 1 << 20);
+    app.add_flag("--json", asJson, "Print one JSON document (provenance parameters in full)");
+
+    return tool.run(argc, argv, [&] {
+        nlohmann::json files = nlohmann::json::array();
+        for (const auto& path : inputs) {
+            auto grids = readGrids(path);
+            nlohmann::json jf = {{"file", path}, {"grids", nlohmann::json::array()}};
+            for (const auto& g : *grids) {
+                if (!g) continue;
+                const auto ibox = g->evalActiveVoxelBoundingBox();
+                const auto wbox = g->transform().indexToWorld(ibox);
+                nlohmann::json jg = {
+                    {"name", g->getName()}, {"type", g->type()},
+                    {"class", openvdb::GridBase::gridClassToString(g->getGridClass())},
+                    {"voxel_size", g->voxelSize()[0]},
+                    {"active_voxels", g->activeVoxelCount()},
+                    {"memory_bytes", g->memUsage()}};
+                if (g->activeVoxelCount() > 0) {
+                    jg["bbox_index"] = {{ibox.min()[0], ibox.min()[1], ibox.min()[2]},
+                                        {ibox.max()[0], ibox.max()[1], ibox.max()[2]}};
+                    jg["bbox_world"] = {{wbox.min()[0], wbox.min()[1], wbox.min()[2]},
+                                        {wbox.max()[0], wbox.max()[1], wbox.max()[2]}};
+                }
+                if (auto p = provenance(*g)) {
+                    jg["rockvdb"] = {{"version", p->version}, {"generator", p->generator},
+                                     {"params", nlohmann::json::parse(p->params, nullptr, false)}};
+                }
+                jf["grids"].push_back(jg);
+            }
+            files.push_back(jf);
+        }
+        if (asJson) {
+            std::cout << files.dump(2) << "\n";
+            return;
+        }
+        for (const auto& jf : files) {
+            std::cout << jf["file"].get<std::string>() << "\n";
+            for (const auto& jg : jf["grids"]) {
+                std::cout << "  " << jg["name"].get<std::string>() << "  " << jg["type"].get<std::string>()
+                          << "  class=" << jg["class"].get<std::string>()
+                          << "  voxel=" << jg["voxel_size"].get<double>() << " m"
+                          << "  active=" << jg["active_voxels"].get<uint64_t>()
+                          << "  memory=" << formatBytes(jg["memory_bytes"].get<double>()) << "\n";
+                if (jg.contains("bbox_world")) {
+                    const auto& b = jg["bbox_world"];
+                    std::cout << "    bounds (m): [" << b[0][0] << ", " << b[0][1] << ", " << b[0][2]
+                              << "] .. [" << b[1][0] << ", " << b[1][1] << ", " << b[1][2] << "]\n";
+                }
+                if (jg.contains("rockvdb")) {
+                    const auto& r = jg["rockvdb"];
+                    std::string params = r["params"].dump();
+                    if (params.size() > 160) params = params.substr(0, 157) + "...";
+                    std::cout << "    rockvdb " << r["version"].get<std::string>() << " "
+                              << r["generator"].get<std::string>() << " " << params << "\n";
+                }
+            }
+        }
+    });
+}
