@@ -187,6 +187,7 @@ Tool::Tool(std::string name, std::string description)
     mApp.add_flag("-q,--quiet", mQuiet, "No progress bar or statistics on stderr");
     mApp.get_formatter()->column_width(34);
     mApp.option_defaults()->always_capture_default();
+    mApp.fallthrough(); // parent options may follow a subcommand
 }
 
 CLI::Option* Tool::addOutput(CLI::App& where, const std::string& help)
@@ -257,6 +258,7 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
     std::signal(SIGPIPE, SIG_IGN);
     try {
         initialize();
+        if (!mOutput.empty()) requireWritable(mOutput);
         std::unique_ptr<tbb::global_control> threads;
         if (mThreads > 0) {
             threads = std::make_unique<tbb::global_control>(

@@ -32,8 +32,7 @@ int main(int argc, char** argv)
         HeightfieldSettings hs;
         hs.baseDepth = baseDepth;
         hs.exactDistance = 2.0 * settings.halfWidth * settings.voxelSize * settings.renormBandScale;
-        tool.info(std::to_string(hf->nx) + "x" + std::to_string(hf->ny) + " samples, " +
-                  std::to_string(hf->width()) + " x " + std::to_string(hf->depth()) + " m");
         cli::bakeAndWrite(tool, *heightfieldField(hf, hs), settings);
+        tool.info(std::to_string(hf->nx) + "x" + std::to_string(hf->ny) + " samples");
     });
 }

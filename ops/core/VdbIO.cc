@@ -114,6 +114,11 @@ std::string serialise(const openvdb::GridCPtrVec& grids)
 
 } // namespace
 
+void requireWritable(const std::string& path)
+{
+    if (path != "-") checkWritableTarget(path);
+}
+
 void writeFileAtomic(const std::string& path, const std::string& bytes)
 {
     if (path == "-") return writeStdout(bytes);

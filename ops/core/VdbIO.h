@@ -47,6 +47,10 @@ openvdb::FloatGrid::Ptr readLevelSet(const std::string& path,
 /// @brief Check that @a grid is a well-formed float level set (ValueError otherwise).
 void requireLevelSet(const openvdb::GridBase& grid, const std::string& what);
 
+/// @brief IoError unless @a path can be created: its folder exists and is writable, and it is
+/// not a folder itself. Tools call it before any work so a bad -o fails fast.
+void requireWritable(const std::string& path);
+
 /// @brief Write @a bytes to @a path atomically (temporary file + rename); "-" = stdout.
 void writeFileAtomic(const std::string& path, const std::string& bytes);
 

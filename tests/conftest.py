@@ -1,0 +1,56 @@
+"""Shared fixtures: where the built tools are, and a helper to run them."""
+import os
+import subprocess
+
+import pytest
+
+BUILD = os.environ.get("ROCKVDB_BUILD", os.path.join(os.path.dirname(__file__), "..", "build"))
+TOOLS = os.path.join(BUILD, "vdbtools")
+
+
+def tool(name):
+    return os.path.join(TOOLS, name)
+
+
+def run(args, stdin=None, check=False):
+    """Run a command; return CompletedProcess with bytes stdout and text stderr."""
+    p = subprocess.run(args, input=stdin, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                       timeout=600)
+    p.stderr = p.stderr.decode(errors="replace")
+    if check and p.returncode != 0:
+        raise AssertionError(f"{args} failed ({p.returncode}): {p.stderr}")
+    return p
+
+
+@pytest.fixture
+def sphere_vdb(tmp_path):
+    out = tmp_path / "sphere.vdb"
+    run([tool("vdb_primitive"), "--voxel-size", "0.05", "-q", "-o", str(out), "sphere",
+         "--radius", "1"], check=True)
+    return out
+
+
+def write_png16(path, rows):
+    """Write a 16-bit greyscale PNG from rows of ints in 0..65535 (stdlib only)."""
+    import struct
+    import zlib
+
+    h, w = len(rows), len(rows[0])
+    raw = b"".join(b"\x00" + struct.pack(f">{w}H", *r) for r in rows)
+
+    def chunk(tag, data):
+        c = struct.pack(">I", len(data)) + tag + data
+        return c + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 16, 0, 0, 0, 0))
+    png += chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+    with open(path, "wb") as f:
+        f.write(png)
+
+
+@pytest.fixture
+def heightfield_png(tmp_path):
+    """A 33x33 ramp rising along x: value(i, j) = i/32."""
+    path = tmp_path / "ramp.png"
+    write_png16(path, [[round(65535 * i / 32) for i in range(33)] for _ in range(33)])
+    return path
