@@ -1,0 +1,246 @@
+// The rockvdb Python module: fields that compose like fogleman/sdf, bakes that return
+// pyopenvdb.FloatGrid objects, CSG, heightfields and I/O helpers.
+#include "GridCaster.h"
+
+#include <core/Bake.h>
+#include <core/Combinators.h>
+#include <core/Error.h>
+#include <core/Expression.h>
+#include <core/GridCsg.h>
+#include <core/Heightfield.h>
+#include <core/Image.h>
+#include <core/Mesh.h>
+#include <core/Preview.h>
+#include <core/Primitives.h>
+#include <core/VdbIO.h>
+
+#include <nlohmann/json.hpp>
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+namespace py = pybind11;
+using namespace rockvdb;
+using nlohmann::json;
+using Grid = openvdb::FloatGrid::Ptr;
+
+namespace {
+
+using V3 = std::array<double, 3>;
+Vec3d v3(const V3& a) { return Vec3d(a[0], a[1], a[2]); }
+json j3(const V3& a) { return json::array({a[0], a[1], a[2]}); }
+
+/// A field plus the expression that rebuilds it (its provenance).
+struct PyField
+{
+    FieldPtr field;
+    json expr;
+};
+
+PyField build(const json& expr)
+{
+    ExpressionContext ctx;
+    return {fieldFromJson(expr, ctx), expr};
+}
+
+PyField combine(const char* type, const PyField& a, const PyField& b, double smooth)
+{
+    json e = {{"type", type}, {"children", {a.expr, b.expr}}};
+    if (smooth > 0) e["smooth"] = smooth;
+    return {csg(csgOpFromString(type), {a.field, b.field}, smooth), e};
+}
+
+py::object bakeField(const PyField& f, double voxelSize, double halfWidth,
+                     const std::string& renormalize, int trackerSteps,
+                     std::optional<std::array<double, 6>> region,
+                     std::optional<std::string> attribute, const std::string& generator,
+                     const json& params)
+{
+    BakeSettings s;
+    s.voxelSize = voxelSize;
+    s.halfWidth = halfWidth;
+    s.renormalize = renormalizeFromString(renormalize);
+    s.trackerSteps = trackerSteps;
+    if (region) {
+        const auto& r = *region;
+        s.region = BBoxd(Vec3d(r[0], r[1], r[2]), Vec3d(r[3], r[4], r[5]));
+    }
+    if (attribute) {
+        s.withAttribute = true;
+        s.attributeName = *attribute;
+    }
+    BakeResult r;
+    {
+        py::gil_scoped_release release;
+        r = bake(*f.field, s);
+    }
+    json p = params;
+    p["voxel_size"] = voxelSize;
+    p["half_width"] = halfWidth;
+    p["renormalize"] = renormalize;
+    p["tracker_steps"] = trackerSteps;
+    if (region) p["region"] = *region;
+    stampProvenance(*r.surface, generator, p.dump());
+    if (!r.attribute) return py::cast(r.surface);
+    stampProvenance(*r.attribute, generator, p.dump());
+    return py::make_tuple(py::cast(r.surface), py::cast(r.attribute));
+}
+
+} // namespace
+
+PYBIND11_MODULE(_rockvdb, m)
+{
+    m.doc() = "rockvdb: procedural rocks as OpenVDB level sets (metres, negative inside)";
+    py::module_::import("pyopenvdb");
+    initialize();
+
+    py::register_exception_translator([](std::exception_ptr p) {
+        try {
+            if (p) std::rethrow_exception(p);
+        } catch (const ValueError& e) {
+            PyErr_SetString(PyExc_ValueError, e.what());
+        } catch (const IoError& e) {
+            PyErr_SetString(PyExc_IOError, e.what());
+        } catch (const Interrupted& e) {
+            PyErr_SetString(PyExc_KeyboardInterrupt, e.what());
+        } catch (const openvdb::IoError& e) {
+            PyErr_SetString(PyExc_IOError, e.what());
+        }
+    });
+    m.attr("__version__") = version();
+
+    py::class_<PyField>(m, "Field", "A signed-distance field (metres, negative inside)")
+        .def("eval", [](const PyField& f, const V3& p) { return f.field->eval(v3(p)); },
+             py::arg("p"), "Value at world point p")
+        .def("bounds", [](const PyField& f) {
+            const BBoxd b = f.field->bounds();
+            return py::make_tuple(py::make_tuple(b.min()[0], b.min()[1], b.min()[2]),
+                                  py::make_tuple(b.max()[0], b.max()[1], b.max()[2]));
+        })
+        .def_property_readonly("lipschitz", [](const PyField& f) { return f.field->lipschitz(); })
+        .def_property_readonly("exact", [](const PyField& f) { return f.field->exact(); })
+        .def_property_readonly("expression", [](const PyField& f) { return f.expr.dump(); },
+                               "JSON expression (vdb_primitive expr) that rebuilds this field")
+        .def("union", [](const PyField& a, const PyField& b, double r) { return combine("union", a, b, r); },
+             py::arg("other"), py::arg("smooth") = 0.0)
+        .def("intersection", [](const PyField& a, const PyField& b, double r) { return combine("intersection", a, b, r); },
+             py::arg("other"), py::arg("smooth") = 0.0)
+        .def("difference", [](const PyField& a, const PyField& b, double r) { return combine("difference", a, b, r); },
+             py::arg("other"), py::arg("smooth") = 0.0)
+        .def("__or__", [](const PyField& a, const PyField& b) { return combine("union", a, b, 0); })
+        .def("__and__", [](const PyField& a, const PyField& b) { return combine("intersection", a, b, 0); })
+        .def("__sub__", [](const PyField& a, const PyField& b) { return combine("difference", a, b, 0); })
+        .def("transform", [](const PyField& f, const V3& t, const V3& r, py::object scale) {
+            json e = {{"type", "transform"}, {"translate", j3(t)}, {"rotate", j3(r)}, {"child", f.expr}};
+            if (py::isinstance<py::float_>(scale) || py::isinstance<py::int_>(scale)) e["scale"] = scale.cast<double>();
+            else e["scale"] = j3(scale.cast<V3>());
+            return build(e);
+        }, py::arg("translate") = V3{0, 0, 0}, py::arg("rotate") = V3{0, 0, 0},
+           py::arg("scale") = 1.0, "Scale, rotate (XYZ degrees), then translate")
+        .def("warp", [](const PyField& f, double amplitude, double frequency, int octaves, uint64_t seed) {
+            return build({{"type", "warp"}, {"amplitude", amplitude}, {"frequency", frequency},
+                          {"octaves", octaves}, {"seed", seed}, {"child", f.expr}});
+        }, py::arg("amplitude"), py::arg("frequency") = 1.0, py::arg("octaves") = 3, py::arg("seed") = 0,
+           "Domain warp by vector fBm noise (amplitude in metres)")
+        .def("tag", [](const PyField& f, int id) {
+            json e = f.expr;
+            e["id"] = id;
+            return build(e);
+        }, py::arg("id"), "Tag with an integer id for attribute grids")
+        .def("bake", [](const PyField& f, double voxelSize, double halfWidth, const std::string& renorm,
+                        int steps, std::optional<std::array<double, 6>> region,
+                        std::optional<std::string> attribute) {
+            return bakeField(f, voxelSize, halfWidth, renorm, steps, region, attribute,
+                             "rockvdb.Field.bake", {{"expression", f.expr}});
+        }, py::arg("voxel_size") = 0.05, py::arg("half_width") = 3.0, py::arg("renormalize") = "auto",
+           py::arg("tracker_steps") = 0, py::arg("region") = py::none(), py::arg("attribute") = py::none(),
+           "Bake to a level set (pyopenvdb.FloatGrid named 'surface'); with attribute='block_id' "
+           "returns (surface, ids)");
+
+    m.def("sphere", [](double radius, const V3& c) {
+        return build({{"type", "sphere"}, {"radius", radius}, {"center", j3(c)}});
+    }, py::arg("radius") = 1.0, py::arg("center") = V3{0, 0, 0});
+    m.def("box", [](const V3& size, const V3& c, double rounding) {
+        return build({{"type", "box"}, {"size", j3(size)}, {"center", j3(c)}, {"rounding", rounding}});
+    }, py::arg("size") = V3{1, 1, 1}, py::arg("center") = V3{0, 0, 0}, py::arg("rounding") = 0.0);
+    m.def("capsule", [](const V3& a, const V3& b, double radius) {
+        return build({{"type", "capsule"}, {"a", j3(a)}, {"b", j3(b)}, {"radius", radius}});
+    }, py::arg("a"), py::arg("b"), py::arg("radius"));
+    m.def("plane", [](const V3& point, const V3& normal) {
+        return build({{"type", "plane"}, {"point", j3(point)}, {"normal", j3(normal)}});
+    }, py::arg("point") = V3{0, 0, 0}, py::arg("normal") = V3{0, 0, 1});
+    m.def("polytope", [](const std::vector<std::array<double, 4>>& planes, double smooth) {
+        json ps = json::array();
+        for (const auto& p : planes) ps.push_back({p[0], p[1], p[2], p[3]});
+        return build({{"type", "polytope"}, {"planes", ps}, {"smooth", smooth}});
+    }, py::arg("planes"), py::arg("smooth") = 0.0, "Intersection of n·p <= d half-spaces");
+    m.def("expression", [](const std::string& text) {
+        json e;
+        try { e = json::parse(text); } catch (const json::exception& ex) {
+            throw ValueError(std::string("expression: malformed JSON: ") + ex.what());
+        }
+        return build(e);
+    }, py::arg("json"), "A field from a JSON expression (see vdb_primitive expr)");
+
+    m.def("heightfield", [](const std::string& path, double cellSize, double heightScale,
+                            double baseDepth, double voxelSize, double halfWidth) {
+        auto hf = std::make_shared<Heightfield>(loadHeightfield(path, cellSize, heightScale));
+        HeightfieldSettings hs;
+        hs.baseDepth = baseDepth;
+        hs.exactDistance = 4.0 * halfWidth * voxelSize;
+        PyField f{heightfieldField(hf, hs), json()};
+        return bakeField(f, voxelSize, halfWidth, "auto", 0, std::nullopt, std::nullopt,
+                         "rockvdb.heightfield",
+                         {{"file", path}, {"cell_size", cellSize}, {"height_scale", heightScale},
+                          {"base_depth", baseDepth}});
+    }, py::arg("path"), py::arg("cell_size") = 1.0, py::arg("height_scale") = 1.0,
+       py::arg("base_depth") = 1.0, py::arg("voxel_size") = 0.05, py::arg("half_width") = 3.0,
+       "Heightfield image (EXR / 16-bit PNG) to a level set of the terrain solid");
+
+    m.def("write_heightfield", [](const std::string& path, py::array_t<float, py::array::c_style | py::array::forcecast> a) {
+        if (a.ndim() != 2) throw ValueError("write_heightfield: expected a 2D array (rows, columns)");
+        GrayImage img;
+        img.height = int(a.shape(0));
+        img.width = int(a.shape(1));
+        img.pixels.assign(a.data(), a.data() + a.size());
+        writeGrayImage(path, img);
+    }, py::arg("path"), py::arg("array"), "Write a 2D array as float EXR or 16-bit PNG (row 0 first)");
+
+    m.def("csg", [](const std::string& op, const std::vector<Grid>& grids, double smooth) {
+        std::vector<openvdb::FloatGrid::ConstPtr> in(grids.begin(), grids.end());
+        Grid g;
+        {
+            py::gil_scoped_release release;
+            g = csgGrids(csgOpFromString(op), in, smooth);
+        }
+        stampProvenance(*g, "rockvdb.csg", json({{"op", op}, {"smooth", smooth}}).dump());
+        return g;
+    }, py::arg("op"), py::arg("grids"), py::arg("smooth") = 0.0,
+       "union / intersection / difference of level-set grids (inputs untouched)");
+
+    m.def("read", [](const std::string& path, const std::string& name) { return readLevelSet(path, name); },
+          py::arg("path"), py::arg("grid") = "surface", "Read a float level set by name");
+    m.def("write", [](const std::string& path, const std::vector<Grid>& grids) {
+        openvdb::GridCPtrVec v(grids.begin(), grids.end());
+        writeGrids(path, v);
+    }, py::arg("path"), py::arg("grids"), "Write grids atomically (Blosc compressed)");
+    m.def("mesh", [](Grid grid, const std::string& path, double isovalue, double adaptivity) {
+        requireLevelSet(*grid, "mesh input");
+        writeMesh(meshLevelSet(*grid, isovalue, adaptivity), path);
+    }, py::arg("grid"), py::arg("path"), py::arg("isovalue") = 0.0, py::arg("adaptivity") = 0.0);
+    m.def("preview", [](Grid grid, const std::string& path, int width, int height, double azimuth,
+                        double elevation, std::optional<Grid> ids) {
+        PreviewSettings s;
+        s.width = width;
+        s.height = height;
+        s.azimuth = azimuth;
+        s.elevation = elevation;
+        py::gil_scoped_release release;
+        writePreview(*grid, path, s, ids ? ids->get() : nullptr);
+    }, py::arg("grid"), py::arg("path"), py::arg("width") = 960, py::arg("height") = 540,
+       py::arg("azimuth") = 35.0, py::arg("elevation") = 30.0, py::arg("ids") = py::none());
+    m.def("provenance", [](Grid grid) -> py::object {
+        auto p = provenance(*grid);
+        if (!p) return py::none();
+        return py::make_tuple(p->version, p->generator, p->params);
+    }, py::arg("grid"), "(version, generator, params JSON) or None");
+}

@@ -1,0 +1,134 @@
+"""The rockvdb Python module: pyopenvdb grids in and out, analytic checks, errors."""
+import json
+import math
+
+import numpy as np
+import pyopenvdb as vdb
+import pytest
+
+import rockvdb
+
+
+def inside_volume(grid):
+    """Volume of the inside region by counting voxels with value < 0 in the active band
+    plus interior tiles (coarse but independent of our code)."""
+    dx = grid.transform.voxelSize()[0]
+    n = 0
+    for it in grid.citerAllValues():
+        if it.value < 0:
+            n += it.count
+    return n * dx ** 3
+
+
+def test_bake_returns_pyopenvdb_level_set():
+    g = rockvdb.sphere(1.0, center=(0.5, 0, 0)).bake(voxel_size=0.05)
+    assert isinstance(g, vdb.FloatGrid)
+    assert g.name == "surface"
+    assert g.gridClass == vdb.GridClass.LEVEL_SET
+    assert g.background == pytest.approx(0.15)
+    acc = g.getConstAccessor()
+    assert acc.getValue((10, 0, 0)) < 0 < acc.getValue((40, 0, 0))
+    # Exact distance on a voxel inside the band: (0.5 + 1.05, 0, 0) is 0.05 outside.
+    assert acc.getValue((31, 0, 0)) == pytest.approx(0.05, abs=1e-5)
+    assert inside_volume(g) == pytest.approx(4 / 3 * math.pi, rel=0.02)
+
+
+def test_operators_and_provenance_expression_rebuilds_field():
+    f = (rockvdb.sphere(1.0) | rockvdb.box((2.5, 0.5, 0.5), rounding=0.1)) - rockvdb.sphere(0.4, (0, 0, 1))
+    g = f.bake(voxel_size=0.05)
+    version, generator, params = rockvdb.provenance(g)
+    assert generator == "rockvdb.Field.bake" and version == rockvdb.__version__
+    p = json.loads(params)
+    again = rockvdb.expression(json.dumps(p["expression"])).bake(voxel_size=p["voxel_size"])
+    a, b = np.zeros((80, 80, 80), np.float32), np.zeros((80, 80, 80), np.float32)
+    g.copyToArray(a, ijk=(-40, -40, -40))
+    again.copyToArray(b, ijk=(-40, -40, -40))
+    assert np.array_equal(a, b)
+    assert f.eval((1.2, 0, 0)) < 0 < f.eval((0, 0, 0.9)) or f.eval((0, 0, 0.9)) > 0
+
+
+def test_smooth_union_adds_material():
+    a, b = rockvdb.sphere(0.6, (-0.5, 0, 0)), rockvdb.sphere(0.6, (0.5, 0, 0))
+    hard = inside_volume((a | b).bake(voxel_size=0.04))
+    soft = inside_volume(a.union(b, smooth=0.3).bake(voxel_size=0.04))
+    assert soft > hard * 1.01
+
+
+def test_attribute_grid_and_warp():
+    f = rockvdb.sphere(0.5, (-1, 0, 0)).tag(3) | rockvdb.sphere(0.5, (1, 0, 0)).warp(0.05, 2, seed=1).tag(4)
+    surface, ids = f.bake(voxel_size=0.05, attribute="rock_id")
+    assert ids.name == "rock_id" and ids.background == -1
+    assert ids.activeVoxelCount() == surface.activeVoxelCount()
+    vals = {it.value for it in ids.citerOnValues()}
+    assert vals == {3.0, 4.0}
+
+
+def test_csg_on_grids_leaves_inputs_untouched():
+    a = rockvdb.sphere(0.7, (-0.3, 0, 0)).bake(voxel_size=0.05)
+    b = rockvdb.sphere(0.7, (0.3, 0, 0)).bake(voxel_size=0.05)
+    na = a.activeVoxelCount()
+    u = rockvdb.csg("union", [a, b])
+    i = rockvdb.csg("intersection", [a, b])
+    assert a.activeVoxelCount() == na
+    assert inside_volume(u) + inside_volume(i) == pytest.approx(inside_volume(a) + inside_volume(b), rel=0.02)
+
+
+def test_heightfield_and_files_round_trip(tmp_path):
+    ramp = np.tile(np.linspace(0, 1, 21, dtype=np.float32), (21, 1))  # rises along x (columns)
+    path = str(tmp_path / "ramp.exr")
+    rockvdb.write_heightfield(path, ramp)
+    g = rockvdb.heightfield(path, cell_size=0.1, height_scale=2.0, voxel_size=0.05)
+    # Slope 1 along x: point (1, 1, h + d) has signed distance d/sqrt(2).
+    acc = g.getConstAccessor()
+    x, y = 1.0, 1.0
+    h = 2.0 * x / 2.0
+    z = h + 0.1
+    ijk = g.transform.worldToIndexCellCentered((x, y, z))
+    assert acc.getValue(ijk) == pytest.approx(0.1 / math.sqrt(2), abs=0.003)
+    out = str(tmp_path / "hf.vdb")
+    rockvdb.write(out, [g])
+    back = rockvdb.read(out)
+    assert back.activeVoxelCount() == g.activeVoxelCount()
+    grids, _ = vdb.readAll(out)
+    assert [x.name for x in grids] == ["surface"]
+    rockvdb.mesh(back, str(tmp_path / "hf.obj"))
+    assert (tmp_path / "hf.obj").read_text().count("\nf ") > 100
+    rockvdb.preview(back, str(tmp_path / "hf.png"), width=64, height=48)
+    assert (tmp_path / "hf.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_errors_are_python_exceptions(tmp_path):
+    with pytest.raises(ValueError, match="sphere: radius must be > 0"):
+        rockvdb.sphere(-1)
+    with pytest.raises(ValueError, match="voxel size"):
+        rockvdb.sphere(1).bake(voxel_size=0)
+    with pytest.raises(ValueError, match="voxel size"):
+        rockvdb.sphere(1).bake(voxel_size=float("nan"))
+    with pytest.raises(ValueError, match="refusing"):
+        rockvdb.sphere(100).bake(voxel_size=1e-4)
+    with pytest.raises(ValueError, match="unbounded"):
+        rockvdb.plane().bake()
+    with pytest.raises(TypeError):
+        rockvdb.mesh(None, str(tmp_path / "x.obj"))
+    with pytest.raises(TypeError):
+        rockvdb.csg("union", [None])
+    with pytest.raises(ValueError, match="unknown operation"):
+        rockvdb.csg("xor", [rockvdb.sphere(1).bake(voxel_size=0.1)])
+    with pytest.raises(IOError, match="no such file"):
+        rockvdb.read(str(tmp_path / "missing.vdb"))
+    (tmp_path / "junk.vdb").write_text("junk")
+    with pytest.raises(IOError, match="not a VDB"):
+        rockvdb.read(str(tmp_path / "junk.vdb"))
+    g = rockvdb.sphere(1).bake(voxel_size=0.1)
+    with pytest.raises(ValueError, match="no grid 'density'"):
+        rockvdb.write(str(tmp_path / "s.vdb"), [g]) or rockvdb.read(str(tmp_path / "s.vdb"), "density")
+    fog = g.deepCopy()
+    fog.gridClass = vdb.GridClass.FOG_VOLUME
+    with pytest.raises(ValueError, match="fog volume"):
+        rockvdb.mesh(fog, str(tmp_path / "f.obj"))
+    with pytest.raises(IOError):
+        rockvdb.write("/nonexistent/dir/x.vdb", [g])
+    with pytest.raises(ValueError, match="expression"):
+        rockvdb.expression('{"type": "sphre"}')
+    with pytest.raises(IOError):
+        rockvdb.heightfield(str(tmp_path / "none.exr"))
