@@ -31,7 +31,6 @@ int main(int argc, char** argv)
         auto hf = std::make_shared<Heightfield>(loadHeightfield(input, cellSize, heightScale));
         HeightfieldSettings hs;
         hs.baseDepth = baseDepth;
-        hs.exactDistance = 2.0 * settings.halfWidth * settings.voxelSize * settings.renormBandScale;
         cli::bakeAndWrite(tool, *heightfieldField(hf, hs), settings);
         tool.info(std::to_string(hf->nx) + "x" + std::to_string(hf->ny) + " samples");
     });

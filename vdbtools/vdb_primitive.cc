@@ -92,7 +92,6 @@ int main(int argc, char** argv)
         } else {
             ExpressionContext ctx;
             ctx.seed = tool.seed();
-            ctx.exactDistance = 2.0 * settings.halfWidth * settings.voxelSize * settings.renormBandScale;
             nlohmann::json j;
             if (exprFile == "-") {
                 try { std::cin >> j; } catch (const nlohmann::json::exception& e) {

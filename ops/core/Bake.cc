@@ -121,6 +121,10 @@ public:
         mClampBand = d.renormalize
             ? float((d.bandField + d.lipschitz * s.voxelSize) * 1.01)
             : d.background;
+        // As a distance: the band the voxels need (widened when renormalising) plus a voxel,
+        // doubled to cover smooth blends that read neighbours' values beyond it.
+        mReach = float(2.0 * (double(d.background) * (d.renormalize ? s.renormBandScale : 1.0) +
+                              s.voxelSize));
     }
 
     BakeResult run()
@@ -332,6 +336,7 @@ private:
                                  float(origin[2] + 3.5) * dx);
             s.pts.radius = 3.5f * 1.7320508f * dx;
             s.pts.band = mClampBand;
+            s.pts.reach = mReach;
             if (withId) mField.evalIdBatch(s.pts.view(), s.out, s.outId);
             else mField.evalBatch(s.pts.view(), s.out);
             mEvals.fetch_add(kLeafVoxels, std::memory_order_relaxed);
@@ -347,6 +352,7 @@ private:
                                  float(origin[2] + 3.5) * dx);
             s.pts.radius = 4.5f * 1.7320508f * dx;
             s.pts.band = mClampBand;
+            s.pts.reach = mReach;
             if (withId) mField.evalIdBatch(s.pts.view(), s.val, s.id);
             else mField.evalBatch(s.pts.view(), s.val);
             mEvals.fetch_add(size_t(s.pts.n), std::memory_order_relaxed);
@@ -418,6 +424,7 @@ private:
     const Domain& mD;
     const float mDx;
     float mClampBand;
+    float mReach;
     openvdb::util::NullInterrupter* mInterrupt;
     std::atomic<bool> mCancel{false};
     std::atomic<bool> mOverflow{false};

@@ -204,6 +204,7 @@ private:
         // Local distances are world distances / σ_min(M) at most; values are scaled back.
         local.radius = b.radius * mInvNorm;
         local.band = b.band / mScale;
+        local.reach = b.reach * mInvNorm;
     }
 
     FieldPtr mChild;
@@ -256,6 +257,8 @@ private:
         q.center = b.center;
         q.radius = b.radius + float(mDelta->maxMagnitude());
         q.band = b.band;
+        // A world distance d maps to at most d·(1 + L_δ) in the warped domain.
+        q.reach = b.reach * float(1.0 + mDelta->lipschitz());
     }
 
     FieldPtr mChild;

@@ -115,7 +115,6 @@ private:
                 file, num(n, "cell_size", path, 1.0), num(n, "height_scale", path, 1.0)));
             HeightfieldSettings hs;
             hs.baseDepth = num(n, "base_depth", path, 1.0);
-            hs.exactDistance = mCtx.exactDistance;
             return heightfieldField(hf, hs);
         }
         if (type == "noise_terrain") {
@@ -136,7 +135,6 @@ private:
                 num(n, "amplitude", path, 1.0), fbm, seed(n, path)));
             HeightfieldSettings hs;
             hs.baseDepth = num(n, "base_depth", path, 1.0);
-            hs.exactDistance = mCtx.exactDistance;
             return heightfieldField(hf, hs);
         }
         bad(path + "/type", "unknown type '" + type + "'");

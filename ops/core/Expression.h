@@ -32,7 +32,6 @@ struct ExpressionContext
 {
     std::string baseDir = ".";   ///< folder for relative file paths
     uint64_t seed = 0;           ///< default seed of warps and noise terrains
-    double exactDistance = 1.0;  ///< heightfield exact-distance radius (m)
 };
 
 /// @brief Build a field from a parsed expression. @throw ValueError with the JSON path.

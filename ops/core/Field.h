@@ -38,6 +38,9 @@ constexpr float kNoId = -1.0f;
 /// is at least @c band are all equivalent to the caller (the baker clamps them to the
 /// background). Combinators use them to skip operands that cannot matter anywhere in the
 /// batch; band = +inf (the default) disables culling and gives exact values everywhere.
+/// @c reach (m) is the same fact as a distance: fields that are exact only near their
+/// surface (heightfields) must be exact within reach and may return a lower bound >= reach
+/// beyond it.
 struct Batch
 {
     const float* x;
@@ -47,6 +50,7 @@ struct Batch
     Vec3f center = Vec3f(0.0f);
     float radius = std::numeric_limits<float>::infinity();
     float band = std::numeric_limits<float>::infinity();
+    float reach = std::numeric_limits<float>::infinity();
 };
 
 /// @brief A fixed-capacity batch that owns its coordinates.
@@ -59,7 +63,8 @@ struct BatchBuffer
     Vec3f center = Vec3f(0.0f);
     float radius = std::numeric_limits<float>::infinity();
     float band = std::numeric_limits<float>::infinity();
-    Batch view() const { return {x, y, z, n, center, radius, band}; }
+    float reach = std::numeric_limits<float>::infinity();
+    Batch view() const { return {x, y, z, n, center, radius, band, reach}; }
 };
 
 /// @brief A box so large it stands for "unbounded" (half-spaces, terrains without floor).

@@ -1,5 +1,6 @@
 #include "GridCsg.h"
 
+#include "Bake.h"
 #include "Error.h"
 #include "VdbIO.h"
 
@@ -58,6 +59,24 @@ FloatGrid::Ptr csgGrids(CsgOp op, const std::vector<FloatGrid::ConstPtr>& grids,
         const float rf = float(r);
         // Values the operator needs: |result| < bg requires operands up to bg + R/6 + R.
         const int dilation = int(std::ceil((7.0 / 6.0) * r / dx)) + 1;
+        // Upper bound of what fast sweeping allocates: every voxel of each input's active
+        // bounding box grown by the dilation (the widened band can fill it), ~5 B per voxel
+        // in leaves, operands and result alive at once. Linear-in-R estimates undercount: a
+        // large offset of a small shape grows with the cube of the dilation.
+        double bytes = 0;
+        for (const auto& g : in) {
+            const openvdb::Coord ext = g->evalActiveVoxelDim();
+            double voxels = 1;
+            for (int a = 0; a < 3; ++a) voxels *= double(ext[a]) + 2.0 * dilation;
+            bytes += voxels * 5.0;
+        }
+        bytes *= 1.5;
+        const double limit = 0.75 * physicalMemoryBytes();
+        if (bytes > limit) {
+            fail<ValueError>("csg: refusing smooth radius ", r, " m at voxel size ", dx,
+                             " m: widening the bands needs about ", formatBytes(bytes),
+                             ", over the ", formatBytes(limit), " limit");
+        }
         FloatGrid::Ptr acc = openvdb::tools::dilateSdf(*result, dilation);
         for (size_t i = 1; i < in.size(); ++i) {
             FloatGrid::Ptr b = openvdb::tools::dilateSdf(*in[i], dilation);

@@ -115,7 +115,10 @@ public:
 
     void evalBatch(const Batch& b, float* out) const override
     {
-        for (int i = 0; i < b.n; ++i) out[i] = float(eval1(Vec3d(b.x[i], b.y[i], b.z[i])));
+        // Exact wherever the caller needs values (its band); a lower bound beyond.
+        const double rho = std::isfinite(b.reach) ? std::max(mS.exactDistance, double(b.reach))
+                                                  : mS.exactDistance;
+        for (int i = 0; i < b.n; ++i) out[i] = float(eval1(Vec3d(b.x[i], b.y[i], b.z[i]), rho));
     }
 
     BBoxd bounds() const override
@@ -151,7 +154,7 @@ private:
         return std::min(pointTriangleDist2(p, a, b, d), pointTriangleDist2(p, a, d, e));
     }
 
-    double surfaceDistance(const Vec3d& p) const
+    double surfaceDistance(const Vec3d& p, double rho) const
     {
         const Heightfield& h = *mHf;
         const double c = h.cellSize;
@@ -165,7 +168,6 @@ private:
         // Lower bound of the distance: horizontal gap outside the footprint; the cone bound
         // |v|/sqrt(1 + S²) inside it (S = steepest triangle slope).
         const double lb = dh > 0 ? dh : std::abs(v) * mConeFactor;
-        const double rho = mS.exactDistance;
         if (lb > rho) return sign * lb;
         // Exact: search cells ring by ring around (ci, cj) while a ring can still be closer.
         const int cx = h.nx - 1, cy = h.ny - 1;
@@ -195,9 +197,9 @@ private:
         return sign * (best <= rho ? best : std::max(rho, lb));
     }
 
-    double eval1(const Vec3d& p) const
+    double eval1(const Vec3d& p, double rho) const
     {
-        const double s = surfaceDistance(p);
+        const double s = surfaceDistance(p, rho);
         // Footprint walls and floor: box [0, W] x [0, D] x [base, zmax + 1].
         const Heightfield& h = *mHf;
         const double qx = std::max(-p[0], p[0] - h.width());

@@ -43,7 +43,9 @@ Heightfield noiseHeightfield(int nx, int ny, double cellSize, double amplitude,
 struct HeightfieldSettings
 {
     double baseDepth = 1.0;     ///< floor of the solid: this far below the lowest sample (m)
-    double exactDistance = 1.0; ///< distance up to which values are exact (m); set >= band
+    /// Distance up to which values are exact (m) when the caller gives no reach; batches from
+    /// the baker carry the distance they need (Batch::reach) and are exact within it.
+    double exactDistance = 1.0;
 };
 
 /// @brief The closed terrain solid as a field (exact distance near the surface).

@@ -119,10 +119,10 @@ void requireWritable(const std::string& path)
     if (path != "-") checkWritableTarget(path);
 }
 
-void writeFileAtomic(const std::string& path, const std::string& bytes)
+namespace {
+// Temporary file in the target's folder, then rename; the caller has checked the target.
+void writeCheckedAtomic(const std::string& path, const std::string& bytes)
 {
-    if (path == "-") return writeStdout(bytes);
-    checkWritableTarget(path);
     const std::string tmp = tempNameFor(path);
     {
         std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
@@ -140,6 +140,14 @@ void writeFileAtomic(const std::string& path, const std::string& bytes)
         fail<IoError>("cannot write '", path, "': ", std::strerror(err));
     }
 }
+} // namespace
+
+void writeFileAtomic(const std::string& path, const std::string& bytes)
+{
+    if (path == "-") return writeStdout(bytes);
+    checkWritableTarget(path);
+    writeCheckedAtomic(path, bytes);
+}
 
 void writeGrids(const std::string& path, const openvdb::GridCPtrVec& grids)
 {
@@ -151,7 +159,8 @@ void writeGrids(const std::string& path, const openvdb::GridCPtrVec& grids)
     } catch (const openvdb::Exception& e) {
         fail<IoError>("cannot write '", path, "': ", e.what());
     }
-    writeFileAtomic(path, bytes);
+    if (path == "-") return writeStdout(bytes);
+    writeCheckedAtomic(path, bytes);
 }
 
 openvdb::GridPtrVecPtr readGrids(const std::string& path)

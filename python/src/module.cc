@@ -186,7 +186,6 @@ PYBIND11_MODULE(_rockvdb, m)
         auto hf = std::make_shared<Heightfield>(loadHeightfield(path, cellSize, heightScale));
         HeightfieldSettings hs;
         hs.baseDepth = baseDepth;
-        hs.exactDistance = 4.0 * halfWidth * voxelSize;
         PyField f{heightfieldField(hf, hs), json()};
         return bakeField(f, voxelSize, halfWidth, "auto", 0, std::nullopt, std::nullopt,
                          "rockvdb.heightfield",
@@ -212,7 +211,15 @@ PYBIND11_MODULE(_rockvdb, m)
             py::gil_scoped_release release;
             g = csgGrids(csgOpFromString(op), in, smooth);
         }
-        stampProvenance(*g, "rockvdb.csg", json({{"op", op}, {"smooth", smooth}}).dump());
+        json sources = json::array();
+        for (const auto& in : grids) {
+            auto p = provenance(*in);
+            sources.push_back(p ? json{{"generator", p->generator},
+                                       {"params", json::parse(p->params, nullptr, false)}}
+                                : json(nullptr));
+        }
+        stampProvenance(*g, "rockvdb.csg",
+                        json({{"op", op}, {"smooth", smooth}, {"sources", sources}}).dump());
         return g;
     }, py::arg("op"), py::arg("grids"), py::arg("smooth") = 0.0,
        "union / intersection / difference of level-set grids (inputs untouched)");
@@ -220,9 +227,18 @@ PYBIND11_MODULE(_rockvdb, m)
     m.def("read", [](const std::string& path, const std::string& name) { return readLevelSet(path, name); },
           py::arg("path"), py::arg("grid") = "surface", "Read a float level set by name");
     m.def("write", [](const std::string& path, const std::vector<Grid>& grids) {
-        openvdb::GridCPtrVec v(grids.begin(), grids.end());
+        // Every grid written carries provenance; foreign grids get it on a shallow copy (the
+        // caller's grid and its metadata are left as they are).
+        openvdb::GridCPtrVec v;
+        for (const auto& g : grids) {
+            if (provenance(*g)) { v.push_back(g); continue; }
+            auto copy = g->copyGrid();
+            stampProvenance(*copy, "rockvdb.write", "{}");
+            v.push_back(copy);
+        }
         writeGrids(path, v);
-    }, py::arg("path"), py::arg("grids"), "Write grids atomically (Blosc compressed)");
+    }, py::arg("path"), py::arg("grids"), "Write grids atomically (Blosc compressed); grids "
+       "without rockvdb provenance are stamped generator 'rockvdb.write'");
     m.def("mesh", [](Grid grid, const std::string& path, double isovalue, double adaptivity) {
         requireLevelSet(*grid, "mesh input");
         writeMesh(meshLevelSet(*grid, isovalue, adaptivity), path);

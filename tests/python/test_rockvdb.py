@@ -44,7 +44,9 @@ def test_operators_and_provenance_expression_rebuilds_field():
     g.copyToArray(a, ijk=(-40, -40, -40))
     again.copyToArray(b, ijk=(-40, -40, -40))
     assert np.array_equal(a, b)
-    assert f.eval((1.2, 0, 0)) < 0 < f.eval((0, 0, 0.9)) or f.eval((0, 0, 0.9)) > 0
+    assert f.eval((1.2, 0, 0)) < 0      # inside the box's long arm (x up to 1.25)
+    assert f.eval((0, 0, 0.9)) > 0      # carved away by the small sphere
+    assert f.eval((0, 0, -0.9)) < 0     # the sphere's opposite side is untouched
 
 
 def test_smooth_union_adds_material():
@@ -97,6 +99,49 @@ def test_heightfield_and_files_round_trip(tmp_path):
     assert (tmp_path / "hf.png").read_bytes()[:4] == b"\x89PNG"
 
 
+def test_write_stamps_foreign_grids_without_touching_them(tmp_path):
+    foreign = vdb.createLevelSetSphere(1.0, voxelSize=0.1)
+    foreign.name = "surface"
+    rockvdb.write(str(tmp_path / "f.vdb"), [foreign])
+    assert "rockvdb:generator" not in foreign.metadata
+    back = rockvdb.read(str(tmp_path / "f.vdb"))
+    assert rockvdb.provenance(back)[1] == "rockvdb.write"
+    assert back.activeVoxelCount() == foreign.activeVoxelCount()
+    # csg keeps its inputs' provenance.
+    a = rockvdb.sphere(1).bake(voxel_size=0.1)
+    sources = json.loads(rockvdb.provenance(rockvdb.csg("union", [a, back]))[2])["sources"]
+    assert [s["generator"] for s in sources] == ["rockvdb.Field.bake", "rockvdb.write"]
+
+
+def test_heightfield_exact_band_follows_the_bake(tmp_path):
+    # A 60° slope breaking to 20° at x = 2 m, baked with a wide band (voxel 0.4 m, half width
+    # 4 = 1.6 m) from an expression. Over the 20° part the global-slope lower bound is about
+    # half the true distance, so every band value must come from the exact search, beyond the
+    # field's 1 m default radius: the heightfield takes its radius from the bake's band.
+    t60, t20 = math.tan(math.radians(60)), math.tan(math.radians(20))
+    xs = np.arange(41, dtype=np.float64) * 0.25
+    h = np.where(xs < 2, xs * t60, 2 * t60 + (xs - 2) * t20)
+    path = str(tmp_path / "break.exr")
+    rockvdb.write_heightfield(path, np.tile((h / 10.0).astype(np.float32), (41, 1)))
+    f = rockvdb.expression(json.dumps({"type": "heightfield", "file": path, "cell_size": 0.25,
+                                       "height_scale": 10.0, "base_depth": 30}))
+    g = f.bake(voxel_size=0.4, half_width=4)
+    worst, far, n = 0.0, 0, 0
+    for it in g.citerOnValues():
+        if it.count != 1:
+            continue
+        x, y, z = (c * 0.4 for c in it.min)
+        surface = 2 * t60 + (x - 2) * t20
+        if not (5 <= x <= 8 and 2 < y < 8 and abs(z - surface) < 3):
+            continue  # the walls and the floor 30 m down are not part of the slope
+        expected = (z - surface) * math.cos(math.radians(20))
+        worst = max(worst, abs(it.value - expected))
+        far += abs(expected) > 1.05
+        n += 1
+    assert n > 100 and far > 20
+    assert worst < 0.05 * 0.4
+
+
 def test_errors_are_python_exceptions(tmp_path):
     with pytest.raises(ValueError, match="sphere: radius must be > 0"):
         rockvdb.sphere(-1)
@@ -128,6 +173,8 @@ def test_errors_are_python_exceptions(tmp_path):
         rockvdb.mesh(fog, str(tmp_path / "f.obj"))
     with pytest.raises(IOError):
         rockvdb.write("/nonexistent/dir/x.vdb", [g])
+    with pytest.raises(ValueError, match="csg: refusing smooth radius"):
+        rockvdb.csg("union", [g, g], smooth=1e4)
     with pytest.raises(ValueError, match="expression"):
         rockvdb.expression('{"type": "sphre"}')
     with pytest.raises(IOError):

@@ -189,8 +189,7 @@ def test_output_folder_as_file(tmp_path):
     one_line_error(run([tool("vdb_primitive"), "sphere", "-o", str(tmp_path)]), 1, "folder")
 
 
-def test_stdout_refused_on_terminal_is_not_needed_for_pipes(tmp_path):
-    # Writing to a pipe works (see pipeline test); a missing -o is a usage error.
+def test_missing_output_is_usage_error(tmp_path):
     one_line_error(run([tool("vdb_primitive"), "sphere"]), 2, "output")
 
 
@@ -235,3 +234,8 @@ def test_csg_resamples_and_smooths(tmp_path, sphere_vdb):
     # The fillet fills the neck between the spheres: a point in the neck is inside only smoothly.
     ijk = h.transform.worldToIndexCellCentered((0.75, 0.70, 0.0))  # on a voxel, 0.03 outside both
     assert h.getConstAccessor().getValue(ijk) > 0 > s.getConstAccessor().getValue(ijk)
+    # A smooth radius whose band widening cannot fit in memory is refused, nothing written.
+    big = tmp_path / "big.vdb"
+    one_line_error(run([tool("vdb_csg"), "union", str(sphere_vdb), str(other), "--smooth", "1e5",
+                        "-o", str(big)]), 2, "refusing smooth radius")
+    assert not big.exists()
