@@ -84,6 +84,8 @@ int main(int argc, char** argv)
 {
     initialize();
     const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+    std::printf("allocator: %s (both sides of every ratio run in this process with it)\n\n",
+                ROCKVDB_ALLOCATOR);
     foundation(quick);
     return 0;
 }

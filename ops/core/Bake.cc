@@ -10,6 +10,10 @@
 
 #include <unistd.h>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -23,6 +27,8 @@ using openvdb::CoordBBox;
 using openvdb::FloatGrid;
 using FloatTree = openvdb::FloatTree;
 using LeafT = FloatTree::LeafNodeType;
+using Node2T = FloatTree::RootNodeType::ChildNodeType;
+using Node1T = Node2T::ChildNodeType;
 
 namespace {
 
@@ -156,17 +162,34 @@ public:
             attribute->setName(mS.attributeName);
         }
         FloatTree& tree = surface->tree();
-        for (size_t i = 0; i < leaves.size(); ++i) {
-            if (!leaves[i]) continue;
-            tree.addLeaf(leaves[i]);
-            if (attribute) attribute->tree().addLeaf(attrs[i]);
-            ++result.stats.leaves;
+        std::vector<Node1T*> nodes1;
+        std::vector<Node2T*> nodes2;
+        result.stats.leaves = assemble(candidates, leaves, tree, mD.background, nodes1, nodes2);
+        if (attribute) {
+            std::vector<Node1T*> a1;
+            std::vector<Node2T*> a2;
+            assemble(candidates, attrs, attribute->tree(), kNoId, a1, a2);
         }
         if (mNaN.load()) {
             fail<ValueError>("bake: the field produced NaN values (first near leaf ",
                              mNaNLeaf, "); check the field's parameters");
         }
-        openvdb::tools::signedFloodFill(tree);
+        // Leaves are already sign-filled (inactive voxels hold ±background with the field's
+        // own sign), so the flood fill only classifies the tiles of the nodes built above,
+        // bottom-up, with OpenVDB's own operator (tools::signedFloodFill at minLevel 1,
+        // without a NodeManager pass over every leaf).
+        {
+            const openvdb::tools::SignedFloodFillOp<FloatTree> op(tree, /*minLevel=*/1);
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, nodes1.size(), 1),
+                [&](const tbb::blocked_range<size_t>& r) {
+                    for (size_t i = r.begin(); i != r.end(); ++i) op(*nodes1[i]);
+                });
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, nodes2.size(), 1),
+                [&](const tbb::blocked_range<size_t>& r) {
+                    for (size_t i = r.begin(); i != r.end(); ++i) op(*nodes2[i]);
+                });
+            op(tree.root());
+        }
         if (mS.trackerSteps > 0 && result.stats.leaves > 0) {
             openvdb::tools::LevelSetTracker<FloatGrid> tracker(*surface);
             tracker.setNormCount(mS.trackerSteps);
@@ -176,7 +199,8 @@ public:
                 attribute->tree().topologyIntersection(tree);
             }
         }
-        result.stats.activeVoxels = size_t(tree.activeVoxelCount());
+        result.stats.activeVoxels = mS.trackerSteps > 0 ? size_t(tree.activeVoxelCount())
+                                                         : mActive.load();
         result.stats.fieldEvaluations = mEvals.load();
         result.stats.renormalized = mD.renormalize;
         result.stats.finishSeconds = since(t2);
@@ -208,7 +232,8 @@ private:
     {
         const CoordBBox& box = mD.box;
         if (box.empty()) return {};
-        // Top nodes: the smallest power of two >= 8 giving at most ~4096 of them.
+        // Top nodes: the smallest power of two >= 8 giving at most ~512 of them (enough tasks
+        // for the threads; fewer would cost more evaluations, more would cost task overhead).
         int top = kLeafDim;
         auto count = [&](int size) {
             double n = 1;
@@ -217,7 +242,7 @@ private:
             }
             return n;
         };
-        while (count(top) > 4096 && top < (1 << 20)) top *= 2;
+        while (count(top) > 512 && top < (1 << 20)) top *= 2;
         std::vector<Node> tops;
         const Coord lo(floorDiv(box.min()[0], top) * top, floorDiv(box.min()[1], top) * top,
                        floorDiv(box.min()[2], top) * top);
@@ -225,15 +250,26 @@ private:
             for (int j = lo[1]; j <= box.max()[1]; j += top)
                 for (int k = lo[2]; k <= box.max()[2]; k += top)
                     tops.push_back({Coord(i, j, k), top});
+        // Depth-first visits keep each Node1T's (128³) candidates contiguous when the tops
+        // are ordered by the Node1T that holds them (a top larger than 128 holds whole ones).
+        std::stable_sort(tops.begin(), tops.end(), [](const Node& a, const Node& b) {
+            return node1Origin(a.origin) < node1Origin(b.origin);
+        });
 
         std::vector<std::vector<Coord>> perTop(tops.size());
         std::atomic<size_t> total{0};
         const double limit = memoryLimit();
+        // Shared counters are touched once per top, never per node: contended atomics cost
+        // more than the culling itself at 2 threads.
         tbb::parallel_for(tbb::blocked_range<size_t>(0, tops.size(), 1),
             [&](const tbb::blocked_range<size_t>& r) {
                 for (size_t t = r.begin(); t != r.end(); ++t) {
                     if (pollInterrupt(int(10.0 * double(t) / double(tops.size())))) return;
-                    visit(tops[t], perTop[t]);
+                    std::vector<Coord> found;
+                    size_t evals = 0;
+                    visit(tops[t], found, evals);
+                    mEvals.fetch_add(evals, std::memory_order_relaxed);
+                    perTop[t] = std::move(found);
                     const size_t n = total.fetch_add(perTop[t].size()) + perTop[t].size();
                     if (double(n) * (kBytesPerLeaf + kLeafVoxels * 4.0) > limit) {
                         mOverflow.store(true);
@@ -262,29 +298,112 @@ private:
         return nb.hasOverlap(mD.box);
     }
 
-    void visit(const Node& n, std::vector<Coord>& out)
+    Vec3f centre(const Node& n) const
+    {
+        const double half = 0.5 * double(n.size - 1);
+        return Vec3f(float((n.origin[0] + half) * mS.voxelSize),
+                     float((n.origin[1] + half) * mS.voxelSize),
+                     float((n.origin[2] + half) * mS.voxelSize));
+    }
+
+    // A node may hold band voxels unless |f(centre)| exceeds L·(half diagonal) + band;
+    // 1% and half a voxel of slack absorb float rounding in the field.
+    bool mayHoldBand(float v, int size) const
+    {
+        const double halfDiag = 0.5 * double(size - 1) * std::sqrt(3.0) * mS.voxelSize;
+        return std::abs(double(v)) <=
+               (mD.lipschitz * halfDiag + mD.bandField) * 1.01 + 0.5 * mS.voxelSize;
+    }
+
+    void visit(const Node& n, std::vector<Coord>& out, size_t& evals)
     {
         if (!overlaps(n)) return;
-        const double half = 0.5 * double(n.size - 1);
-        const Vec3d c((n.origin[0] + half) * mS.voxelSize, (n.origin[1] + half) * mS.voxelSize,
-                      (n.origin[2] + half) * mS.voxelSize);
-        const double halfDiag = half * std::sqrt(3.0) * mS.voxelSize;
-        const float v = mField.eval(c);
-        mEvals.fetch_add(1, std::memory_order_relaxed);
-        // 1% and half a voxel of slack absorb float rounding in the field.
-        if (std::abs(double(v)) > (mD.lipschitz * halfDiag + mD.bandField) * 1.01 +
-                                      0.5 * mS.voxelSize) {
-            return;
-        }
+        const float v = mField.eval(Vec3d(centre(n)));
+        ++evals;
+        if (mayHoldBand(v, n.size)) descend(n, out, evals);
+    }
+
+    // n may hold band voxels: test its eight children with one batch (exact values, no
+    // band hints: the test needs |f| well beyond the band) and recurse depth-first.
+    void descend(const Node& n, std::vector<Coord>& out, size_t& evals)
+    {
         if (n.size == kLeafDim) {
             out.push_back(n.origin);
             return;
         }
         const int h = n.size / 2;
+        Node kids[8];
+        float x[8], y[8], z[8], v[8];
+        int m = 0;
         for (int i = 0; i < 2; ++i)
             for (int j = 0; j < 2; ++j)
-                for (int k = 0; k < 2; ++k)
-                    visit({n.origin.offsetBy(i * h, j * h, k * h), h}, out);
+                for (int k = 0; k < 2; ++k) {
+                    const Node c{n.origin.offsetBy(i * h, j * h, k * h), h};
+                    if (!overlaps(c)) continue;
+                    const Vec3f p = centre(c);
+                    kids[m] = c;
+                    x[m] = p[0];
+                    y[m] = p[1];
+                    z[m] = p[2];
+                    ++m;
+                }
+        if (m == 0) return;
+        Batch b{x, y, z, m, centre(n), float(0.5 * n.size * std::sqrt(3.0) * mS.voxelSize)};
+        mField.evalBatch(b, v);
+        evals += size_t(m);
+        for (int q = 0; q < m; ++q) {
+            if (mayHoldBand(v[q], h)) descend(kids[q], out, evals);
+        }
+    }
+
+    // ---- 3. tree assembly --------------------------------------------------------------
+
+    static Coord node1Origin(const Coord& c) { return c & ~(Node1T::DIM - 1); }
+
+    // Candidates come grouped by their level-1 internal node (128³ voxels; see cull()).
+    // Each group becomes one Node1T built in parallel; only the few Node1 → Node2 → root
+    // links are made serially. The tree does not depend on the order of either step.
+    static size_t assemble(const std::vector<Coord>& cand, std::vector<LeafT*>& leaves,
+                           FloatTree& tree, float background, std::vector<Node1T*>& nodes1,
+                           std::vector<Node2T*>& nodes2)
+    {
+        std::vector<size_t> starts;
+        for (size_t i = 0; i < cand.size(); ++i) {
+            if (i == 0 || node1Origin(cand[i]) != node1Origin(cand[i - 1])) starts.push_back(i);
+        }
+        starts.push_back(cand.size());
+        const size_t groups = starts.size() - 1;
+        std::vector<Node1T*> nodes(groups, nullptr);
+        std::atomic<size_t> count{0};
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, groups, 1),
+            [&](const tbb::blocked_range<size_t>& r) {
+                for (size_t g = r.begin(); g != r.end(); ++g) {
+                    Node1T* node = nullptr;
+                    size_t n = 0;
+                    for (size_t i = starts[g]; i != starts[g + 1]; ++i) {
+                        if (!leaves[i]) continue;
+                        if (!node) node = new Node1T(node1Origin(cand[i]), background, false);
+                        node->addLeaf(leaves[i]);
+                        leaves[i] = nullptr;
+                        ++n;
+                    }
+                    nodes[g] = node;
+                    count.fetch_add(n, std::memory_order_relaxed);
+                }
+            });
+        auto& root = tree.root();
+        for (Node1T* node : nodes) {
+            if (!node) continue;
+            Node2T* parent = root.template probeNode<Node2T>(node->origin());
+            if (!parent) {
+                parent = new Node2T(node->origin() & ~(Node2T::DIM - 1), background, false);
+                root.addChild(parent);
+                nodes2.push_back(parent);
+            }
+            parent->addChild(node);
+            nodes1.push_back(node);
+        }
+        return count.load();
     }
 
     // ---- 2. leaf filling ----------------------------------------------------------------
@@ -302,6 +421,11 @@ private:
                 for (size_t i = r.begin(); i != r.end(); ++i) {
                     fillLeaf(cand[i], scratch, leaves[i], attrs.empty() ? nullptr : &attrs[i]);
                 }
+#if defined(__SSE2__)
+                _mm_sfence();
+#endif
+                mEvals.fetch_add(scratch.evals, std::memory_order_relaxed);
+                mActive.fetch_add(scratch.active, std::memory_order_relaxed);
                 done.fetch_add(r.size(), std::memory_order_relaxed);
             });
         if (mCancel.load()) {
@@ -318,44 +442,111 @@ private:
         alignas(64) float id[kMaxBatch];
         alignas(64) float out[kLeafVoxels];
         alignas(64) float outId[kLeafVoxels];
+        size_t evals = 0;  // per task, added to the shared counters once
+        size_t active = 0;
     };
+
+    // Voxel positions of a dim³ block starting at `origin`, laid out x-major like
+    // LeafNode::coordToOffset (n = (x·dim + y)·dim + z). Written from per-axis tables so the
+    // stores vectorise; float(o) + float(k) == float(o + k) for |o + k| < 2^24, so a voxel
+    // gets the same position whichever block computes it.
+    template<int Dim>
+    static void positions(const Coord& origin, int start, float dx, float* __restrict x,
+                          float* __restrict y, float* __restrict z)
+    {
+        float ax[Dim], ay[Dim], az[Dim];
+        for (int k = 0; k < Dim; ++k) {
+            ax[k] = (float(origin[0]) + float(start + k)) * dx;
+            ay[k] = (float(origin[1]) + float(start + k)) * dx;
+            az[k] = (float(origin[2]) + float(start + k)) * dx;
+        }
+        for (int i = 0; i < Dim; ++i) {
+            for (int j = 0; j < Dim; ++j) {
+                const int row = (i * Dim + j) * Dim;
+                for (int k = 0; k < Dim; ++k) {
+                    x[row + k] = ax[i];
+                    y[row + k] = ay[j];
+                    z[row + k] = az[k];
+                }
+            }
+        }
+    }
+
+    // Copy a leaf's values into its freshly allocated buffer. Non-temporal stores skip the
+    // read-for-ownership of memory that is only written here (the band is far larger than
+    // the caches); the fence in fill() orders them before the tree is assembled.
+    static void streamCopy(const float* __restrict src, float* __restrict dst)
+    {
+#if defined(__SSE2__)
+        if ((reinterpret_cast<uintptr_t>(dst) & 15) == 0) {
+            for (int i = 0; i < kLeafVoxels; i += 4) _mm_stream_ps(dst + i, _mm_load_ps(src + i));
+            return;
+        }
+#endif
+        std::copy(src, src + kLeafVoxels, dst);
+    }
+
+    // Clamp v to [-bg, bg] in place; bit n of words is set where |v| < bg (active).
+    // Returns true when some value is NaN.
+    static bool clampAndMask(float* __restrict v, float bg, uint64_t* words)
+    {
+#if defined(__SSE2__)
+        const __m128 hi = _mm_set1_ps(bg), lo = _mm_set1_ps(-bg);
+        const __m128 absMask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+        __m128 nan = _mm_setzero_ps();
+        for (int w = 0; w < kLeafVoxels / 64; ++w) {
+            uint64_t word = 0;
+            for (int q = 0; q < 16; ++q) {
+                float* p = v + w * 64 + q * 4;
+                const __m128 x = _mm_loadu_ps(p);
+                nan = _mm_or_ps(nan, _mm_cmpunord_ps(x, x));
+                const __m128 c = _mm_min_ps(_mm_max_ps(x, lo), hi);
+                _mm_storeu_ps(p, c);
+                const __m128 active = _mm_cmplt_ps(_mm_and_ps(c, absMask), hi);
+                word |= uint64_t(_mm_movemask_ps(active)) << (q * 4);
+            }
+            words[w] = word;
+        }
+        return _mm_movemask_ps(nan) != 0;
+#else
+        bool nan = false;
+        for (int w = 0; w < kLeafVoxels / 64; ++w) {
+            uint64_t word = 0;
+            for (int b = 0; b < 64; ++b) {
+                float& x = v[w * 64 + b];
+                nan |= std::isnan(x);
+                x = std::min(std::max(x, -bg), bg);
+                word |= uint64_t(std::abs(x) < bg) << b;
+            }
+            words[w] = word;
+        }
+        return nan;
+#endif
+    }
 
     void fillLeaf(const Coord& origin, Scratch& s, LeafT*& leafOut, LeafT** attrOut)
     {
         const float dx = mDx;
         const bool withId = attrOut != nullptr;
+        s.pts.center = Vec3f(float(origin[0] + 3.5) * dx, float(origin[1] + 3.5) * dx,
+                             float(origin[2] + 3.5) * dx);
+        s.pts.band = mClampBand;
+        s.pts.reach = mReach;
         if (!mD.renormalize) {
-            // Leaf offset n = (x << 6) | (y << 3) | z, as in LeafNode::coordToOffset.
-            for (int n = 0; n < kLeafVoxels; ++n) {
-                s.pts.x[n] = float(origin[0] + (n >> 6)) * dx;
-                s.pts.y[n] = float(origin[1] + ((n >> 3) & 7)) * dx;
-                s.pts.z[n] = float(origin[2] + (n & 7)) * dx;
-            }
+            positions<kLeafDim>(origin, 0, dx, s.pts.x, s.pts.y, s.pts.z);
             s.pts.n = kLeafVoxels;
-            s.pts.center = Vec3f(float(origin[0] + 3.5) * dx, float(origin[1] + 3.5) * dx,
-                                 float(origin[2] + 3.5) * dx);
             s.pts.radius = 3.5f * 1.7320508f * dx;
-            s.pts.band = mClampBand;
-            s.pts.reach = mReach;
             if (withId) mField.evalIdBatch(s.pts.view(), s.out, s.outId);
             else mField.evalBatch(s.pts.view(), s.out);
-            mEvals.fetch_add(kLeafVoxels, std::memory_order_relaxed);
+            s.evals += kLeafVoxels;
         } else {
-            // Padded block: p = (x+1)·100 + (y+1)·10 + (z+1) for x, y, z in [-1, 8].
-            for (int p = 0; p < kPadDim * kPadDim * kPadDim; ++p) {
-                s.pts.x[p] = float(origin[0] - 1 + p / 100) * dx;
-                s.pts.y[p] = float(origin[1] - 1 + (p / 10) % 10) * dx;
-                s.pts.z[p] = float(origin[2] - 1 + p % 10) * dx;
-            }
-            s.pts.n = kPadDim * kPadDim * kPadDim;
-            s.pts.center = Vec3f(float(origin[0] + 3.5) * dx, float(origin[1] + 3.5) * dx,
-                                 float(origin[2] + 3.5) * dx);
+            const int np = kPadDim * kPadDim * kPadDim;
+            positions<kPadDim>(origin, -1, dx, s.pts.x, s.pts.y, s.pts.z);
+            s.pts.n = np;
             s.pts.radius = 4.5f * 1.7320508f * dx;
-            s.pts.band = mClampBand;
-            s.pts.reach = mReach;
             if (withId) mField.evalIdBatch(s.pts.view(), s.val, s.id);
             else mField.evalBatch(s.pts.view(), s.val);
-            mEvals.fetch_add(size_t(s.pts.n), std::memory_order_relaxed);
+            s.evals += size_t(np);
             const float inv2dx = 0.5f / dx;
             for (int n = 0; n < kLeafVoxels; ++n) {
                 const int p = ((n >> 6) + 1) * 100 + (((n >> 3) & 7) + 1) * 10 + (n & 7) + 1;
@@ -371,39 +562,36 @@ private:
 
         const float bg = mD.background;
         uint64_t words[kLeafVoxels / 64];
-        bool nan = false;
+        const bool nan = clampAndMask(s.out, bg, words);
         uint64_t any = 0;
-        for (int w = 0; w < kLeafVoxels / 64; ++w) {
-            uint64_t word = 0;
-            float* v = s.out + w * 64;
-            for (int b = 0; b < 64; ++b) {
-                nan |= std::isnan(v[b]);
-                const float c = std::min(std::max(v[b], -bg), bg);
-                v[b] = c;
-                word |= uint64_t(std::abs(c) < bg) << b;
-            }
-            words[w] = word;
-            any |= word;
-        }
-        // Voxels outside a region clip are inactive (their values keep the sign).
+        for (auto w : words) any |= w;
+        // Voxels outside a region clip are inactive and hold ±background like every other
+        // inactive voxel (the sign stays the field's).
         if (any && !mD.box.isInside(CoordBBox(origin, origin.offsetBy(kLeafDim - 1)))) {
             any = 0;
             for (int n = 0; n < kLeafVoxels; ++n) {
                 const Coord ijk = origin.offsetBy(n >> 6, (n >> 3) & 7, n & 7);
-                if (!mD.box.isInside(ijk)) words[n >> 6] &= ~(uint64_t(1) << (n & 63));
+                if (!mD.box.isInside(ijk)) {
+                    words[n >> 6] &= ~(uint64_t(1) << (n & 63));
+                    s.out[n] = s.out[n] < 0 ? -bg : bg;
+                }
             }
             for (auto w : words) any |= w;
         }
         if (nan && !mNaN.exchange(true)) mNaNLeaf = origin;
         if (!any) return;
 
-        auto* leaf = new LeafT(origin, bg);
-        std::copy(s.out, s.out + kLeafVoxels, leaf->buffer().data());
+        for (auto w : words) s.active += size_t(__builtin_popcountll(w));
+        // PartialCreate + allocate: the buffer is written once, never pre-filled.
+        auto* leaf = new LeafT(openvdb::PartialCreate(), origin, bg);
+        leaf->buffer().allocate();
+        streamCopy(s.out, leaf->buffer().data());
         auto& mask = leaf->getValueMask();
         for (int w = 0; w < kLeafVoxels / 64; ++w) mask.template getWord<uint64_t>(w) = words[w];
         leafOut = leaf;
         if (withId) {
-            auto* attr = new LeafT(origin, kNoId);
+            auto* attr = new LeafT(openvdb::PartialCreate(), origin, kNoId);
+            attr->buffer().allocate();
             float* a = attr->buffer().data();
             for (int n = 0; n < kLeafVoxels; ++n) {
                 a[n] = (words[n >> 6] >> (n & 63)) & 1 ? s.outId[n] : kNoId;
@@ -431,6 +619,7 @@ private:
     std::atomic<bool> mNaN{false};
     Coord mNaNLeaf;
     std::atomic<size_t> mEvals{0};
+    std::atomic<size_t> mActive{0};
 };
 
 } // namespace

@@ -4,10 +4,13 @@
 //  1. hierarchical culling: the domain is split into power-of-two nodes; a node is skipped
 //     when |f(centre)| > L·halfDiagonal + band, so cost follows surface area, not volume;
 //  2. leaf-direct filling, TBB-parallel over surviving 8³ leaves: 512 values in one batch,
-//     clamped to ±background, value mask built 64 bits at a time, leaf inserted whole;
+//     clamped to ±background (so inactive voxels already carry the field's sign), value
+//     mask built 64 bits at a time (SSE2 compare + movemask);
 //  3. optional first-order renormalisation f/|∇f| on a padded 10³ block per leaf (a pure
 //     function of the leaf, so chunked bakes stay exact), optional LevelSetTracker steps;
-//  4. tools::signedFloodFill, grid class level set, background halfWidth·voxelSize.
+//  4. tree assembly in parallel per level-1 node (128³), then OpenVDB's SignedFloodFillOp
+//     on the internal nodes and root only; grid class level set, background
+//     halfWidth·voxelSize.
 // Every voxel value is a pure function of its index: results are bitwise identical for any
 // thread count and for any leaf-aligned chunking of the region.
 #pragma once

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 #include <openvdb/tools/Composite.h>
+#include <openvdb/tools/Diagnostics.h>
 #include <openvdb/tools/LevelSetMeasure.h>
 #include <openvdb/tools/LevelSetSphere.h>
 #include <tbb/global_control.h>
@@ -138,6 +139,51 @@ TEST(Bake, CostFollowsSurfaceNotVolume)
     const double ratio = double(r2.stats.fieldEvaluations) / double(r1.stats.fieldEvaluations);
     EXPECT_GT(ratio, 3.0);
     EXPECT_LT(ratio, 5.5);
+}
+
+TEST(Bake, OutputsAreWellFormedLevelSets)
+{
+    initialize();
+    // OpenVDB's own diagnostics (all nine checks: class, uniform scale, background, no
+    // active tiles, finite values, active values within ±background, inactive values exactly
+    // ±background, |∇φ| = 1 at the zero crossing) on a plain bake, a region-clipped bake and
+    // a renormalised warped bake.
+    const double dx = 0.05;
+    auto plain = bake(*sphere(Vec3d(0.1, 0.2, -0.3), 1.2), settings(dx)).surface;
+    EXPECT_EQ(openvdb::tools::checkLevelSet(*plain, 9), "");
+    BakeSettings clipped = settings(dx);
+    clipped.region = BBoxd(Vec3d(-2, -2, -2), Vec3d(0.33, 2, 2)); // not leaf-aligned
+    auto clip = bake(*sphere(Vec3d(0.1, 0.2, -0.3), 1.2), clipped).surface;
+    EXPECT_EQ(openvdb::tools::checkLevelSet(*clip, 8), "");
+    auto warped = bake(*warp(sphere(Vec3d(0), 1.0), noiseDisplacement(0.08, 2.0, 3, 5)),
+                       settings(dx)).surface;
+    EXPECT_EQ(openvdb::tools::checkLevelSet(*warped, 8), "");
+}
+
+TEST(Bake, InsideTilesAreFilledAcrossInternalNodes)
+{
+    initialize();
+    // A sphere of 200 voxels centred on the origin spans eight level-2 nodes and holds whole
+    // level-1 nodes inside: its centre is an inside tile (-background), far points outside.
+    const double dx = 0.01;
+    auto g = bake(*sphere(Vec3d(0), 2.0), settings(dx)).surface;
+    auto acc = g->getConstAccessor();
+    const float bg = g->background();
+    for (const auto& ijk : {openvdb::Coord(0, 0, 0), openvdb::Coord(-1, -1, -1),
+                            openvdb::Coord(120, -40, 30), openvdb::Coord(-150, 0, 0)}) {
+        EXPECT_EQ(acc.getValue(ijk), -bg) << ijk;
+        EXPECT_FALSE(acc.isValueOn(ijk)) << ijk;
+    }
+    for (const auto& ijk : {openvdb::Coord(300, 0, 0), openvdb::Coord(-180, -180, 0),
+                            openvdb::Coord(5000, 5000, 5000)}) {
+        EXPECT_EQ(acc.getValue(ijk), bg) << ijk;
+    }
+    // The tree holds tiles at levels 1 and 2 (not only leaves): the fill reached them.
+    size_t insideTiles = 0;
+    for (auto it = g->tree().cbeginValueOff(); it; ++it) {
+        if (!it.isVoxelValue() && *it < 0) ++insideTiles;
+    }
+    EXPECT_GT(insideTiles, 0u);
 }
 
 TEST(Bake, LeafAlignedChunksEqualWholeBake)
