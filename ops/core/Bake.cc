@@ -51,7 +51,9 @@ struct Domain
 {
     CoordBBox box;      // voxels that may become active (inclusive)
     double bandField;   // |f| threshold for candidate leaves (field units)
-    double lipschitz;
+    const Field* field;
+    // ω'(r) = max(r, ω(r)): how far |f| can change over a distance r (Field::modulus).
+    double modulus(double r) const { return std::max(r, field->modulus(r)); }
     float background;
     bool renormalize;
 };
@@ -64,9 +66,10 @@ Domain makeDomain(const Field& field, const BakeSettings& s)
     d.renormalize = s.renormalize == Renormalize::On ||
                     (s.renormalize == Renormalize::Auto && !field.exact());
     const double bandScale = d.renormalize ? s.renormBandScale : 1.0;
-    d.lipschitz = std::max(1.0, field.lipschitz());
-    // Band in field units: voxels within distance band·bandScale have |f| <= L·that.
-    d.bandField = double(d.background) * bandScale * (d.renormalize ? d.lipschitz : 1.0);
+    d.field = &field;
+    // Band in field units: voxels within distance band·bandScale have |f| <= ω'(that).
+    d.bandField = d.renormalize ? d.modulus(double(d.background) * bandScale)
+                                : double(d.background);
 
     BBoxd world = field.bounds();
     const bool bounded = isBounded(world);
@@ -125,12 +128,13 @@ public:
         // renormalisation that is the background itself; with it, a voxel in the band reads
         // neighbours up to L·(band + 1 voxel) away in field units.
         mClampBand = d.renormalize
-            ? float((d.bandField + d.lipschitz * s.voxelSize) * 1.01)
+            ? float(d.modulus(double(d.background) * s.renormBandScale + s.voxelSize) * 1.01)
             : d.background;
         // As a distance: the band the voxels need (widened when renormalising) plus a voxel,
         // doubled to cover smooth blends that read neighbours' values beyond it.
         mReach = float(2.0 * (double(d.background) * (d.renormalize ? s.renormBandScale : 1.0) +
                               s.voxelSize));
+        mInvSlope = float(1.0 / std::max(1.0, f.lipschitz()));
     }
 
     BakeResult run()
@@ -306,13 +310,13 @@ private:
                      float((n.origin[2] + half) * mS.voxelSize));
     }
 
-    // A node may hold band voxels unless |f(centre)| exceeds L·(half diagonal) + band;
+    // A node may hold band voxels unless |f(centre)| exceeds ω'(half diagonal) + band;
     // 1% and half a voxel of slack absorb float rounding in the field.
     bool mayHoldBand(float v, int size) const
     {
         const double halfDiag = 0.5 * double(size - 1) * std::sqrt(3.0) * mS.voxelSize;
         return std::abs(double(v)) <=
-               (mD.lipschitz * halfDiag + mD.bandField) * 1.01 + 0.5 * mS.voxelSize;
+               (mD.modulus(halfDiag) + mD.bandField) * 1.01 + 0.5 * mS.voxelSize;
     }
 
     void visit(const Node& n, std::vector<Coord>& out, size_t& evals)
@@ -554,8 +558,13 @@ private:
                 const float gy = (s.val[p + 10] - s.val[p - 10]) * inv2dx;
                 const float gz = (s.val[p + 1] - s.val[p - 1]) * inv2dx;
                 const float g = std::sqrt(gx * gx + gy * gy + gz * gz);
-                // f/|∇f|: first-order distance; |∇f| ~ 0 only far from the surface.
-                s.out[n] = g > 1e-6f ? s.val[p] / g : s.val[p];
+                // f/|∇f|: first-order distance; |∇f| ~ 0 only far from the surface. An
+                // L-Lipschitz f bounds the distance below by |f|/L: where f jumps (a lower
+                // bound switching formula) |∇f| is huge and f/|∇f| would fake a surface.
+                const float v = s.val[p];
+                const float r = g > 1e-6f ? v / g : v;
+                s.out[n] = std::abs(r) >= std::abs(v) * mInvSlope ? r
+                                                                   : v * mInvSlope;
                 if (withId) s.outId[n] = s.id[p];
             }
         }
@@ -613,6 +622,7 @@ private:
     const float mDx;
     float mClampBand;
     float mReach;
+    float mInvSlope = 1.0f; // 1 / max(1, field.lipschitz())
     openvdb::util::NullInterrupter* mInterrupt;
     std::atomic<bool> mCancel{false};
     std::atomic<bool> mOverflow{false};

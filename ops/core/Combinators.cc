@@ -46,6 +46,14 @@ public:
         return l;
     }
 
+    // min, max and the smooth operators are 1-Lipschitz in (a, b) for the max norm.
+    double modulus(double r) const override
+    {
+        double w = 0;
+        for (const auto& c : mChildren) w = std::max(w, c->modulus(r));
+        return w;
+    }
+
     bool exact() const override
     {
         if (mR > 0) return false;
@@ -62,7 +70,7 @@ private:
         if (!std::isfinite(b.band) || !std::isfinite(b.radius)) return false;
         const float reach = b.band + mR * (7.0f / 6.0f);
         const float v = c.eval(Vec3d(b.center));
-        const float spread = float(c.lipschitz()) * b.radius * 1.01f + 1e-5f;
+        const float spread = float(c.modulus(double(b.radius))) * 1.01f + 1e-5f;
         switch (mOp) {
         case CsgOp::Union: return v - spread >= reach;             // far outside c
         case CsgOp::Intersection: return v + spread <= -reach;     // deep inside c
@@ -184,6 +192,10 @@ public:
     }
 
     double lipschitz() const override { return mChild->lipschitz(); }
+    double modulus(double r) const override
+    {
+        return double(mScale) * mChild->modulus(r * double(mInvNorm));
+    }
     bool exact() const override { return mRigidLike && mChild->exact(); }
 
 private:
@@ -242,6 +254,9 @@ public:
     {
         return mChild->lipschitz() * (1.0 + mDelta->lipschitz());
     }
+    // |δ(p) - δ(q)| <= min(L_δ·|p - q|, 2·max|δ|): small detail warps add a constant, not a
+    // slope.
+    double modulus(double r) const override { return mChild->modulus(r + shift(r)); }
     bool exact() const override { return false; }
 
 private:
@@ -257,8 +272,13 @@ private:
         q.center = b.center;
         q.radius = b.radius + float(mDelta->maxMagnitude());
         q.band = b.band;
-        // A world distance d maps to at most d·(1 + L_δ) in the warped domain.
-        q.reach = b.reach * float(1.0 + mDelta->lipschitz());
+        // A world distance d maps to at most d + min(L_δ·d, 2·max|δ|) in the warped domain.
+        q.reach = std::isfinite(b.reach) ? b.reach + float(shift(double(b.reach))) : b.reach;
+    }
+
+    double shift(double r) const
+    {
+        return std::min(mDelta->lipschitz() * r, 2.0 * mDelta->maxMagnitude());
     }
 
     FieldPtr mChild;
@@ -312,6 +332,7 @@ public:
     }
     BBoxd bounds() const override { return mChild->bounds(); }
     double lipschitz() const override { return mChild->lipschitz(); }
+    double modulus(double r) const override { return mChild->modulus(r); }
     bool exact() const override { return mChild->exact(); }
 
 private:

@@ -3,9 +3,11 @@
 // A Field is a pure function of world position (metres, z up) returning a signed distance,
 // negative inside (OpenVDB convention), plus the two facts the sparse baker needs:
 //   bounds()     a world box containing the inside region {f <= 0} (may be infinite);
-//   lipschitz()  a constant L with |f(q)| >= |f(p)| - L·|p - q| wherever |f(q)| lies in the
-//                band. Every L-Lipschitz field satisfies it; so does a field that is an exact
-//                distance near its surface and a lower bound of the distance elsewhere.
+//   modulus(r)   ω(r) with |f(q)| >= |f(p)| - ω(|p - q|) wherever |f(q)| lies in the band.
+//                Every L-Lipschitz field satisfies it with ω(r) = L·r (the default, from
+//                lipschitz()); so does a field that is an exact distance near its surface and
+//                a lower bound of the distance elsewhere. Warps by a displacement of at most
+//                A get ω(r) = r + 2A instead of a large slope (see Combinators.h).
 // exact() says whether values in the band are true Euclidean distances; bakes of non-exact
 // fields (warps, smooth blends, non-rigid transforms) should be renormalised (see Bake.h).
 //
@@ -94,8 +96,12 @@ public:
     /// @brief World box containing {f <= 0}; infiniteBounds() when unbounded.
     virtual BBoxd bounds() const = 0;
 
-    /// @brief Lipschitz-style bound used for culling (see file comment). >= 1 for distances.
+    /// @brief Lipschitz-style slope (see file comment). >= 1 for distances.
     virtual double lipschitz() const { return 1.0; }
+
+    /// @brief Modulus of continuity ω(r) used for culling (see file comment); monotone in
+    /// r. The default is lipschitz()·r.
+    virtual double modulus(double r) const { return lipschitz() * r; }
 
     /// @brief True when f is a Euclidean distance within the narrow band.
     virtual bool exact() const { return true; }

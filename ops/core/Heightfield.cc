@@ -165,9 +165,12 @@ private:
         const double ox = std::max({0.0, -p[0], p[0] - h.width()});
         const double oy = std::max({0.0, -p[1], p[1] - h.depth()});
         const double dh = std::hypot(ox, oy);
-        // Lower bound of the distance: horizontal gap outside the footprint; the cone bound
-        // |v|/sqrt(1 + S²) inside it (S = steepest triangle slope).
-        const double lb = dh > 0 ? dh : std::abs(v) * mConeFactor;
+        // Lower bound of the distance: the cone bound |v|/sqrt(1 + S²) at p' = p clamped to
+        // the footprint (S = steepest triangle slope), combined with the horizontal gap dh =
+        // |p - p'|: projecting onto the convex footprint column is non-expansive, so
+        // |p - q|² >= dh² + |p' - q|² for every q of the terrain. Continuous across the
+        // footprint's edge and 1-Lipschitz (the two terms vary along orthogonal directions).
+        const double lb = std::hypot(dh, std::abs(v) * mConeFactor);
         if (lb > rho) return sign * lb;
         // Exact: search cells ring by ring around (ci, cj) while a ring can still be closer.
         const int cx = h.nx - 1, cy = h.ny - 1;

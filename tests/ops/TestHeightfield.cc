@@ -10,6 +10,8 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
+#include <vector>
 
 using namespace rockvdb;
 
@@ -63,6 +65,42 @@ void checkPlane(double slopeDeg, double azimuthDeg)
 TEST(Heightfield, TiltedPlaneIsExactDistance) { checkPlane(20, 30); }
 TEST(Heightfield, SixtyDegreePlaneIsExactDistance) { checkPlane(60, 0); }
 TEST(Heightfield, SixtyDegreeDiagonalPlaneIsExactDistance) { checkPlane(60, 45); }
+
+TEST(Heightfield, FieldIsOneLipschitzAcrossFootprintEdges)
+{
+    // The field is a distance near the surface and a lower bound beyond the caller's reach;
+    // switching between the two, and crossing the footprint's edge, must not make it jump
+    // (a jump fakes surface voxels under renormalisation). Pairs 2 cm apart straddling the
+    // x = 0 and y = 0 edges, at heights above and below the terrain, several reaches.
+    auto hf = plane(35, 20, 33, 0.25);
+    HeightfieldSettings hs;
+    hs.baseDepth = 1.0;
+    hs.exactDistance = 0.3;
+    auto f = heightfieldField(hf, hs);
+    std::vector<float> xs, ys, zs;
+    for (int k = 0; k < 400; ++k) {
+        const float t = float(k) / 400.0f;
+        const float along = 0.3f + 7.0f * t, z = -1.0f + 6.0f * std::fmod(t * 37.0f, 1.0f);
+        // (x, y) pairs: across x = 0, then across y = 0.
+        xs.insert(xs.end(), {-0.01f, 0.01f, along, along});
+        ys.insert(ys.end(), {along, along, -0.01f, 0.01f});
+        zs.insert(zs.end(), {z, z, z, z});
+    }
+    for (float reach : {0.0f, 0.2f, 0.7f, std::numeric_limits<float>::infinity()}) {
+        std::vector<float> out(xs.size());
+        for (size_t base = 0; base < xs.size(); base += kMaxBatch) {
+            Batch b{xs.data() + base, ys.data() + base, zs.data() + base,
+                    int(std::min<size_t>(kMaxBatch, xs.size() - base))};
+            b.reach = reach;
+            f->evalBatch(b, out.data() + base);
+        }
+        for (size_t i = 0; i < xs.size(); i += 2) {
+            ASSERT_LE(std::abs(out[i] - out[i + 1]), 0.02f * 1.001f + 1e-5f)
+                << "reach " << reach << " at (" << xs[i] << ", " << ys[i] << ", " << zs[i]
+                << "): " << out[i] << " vs " << out[i + 1];
+        }
+    }
+}
 
 TEST(Heightfield, ImageRoundTripAndConvention)
 {
