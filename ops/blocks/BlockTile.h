@@ -1,0 +1,149 @@
+// rockvdb — fractured block tiles (implicit-blocks-rocky-scenery.txt §4).
+//
+// A cubic tile of side s is sampled with Poisson-sphere points (periodic), the points are
+// linked into a neighbour graph, fracture discs D(c, r, n) cut the graph's edges, and the
+// connected clusters G_i — split further until no disc separates two of their points — become
+// the blocks B_i: the smooth intersection of the planes of each cluster's convex hull,
+// warped by the gradient-based triplanar relief of §4.2, b_i(p) = c_i(ω⁻¹(p)).
+//
+// This header is the stage's public face: the tile description (what the tile file stores),
+// its generation, its file I/O, and the tile Field. vdb_amplify consumes tiles through it.
+#pragma once
+
+#include <core/Field.h>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace rockvdb {
+namespace blocks {
+
+/// Geomorphological block types (§4.1, Fig. 2).
+enum class BlockType { Equidimensional, Prismatic, Polyhedral, Rhombohedral, Tabular, Columnar };
+
+BlockType blockTypeFromString(const std::string& name);
+const char* blockTypeName(BlockType type);
+
+/// A fracture disc D(c, r, n) in tile coordinates; it cuts across the tile's faces too.
+struct Disc
+{
+    Vec3d center;
+    Vec3d normal; ///< unit
+    double radius = 0;
+};
+
+/// A user-authored convex block: planes n·p <= d (tile coordinates, n need not be unit).
+struct AuthoredBlock
+{
+    std::vector<std::array<double, 4>> planes;
+};
+
+/// Relief d of the gradient-based warp (§4.2): procedural turbulence or a tiled image.
+struct ReliefParams
+{
+    double amplitude = 0.05; ///< metres; the surface moves by at most this (0 disables)
+    double scale = 1.5;      ///< metres: noise wavelength, or world size of one image tile
+    int octaves = 4;         ///< turbulence octaves
+    std::string image;       ///< EXR / 16-bit PNG relief (empty: procedural turbulence)
+    double sharpness = 1.0;  ///< exponent p of the projection weights |g·u_i|^p / Σ|g·u_j|^p
+};
+
+/// Everything that defines a tile; 0 / negative values mean "the type's default".
+struct TileParams
+{
+    BlockType type = BlockType::Equidimensional;
+    double tileSize = 20.0;        ///< s, metres
+    double pointRadius = 0.0;      ///< Poisson radius of the points (default 0.034·s)
+    double neighbourRadius = 0.0;  ///< graph edge length limit (default 2·pointRadius)
+    int discCount = -1;            ///< number of generated fracture discs (-1: default)
+    double discSpacing = 0.0;      ///< Poisson radius of the disc centres
+    double discRadiusMin = 0.0, discRadiusMax = 0.0;
+    double jitterDeg = -1.0;       ///< random tilt of the set normals
+    double irregularFraction = -1; ///< share of discs with a uniformly random normal
+    Vec3d axis = Vec3d(0, 0, 1);   ///< dominant axis (bedding normal, column axis)
+    double obliqueDeg = 60.0;      ///< rhombohedral: angle between the three set normals
+    std::vector<Disc> extraDiscs;  ///< user fractures
+    std::vector<AuthoredBlock> authored;
+    int minPoints = 8;             ///< clusters with fewer points are dropped
+    double smoothRadius = 0.25;    ///< R of the smooth intersection of the hull planes
+    ReliefParams relief;
+    uint64_t seed = 1;
+
+    /// @brief Fill in the type's defaults (documented in BlockTile.cc).
+    void resolveDefaults();
+    /// @brief ValueError naming the parameter unless usable (call after resolveDefaults).
+    void validate() const;
+    nlohmann::json toJson() const;
+    /// @throw ValueError naming the key for unknown keys or bad values.
+    static TileParams fromJson(const nlohmann::json& j);
+};
+
+enum class BlockKind { Polytope, Segment, Point };
+
+/// One block in its home frame (unwrapped tile coordinates; its anchor centroid lies in
+/// [0, s)³). Floats: the tile file stores exactly these values.
+struct Block
+{
+    BlockKind kind = BlockKind::Polytope;
+    std::vector<std::array<float, 4>> planes; ///< outward unit n, d: h(p) = n·p - d, fold order
+    std::array<float, 3> a{}, b{};            ///< segment ends / point centre
+    float radius = 0;                         ///< segment / point radius
+    std::vector<std::array<float, 3>> vertices; ///< hull vertices (in memory only)
+    std::vector<std::array<float, 3>> anchors;  ///< presence anchors, centroid first
+    std::array<float, 3> boundsMin{}, boundsMax{}; ///< unwarped bounds
+    int points = 0;        ///< cluster size
+    bool authored = false; ///< from TileParams::authored
+};
+
+struct TileStats
+{
+    size_t points = 0, edges = 0, cutEdges = 0, discs = 0, blocks = 0;
+    size_t droppedClusters = 0, droppedPoints = 0, visibilitySplits = 0, wrapCuts = 0;
+    double meanPoints = 0;
+    double sampling = 0, graph = 0, fracturing = 0, clustering = 0, hulls = 0;
+    double generation = 0; ///< sampling through hulls, seconds
+    nlohmann::json toJson() const;
+};
+
+struct BlockTile
+{
+    TileParams params;
+    std::vector<Disc> discs; ///< every disc used, user discs last
+    std::vector<Block> blocks;
+    TileStats stats;
+
+    double size() const { return params.tileSize; }
+};
+
+/// @brief Generate a tile (§4.1–4.2): sampling, graph, fractures, clusters, hulls.
+BlockTile generateTile(const TileParams& params);
+
+/// @brief The tile file: JSON "rockvdb-tile" version 1 (parameters, discs, blocks, stats).
+nlohmann::json tileToJson(const BlockTile& tile);
+BlockTile tileFromJson(const nlohmann::json& j);
+void writeTile(const BlockTile& tile, const std::string& path);
+/// @throw IoError for unreadable files; ValueError for malformed content.
+BlockTile readTile(const std::string& path);
+
+/// @brief Which copies of the blocks a tile field holds.
+struct TileFieldOptions
+{
+    bool periodic = false;                   ///< the infinite periodic tiling t(p)
+    std::array<int, 3> periods = {1, 1, 1};  ///< else: blocks whose home tile index < periods
+};
+
+/// @brief The tile as a Field: the union of its (warped) blocks, each a complete convex
+/// block; attribute ids are block indices. Evaluation visits only the blocks whose bounds
+/// can reach a batch (a cell grid over the tile), so a point costs a few blocks.
+FieldPtr tileField(std::shared_ptr<const BlockTile> tile, const TileFieldOptions& options);
+
+/// @brief A single block's field (home frame), for tests and per-block meshes.
+FieldPtr blockField(std::shared_ptr<const BlockTile> tile, size_t index);
+
+} // namespace blocks
+} // namespace rockvdb

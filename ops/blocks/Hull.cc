@@ -1,0 +1,105 @@
+// The only rockvdb file that includes CGAL (slow to compile): keep it small.
+#include "Hull.h"
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polyhedron_3.h>
+#include <CGAL/convex_hull_3.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace rockvdb {
+namespace blocks {
+
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point = K::Point_3;
+using Polyhedron = CGAL::Polyhedron_3<K>;
+
+// Affine dimension: farthest point from p0, then from the line, then from the plane.
+int affineDimension(const std::vector<Vec3d>& pts, double tol)
+{
+    if (pts.empty()) return -1;
+    const Vec3d p0 = pts[0];
+    size_t i1 = 0;
+    double best = 0;
+    for (size_t i = 0; i < pts.size(); ++i) {
+        const double d = (pts[i] - p0).length();
+        if (d > best) { best = d; i1 = i; }
+    }
+    if (best <= tol) return 0;
+    const Vec3d u = (pts[i1] - p0).unit();
+    size_t i2 = 0;
+    best = 0;
+    for (size_t i = 0; i < pts.size(); ++i) {
+        const Vec3d w = pts[i] - p0;
+        const double d = (w - u * w.dot(u)).length();
+        if (d > best) { best = d; i2 = i; }
+    }
+    if (best <= tol) return 1;
+    const Vec3d n = u.cross(pts[i2] - p0).unit();
+    best = 0;
+    for (const auto& p : pts) best = std::max(best, std::abs((p - p0).dot(n)));
+    return best <= tol ? 2 : 3;
+}
+
+} // namespace
+
+Hull convexHull(const std::vector<Vec3d>& points, double tolerance)
+{
+    Hull h;
+    h.dimension = affineDimension(points, tolerance);
+    if (h.dimension < 3) return h;
+
+    std::vector<Point> pts;
+    pts.reserve(points.size());
+    Vec3d centroid(0);
+    for (const auto& p : points) {
+        pts.emplace_back(p[0], p[1], p[2]);
+        centroid += p;
+    }
+    centroid /= double(points.size());
+    Polyhedron poly;
+    CGAL::convex_hull_3(pts.begin(), pts.end(), poly);
+
+    for (auto v = poly.vertices_begin(); v != poly.vertices_end(); ++v) {
+        const Point& p = v->point();
+        h.vertices.emplace_back(p.x(), p.y(), p.z());
+    }
+    // Triangular facets → planes; coplanar neighbours (same normal and offset) merge.
+    for (auto f = poly.facets_begin(); f != poly.facets_end(); ++f) {
+        auto he = f->facet_begin();
+        const Point& pa = he->vertex()->point();
+        ++he;
+        const Point& pb = he->vertex()->point();
+        ++he;
+        const Point& pc = he->vertex()->point();
+        const Vec3d a(pa.x(), pa.y(), pa.z()), b(pb.x(), pb.y(), pb.z()), c(pc.x(), pc.y(), pc.z());
+        Vec3d n = (b - a).cross(c - a);
+        const double len = n.length();
+        if (len <= 0) continue;
+        const double area = 0.5 * len;
+        n /= len;
+        double d = n.dot(a);
+        if (n.dot(centroid) > d) { n = -n; d = -d; } // outward
+        bool merged = false;
+        for (size_t k = 0; k < h.planes.size(); ++k) {
+            const auto& q = h.planes[k];
+            if (std::abs(q[0] - n[0]) < 1e-7 && std::abs(q[1] - n[1]) < 1e-7 &&
+                std::abs(q[2] - n[2]) < 1e-7 && std::abs(q[3] - d) < tolerance) {
+                h.areas[k] += area;
+                merged = true;
+                break;
+            }
+        }
+        if (!merged) {
+            h.planes.push_back({n[0], n[1], n[2], d});
+            h.areas.push_back(area);
+        }
+    }
+    return h;
+}
+
+} // namespace blocks
+} // namespace rockvdb
