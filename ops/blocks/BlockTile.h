@@ -94,6 +94,8 @@ struct Block
     std::array<float, 3> a{}, b{};            ///< segment ends / point centre
     float radius = 0;                         ///< segment / point radius
     std::vector<std::array<float, 3>> vertices; ///< hull vertices (in memory only)
+    std::vector<std::array<float, 3>> cluster;  ///< the cluster's points (in memory only)
+    std::vector<float> areas;                   ///< facet area per plane (in memory only)
     std::vector<std::array<float, 3>> anchors;  ///< presence anchors, centroid first
     std::array<float, 3> boundsMin{}, boundsMax{}; ///< unwarped bounds
     int points = 0;        ///< cluster size

@@ -18,6 +18,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <vector>
 
 namespace rockvdb {
@@ -62,7 +63,12 @@ Domain makeDomain(const Field& field, const BakeSettings& s)
 {
     Domain d;
     const double dx = s.voxelSize;
+    // Never below halfWidth·dx after rounding to float (OpenVDB's checkLevelSet compares the
+    // background with 3 voxels in double precision).
     d.background = float(s.halfWidth * dx);
+    if (double(d.background) < s.halfWidth * dx) {
+        d.background = std::nextafter(d.background, std::numeric_limits<float>::infinity());
+    }
     d.renormalize = s.renormalize == Renormalize::On ||
                     (s.renormalize == Renormalize::Auto && !field.exact());
     const double bandScale = d.renormalize ? s.renormBandScale : 1.0;

@@ -38,12 +38,18 @@ double signedVolume(const Mesh& m)
     return v;
 }
 
-void appendMesh(Mesh& mesh, const Mesh& other)
+void appendMesh(Mesh& mesh, const Mesh& other, int group)
 {
     const unsigned off = unsigned(mesh.points.size());
     mesh.points.insert(mesh.points.end(), other.points.begin(), other.points.end());
     for (auto t : other.triangles) mesh.triangles.push_back(t + openvdb::Vec3I(off));
     for (auto q : other.quads) mesh.quads.push_back(q + openvdb::Vec4I(off));
+    if (group >= 0) {
+        mesh.triangleGroups.resize(mesh.triangles.size() - other.triangles.size(), -1);
+        mesh.quadGroups.resize(mesh.quads.size() - other.quads.size(), -1);
+        mesh.triangleGroups.resize(mesh.triangles.size(), group);
+        mesh.quadGroups.resize(mesh.quads.size(), group);
+    }
 }
 
 namespace {
@@ -66,9 +72,28 @@ std::string toObj(const Mesh& m)
        << m.triangles.size() << " triangles, " << m.quads.size() << " quads\n";
     os.precision(9);
     for (const auto& p : m.points) os << "v " << p[0] << ' ' << p[1] << ' ' << p[2] << '\n';
-    for (const auto& t : m.triangles) os << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
-    for (const auto& q : m.quads) {
-        os << "f " << q[0] + 1 << ' ' << q[1] + 1 << ' ' << q[2] + 1 << ' ' << q[3] + 1 << '\n';
+    const bool grouped = m.triangleGroups.size() == m.triangles.size() &&
+                         m.quadGroups.size() == m.quads.size() &&
+                         !(m.triangleGroups.empty() && m.quadGroups.empty());
+    std::vector<int> groups{-1};
+    if (grouped) {
+        groups.assign(m.triangleGroups.begin(), m.triangleGroups.end());
+        groups.insert(groups.end(), m.quadGroups.begin(), m.quadGroups.end());
+        std::sort(groups.begin(), groups.end());
+        groups.erase(std::unique(groups.begin(), groups.end()), groups.end());
+    }
+    for (int g : groups) {
+        if (grouped) os << "o " << m.groupName << '_' << g << '\n';
+        for (size_t i = 0; i < m.triangles.size(); ++i) {
+            if (grouped && m.triangleGroups[i] != g) continue;
+            const auto& t = m.triangles[i];
+            os << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
+        }
+        for (size_t i = 0; i < m.quads.size(); ++i) {
+            if (grouped && m.quadGroups[i] != g) continue;
+            const auto& q = m.quads[i];
+            os << "f " << q[0] + 1 << ' ' << q[1] + 1 << ' ' << q[2] + 1 << ' ' << q[3] + 1 << '\n';
+        }
     }
     return os.str();
 }
@@ -85,17 +110,24 @@ std::string toPly(const Mesh& m)
     h << "ply\nformat binary_little_endian 1.0\ncomment rockvdb " << version() << "\n"
       << "element vertex " << m.points.size() << "\nproperty float x\nproperty float y\n"
       << "property float z\nelement face " << m.triangles.size() + m.quads.size()
-      << "\nproperty list uchar int vertex_indices\nend_header\n";
+      << "\nproperty list uchar int vertex_indices\n";
+    const bool grouped = m.triangleGroups.size() == m.triangles.size() &&
+                         m.quadGroups.size() == m.quads.size() &&
+                         !(m.triangleGroups.empty() && m.quadGroups.empty());
+    if (grouped) h << "property int " << m.groupName << "\n";
+    h << "end_header\n";
     std::string s = h.str();
     s.reserve(s.size() + m.points.size() * 12 + m.triangles.size() * 13 + m.quads.size() * 17);
     for (const auto& p : m.points) { put(s, p[0]); put(s, p[1]); put(s, p[2]); }
-    for (const auto& t : m.triangles) {
+    for (size_t i = 0; i < m.triangles.size(); ++i) {
         put(s, uint8_t(3));
-        for (int k = 0; k < 3; ++k) put(s, int32_t(t[k]));
+        for (int k = 0; k < 3; ++k) put(s, int32_t(m.triangles[i][k]));
+        if (grouped) put(s, int32_t(m.triangleGroups[i]));
     }
-    for (const auto& q : m.quads) {
+    for (size_t i = 0; i < m.quads.size(); ++i) {
         put(s, uint8_t(4));
-        for (int k = 0; k < 4; ++k) put(s, int32_t(q[k]));
+        for (int k = 0; k < 4; ++k) put(s, int32_t(m.quads[i][k]));
+        if (grouped) put(s, int32_t(m.quadGroups[i]));
     }
     return s;
 }

@@ -13,6 +13,10 @@ struct Mesh
     std::vector<openvdb::Vec3s> points;   ///< world positions (m)
     std::vector<openvdb::Vec3I> triangles; ///< outward (counter-clockwise) winding
     std::vector<openvdb::Vec4I> quads;     ///< outward (counter-clockwise) winding
+    /// Optional part id per triangle and per quad (e.g. one block each): OBJ writes one
+    /// object "<groupName>_<id>" per part, PLY a face property "<groupName>".
+    std::vector<int> triangleGroups, quadGroups;
+    std::string groupName = "part";
 };
 
 /// @brief Mesh the @a isovalue surface of a level set; outward-facing polygons.
@@ -26,7 +30,8 @@ double signedVolume(const Mesh& mesh);
 /// the extension of @a path; "-" writes OBJ to stdout.
 void writeMesh(const Mesh& mesh, const std::string& path);
 
-/// @brief Append @a other to @a mesh (indices offset), e.g. one mesh per block.
-void appendMesh(Mesh& mesh, const Mesh& other);
+/// @brief Append @a other to @a mesh (indices offset), e.g. one mesh per block; with
+/// @a group >= 0 its faces are tagged as that part.
+void appendMesh(Mesh& mesh, const Mesh& other, int group = -1);
 
 } // namespace rockvdb

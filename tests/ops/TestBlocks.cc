@@ -1,0 +1,526 @@
+// Block tiles (implicit-blocks §4): periodicity, disjoint convex blocks, visibility, type
+// signatures, user control, the warp's bounds, determinism and the tile file.
+#include <blocks/BlockTile.h>
+#include <core/Bake.h>
+#include <core/Error.h>
+#include <core/Primitives.h>
+#include <core/Random.h>
+#include <core/Sampling.h>
+#include <core/VdbIO.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <openvdb/tools/Diagnostics.h>
+#include <openvdb/tools/LevelSetUtil.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+using namespace rockvdb;
+using namespace rockvdb::blocks;
+
+namespace {
+
+// A small, quick tile (10 m, ~4 600 points).
+TileParams small(BlockType type, uint64_t seed = 3)
+{
+    TileParams p;
+    p.type = type;
+    p.tileSize = 10.0;
+    p.pointRadius = 0.5;
+    p.seed = seed;
+    return p;
+}
+
+std::shared_ptr<const BlockTile> make(const TileParams& p)
+{
+    return std::make_shared<const BlockTile>(generateTile(p));
+}
+
+Vec3d v3(const std::array<float, 3>& a) { return Vec3d(a[0], a[1], a[2]); }
+
+// Principal extents (sorted descending) of a point set, and the principal axes.
+std::array<double, 3> extents(const std::vector<std::array<float, 3>>& pts,
+                              std::array<Vec3d, 3>* axes = nullptr)
+{
+    Vec3d c(0);
+    for (const auto& p : pts) c += v3(p);
+    c /= double(pts.size());
+    openvdb::math::Mat3d cov = openvdb::math::Mat3d::zero();
+    for (const auto& p : pts) {
+        const Vec3d d = v3(p) - c;
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) cov(i, j) += d[i] * d[j];
+    }
+    openvdb::math::Mat3d vecs;
+    Vec3d vals;
+    openvdb::math::diagonalizeSymmetricMatrix(cov, vecs, vals);
+    std::array<std::pair<double, Vec3d>, 3> e;
+    for (int k = 0; k < 3; ++k) {
+        const Vec3d axis(vecs(0, k), vecs(1, k), vecs(2, k));
+        double lo = 1e30, hi = -1e30;
+        for (const auto& p : pts) {
+            const double t = (v3(p) - c).dot(axis);
+            lo = std::min(lo, t);
+            hi = std::max(hi, t);
+        }
+        e[size_t(k)] = {hi - lo, axis};
+    }
+    std::sort(e.begin(), e.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    if (axes) for (int k = 0; k < 3; ++k) (*axes)[size_t(k)] = e[size_t(k)].second;
+    return {e[0].first, e[1].first, e[2].first};
+}
+
+double median(std::vector<double> v)
+{
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+}
+
+BakeSettings settings(double dx)
+{
+    BakeSettings s;
+    s.voxelSize = dx;
+    return s;
+}
+
+bool bitwiseEqual(const openvdb::FloatGrid& a, const openvdb::FloatGrid& b)
+{
+    if (a.activeVoxelCount() != b.activeVoxelCount()) return false;
+    if (a.tree().leafCount() != b.tree().leafCount()) return false;
+    auto acc = b.getConstAccessor();
+    for (auto leaf = a.tree().cbeginLeaf(); leaf; ++leaf) {
+        const auto* o = acc.probeConstLeaf(leaf->origin());
+        if (!o || o->getValueMask() != leaf->getValueMask()) return false;
+        if (std::memcmp(o->buffer().data(), leaf->buffer().data(), 512 * sizeof(float)) != 0) {
+            return false;
+        }
+    }
+    return true;
+}
+
+} // namespace
+
+TEST(Sampling, PoissonPeriodicKeepsItsRadiusAcrossFaces)
+{
+    const double s = 6.0, r = 0.5;
+    const auto pts = poissonPeriodic(s, r, 9, 1);
+    ASSERT_GT(pts.size(), 500u);
+    double minD = 1e9;
+    for (size_t i = 0; i < pts.size(); ++i) {
+        for (int a = 0; a < 3; ++a) {
+            ASSERT_GE(pts[i][a], 0.0);
+            ASSERT_LT(pts[i][a], s);
+        }
+        for (size_t j = i + 1; j < pts.size(); ++j) {
+            minD = std::min(minD, periodicDelta(pts[i], pts[j], s).length());
+        }
+    }
+    EXPECT_GE(minD, r);
+    // Maximal: no point of a fine probe grid is farther than 2r from every sample.
+    const auto edges = neighbourGraph(pts, s, 2 * r);
+    std::vector<int> degree(pts.size(), 0);
+    for (const auto& e : edges) {
+        const Vec3d d = pts[size_t(e.b)] + Vec3d(e.shift[0], e.shift[1], e.shift[2]) * s - pts[size_t(e.a)];
+        EXPECT_LT(d.length(), 2 * r + 1e-9);
+        ++degree[size_t(e.a)];
+        ++degree[size_t(e.b)];
+    }
+    EXPECT_EQ(*std::min_element(degree.begin(), degree.end()) > 0, true);
+}
+
+TEST(Blocks, TileFieldIsPeriodic)
+{
+    initialize();
+    TileParams p = small(BlockType::Equidimensional);
+    p.relief.amplitude = 0.05;
+    auto tile = make(p);
+    TileFieldOptions o;
+    o.periodic = true;
+    auto f = tileField(tile, o);
+    const double s = tile->size();
+    for (int k = 0; k < 300; ++k) {
+        const Vec3d q(random::uniform(1, 1, k, 0, s), random::uniform(1, 2, k, 0, s),
+                      random::uniform(1, 3, k, 0, s));
+        const float a = f->eval(q);
+        for (int axis = 0; axis < 3; ++axis) {
+            Vec3d q2 = q;
+            q2[axis] += s;
+            const float b = f->eval(q2);
+            ASSERT_NEAR(a, b, 1e-5 * s + 1e-5 * std::abs(a)) << "at " << q << " axis " << axis;
+        }
+    }
+}
+
+TEST(Blocks, BlocksAreConvexAndDisjoint)
+{
+    initialize();
+    for (double amp : {0.0, 0.05}) {
+        TileParams p = small(BlockType::Polyhedral);
+        p.relief.amplitude = amp;
+        auto tile = make(p);
+        ASSERT_GT(tile->blocks.size(), 10u);
+        // Convex before warping: each plane's half-space holds all hull vertices.
+        for (const auto& b : tile->blocks) {
+            for (const auto& q : b.planes) {
+                for (const auto& v : b.vertices) {
+                    ASSERT_LE(q[0] * v[0] + q[1] * v[1] + q[2] * v[2] - q[3], 1e-4f);
+                }
+            }
+        }
+        // Disjoint: no sample point inside two blocks (periodic images included).
+        std::vector<FieldPtr> fields;
+        for (size_t j = 0; j < tile->blocks.size(); ++j) fields.push_back(blockField(tile, j));
+        const double s = tile->size();
+        int inside = 0;
+        for (int k = 0; k < 5000; ++k) {
+            const Vec3d q(random::uniform(2, 1, k, 0, s), random::uniform(2, 2, k, 0, s),
+                          random::uniform(2, 3, k, 0, s));
+            int count = 0;
+            for (size_t j = 0; j < fields.size(); ++j) {
+                const BBoxd bb = fields[j]->bounds();
+                for (int i = -1; i <= 1; ++i)
+                    for (int m = -1; m <= 1; ++m)
+                        for (int n = -1; n <= 1; ++n) {
+                            const Vec3d r = q - Vec3d(i, m, n) * s;
+                            if (!bb.isInside(r)) continue;
+                            if (fields[j]->eval(r) < 0) ++count;
+                        }
+            }
+            ASSERT_LE(count, 1) << "point " << q << " inside " << count << " blocks (amp " << amp << ")";
+            inside += count;
+        }
+        EXPECT_GT(inside, 5000 / 4); // blocks fill a good part of the tile
+    }
+}
+
+TEST(Blocks, NoDiscSeparatesTwoPointsOfACluster)
+{
+    for (BlockType t : {BlockType::Equidimensional, BlockType::Tabular}) {
+        auto tile = make(small(t));
+        const double s = tile->size();
+        for (const auto& b : tile->blocks) {
+            for (const Disc& d : tile->discs) {
+                const int reach = int(std::ceil(d.radius / s)) + 1;
+                for (int i = -reach; i <= reach; ++i)
+                    for (int j = -reach; j <= reach; ++j)
+                        for (int k = -reach; k <= reach; ++k) {
+                            const Vec3d c = d.center + Vec3d(i, j, k) * s;
+                            for (size_t a = 0; a < b.cluster.size(); ++a) {
+                                const Vec3d pa = v3(b.cluster[a]);
+                                const double ha = d.normal.dot(pa - c);
+                                for (size_t e = a + 1; e < b.cluster.size(); ++e) {
+                                    const Vec3d pb = v3(b.cluster[e]);
+                                    const double hb = d.normal.dot(pb - c);
+                                    if ((ha >= 0) == (hb >= 0)) continue;
+                                    const Vec3d x = pa + (pb - pa) * (ha / (ha - hb));
+                                    ASSERT_GE((x - c).length(), d.radius * (1 - 1e-5))
+                                        << blockTypeName(t) << ": a disc separates two points";
+                                }
+                            }
+                        }
+            }
+        }
+    }
+}
+
+TEST(Blocks, TypeSignatures)
+{
+    // Full-size tiles (20 m, ~14 600 points) with the paper's parameters.
+    std::map<BlockType, std::shared_ptr<const BlockTile>> tiles;
+    for (int t = 0; t < 6; ++t) {
+        TileParams p;
+        p.type = BlockType(t);
+        p.seed = 11;
+        tiles[p.type] = make(p);
+        EXPECT_GT(tiles[p.type]->stats.points, 13500u);
+        EXPECT_LT(tiles[p.type]->stats.points, 15500u);
+    }
+    auto ratios = [](const BlockTile& tile, auto fn) {
+        std::vector<double> r;
+        for (const auto& b : tile.blocks) if (b.cluster.size() >= 8) r.push_back(fn(b));
+        return median(r);
+    };
+    // Tabular: thin (thickness / length).
+    const double tab = ratios(*tiles[BlockType::Tabular], [](const Block& b) {
+        const auto e = extents(b.cluster);
+        return e[2] / e[0];
+    });
+    EXPECT_LT(tab, 0.4) << "tabular thickness/length";
+    // Columnar: long along the column axis z (extent along z / largest horizontal extent).
+    const double col = ratios(*tiles[BlockType::Columnar], [](const Block& b) {
+        double zlo = 1e9, zhi = -1e9;
+        for (const auto& q : b.cluster) { zlo = std::min(zlo, double(q[2])); zhi = std::max(zhi, double(q[2])); }
+        std::array<Vec3d, 3> axes;
+        extents(b.cluster, &axes);
+        double h = 0;
+        for (double az = 0; az < M_PI; az += M_PI / 18) {
+            const Vec3d d(std::cos(az), std::sin(az), 0);
+            double lo = 1e9, hi = -1e9;
+            for (const auto& q : b.cluster) {
+                lo = std::min(lo, v3(q).dot(d));
+                hi = std::max(hi, v3(q).dot(d));
+            }
+            h = std::max(h, hi - lo);
+        }
+        return (zhi - zlo) / h;
+    });
+    EXPECT_GT(col, 1.5) << "columnar length along the axis / width";
+    // Rhombohedral: the angles between the dominant face normals are oblique; for
+    // equidimensional blocks they are near 90°. Dominant normals: facet normals clustered
+    // within 20° (area-weighted), the three largest clusters.
+    auto dominant = [](const Block& b) {
+        std::vector<std::pair<double, Vec3d>> groups; // (area, area-weighted normal sum)
+        for (size_t k = 0; k < b.planes.size(); ++k) {
+            const Vec3d n(b.planes[k][0], b.planes[k][1], b.planes[k][2]);
+            const double a = b.areas[k];
+            bool joined = false;
+            for (auto& g : groups) {
+                if (g.second.unit().dot(n) > std::cos(20 * M_PI / 180)) {
+                    g.first += a;
+                    g.second += n * a;
+                    joined = true;
+                    break;
+                }
+            }
+            if (!joined) groups.push_back({a, n * a});
+        }
+        std::sort(groups.begin(), groups.end(), [](const auto& x, const auto& y) { return x.first > y.first; });
+        // Keep directions (a face and its opposite are one direction).
+        std::vector<Vec3d> dirs;
+        for (const auto& g : groups) {
+            const Vec3d n = g.second.unit();
+            bool distinct = true;
+            for (const auto& d : dirs) distinct = distinct && std::abs(n.dot(d)) < std::cos(25 * M_PI / 180);
+            if (distinct) dirs.push_back(n);
+            if (dirs.size() == 3) break;
+        }
+        return dirs;
+    };
+    auto obliquity = [&](const BlockTile& tile) {
+        std::vector<double> dev;
+        for (const auto& b : tile.blocks) {
+            if (b.cluster.size() < 20) continue;
+            const auto dirs = dominant(b);
+            if (dirs.size() < 3) continue;
+            for (int i = 0; i < 3; ++i)
+                for (int j = i + 1; j < 3; ++j) {
+                    const double ang = std::acos(std::min(1.0, std::abs(dirs[size_t(i)].dot(dirs[size_t(j)])))) * 180 / M_PI;
+                    dev.push_back(90.0 - ang);
+                }
+        }
+        return median(dev);
+    };
+    const double rho = obliquity(*tiles[BlockType::Rhombohedral]);
+    const double eq = obliquity(*tiles[BlockType::Equidimensional]);
+    // Hull facets of Poisson points scatter around the fracture planes, so even orthogonal
+    // sets measure ~10°; the oblique sets (60°) must stand clearly apart.
+    EXPECT_GT(rho, 20.0) << "rhombohedral normals should be oblique (90° - angle)";
+    EXPECT_LT(eq, 15.0) << "equidimensional normals should be near orthogonal";
+    EXPECT_GT(rho, eq + 10.0) << "rhombohedral " << rho << "° vs equidimensional " << eq << "°";
+    // Equidimensional: near-cubic — extents along the three dominant directions.
+    const double cube = ratios(*tiles[BlockType::Equidimensional], [&](const Block& b) {
+        const auto dirs = dominant(b);
+        if (dirs.size() < 3) return 0.0;
+        double e[3];
+        for (int k = 0; k < 3; ++k) {
+            double lo = 1e9, hi = -1e9;
+            for (const auto& q : b.cluster) {
+                lo = std::min(lo, v3(q).dot(dirs[size_t(k)]));
+                hi = std::max(hi, v3(q).dot(dirs[size_t(k)]));
+            }
+            e[k] = hi - lo;
+        }
+        return *std::min_element(e, e + 3) / *std::max_element(e, e + 3);
+    });
+    EXPECT_GT(cube, 0.5) << "equidimensional min/max extent along its fracture directions";
+    // Polyhedral: more blocks than equidimensional from the same points.
+    EXPECT_EQ(tiles[BlockType::Polyhedral]->stats.points, tiles[BlockType::Equidimensional]->stats.points);
+    EXPECT_GT(tiles[BlockType::Polyhedral]->blocks.size(), tiles[BlockType::Equidimensional]->blocks.size());
+}
+
+TEST(Blocks, UserDiscSplitsABlockAndAuthoredBoxIsOneBlock)
+{
+    TileParams p = small(BlockType::Equidimensional, 5);
+    auto base = make(p);
+    // The largest block, and a user disc through its centroid.
+    size_t big = 0;
+    for (size_t j = 0; j < base->blocks.size(); ++j) {
+        if (base->blocks[j].cluster.size() > base->blocks[big].cluster.size()) big = j;
+    }
+    const Block& B = base->blocks[big];
+    ASSERT_GT(B.cluster.size(), 40u);
+    std::array<Vec3d, 3> axes;
+    extents(B.cluster, &axes);
+    const Vec3d centroid = v3(B.anchors[0]);
+    TileParams cut = p;
+    cut.extraDiscs.push_back({centroid, axes[0], 5.0}); // across its longest extent
+    auto split = make(cut);
+    // Where did B's points go? Points are identical (same seed): match by position.
+    std::map<std::array<float, 3>, size_t> owner;
+    const double s = p.tileSize;
+    auto key = [&](const std::array<float, 3>& q) {
+        std::array<float, 3> k;
+        for (int a = 0; a < 3; ++a) {
+            double v = std::fmod(double(q[size_t(a)]), s);
+            if (v < 0) v += s;
+            k[size_t(a)] = float(std::round(v * 1e4) / 1e4);
+        }
+        return k;
+    };
+    for (size_t j = 0; j < split->blocks.size(); ++j) {
+        for (const auto& q : split->blocks[j].cluster) owner[key(q)] = j;
+    }
+    std::set<size_t> parts;
+    for (const auto& q : B.cluster) {
+        auto it = owner.find(key(q));
+        if (it != owner.end()) parts.insert(it->second);
+    }
+    EXPECT_GE(parts.size(), 2u) << "the user disc should split the block";
+
+    // An authored box: one block whose planes are the box's faces, holding every point in it.
+    TileParams au = p;
+    AuthoredBlock box;
+    const Vec3d c(5, 5, 5), half(2.0, 1.5, 1.0);
+    for (int a = 0; a < 3; ++a) {
+        for (double sg : {1.0, -1.0}) {
+            std::array<double, 4> q{0, 0, 0, 0};
+            q[size_t(a)] = sg;
+            q[3] = sg * c[a] + half[a];
+            box.planes.push_back(q);
+        }
+    }
+    au.authored.push_back(box);
+    auto t = make(au);
+    const Block& A = t->blocks[0];
+    EXPECT_TRUE(A.authored);
+    ASSERT_EQ(A.planes.size(), 6u);
+    for (const auto& q : A.planes) {
+        const Vec3d n(q[0], q[1], q[2]);
+        const int axis = std::abs(n[0]) > 0.5 ? 0 : std::abs(n[1]) > 0.5 ? 1 : 2;
+        EXPECT_NEAR(std::abs(n[axis]), 1.0, 1e-6);
+        EXPECT_NEAR(q[3], n[axis] * c[axis] + half[axis], 1e-5);
+    }
+    for (size_t j = 1; j < t->blocks.size(); ++j) {
+        for (const auto& q : t->blocks[j].cluster) {
+            Vec3d w = v3(q);
+            for (int a = 0; a < 3; ++a) w[a] = std::fmod(w[a] + 10 * s, s);
+            const bool in = std::abs(w[0] - c[0]) < half[0] && std::abs(w[1] - c[1]) < half[1] &&
+                            std::abs(w[2] - c[2]) < half[2];
+            ASSERT_FALSE(in) << "block " << j << " has a point inside the authored box";
+        }
+    }
+    EXPECT_GT(A.points, 10);
+}
+
+TEST(Blocks, ZeroAmplitudeIsTheSmoothPolytope)
+{
+    TileParams p = small(BlockType::Rhombohedral);
+    p.relief.amplitude = 0.0;
+    auto tile = make(p);
+    for (size_t j = 0; j < std::min<size_t>(tile->blocks.size(), 8); ++j) {
+        const Block& b = tile->blocks[j];
+        if (b.kind != BlockKind::Polytope) continue;
+        std::vector<Plane> planes;
+        for (const auto& q : b.planes) planes.push_back({Vec3d(q[0], q[1], q[2]), double(q[3])});
+        auto ref = convexPolytope(planes, p.smoothRadius);
+        auto f = blockField(tile, j);
+        const Vec3d c = v3(b.anchors[0]);
+        for (int k = 0; k < 200; ++k) {
+            const Vec3d q = c + Vec3d(random::uniform(3, 1, k, -2, 2), random::uniform(3, 2, k, -2, 2),
+                                      random::uniform(3, 3, k, -2, 2));
+            const float a = f->eval(q), e = ref->eval(q);
+            // The box term only raises values far outside (beyond its margin).
+            if (e < 0.3f) ASSERT_NEAR(a, e, 1e-5f) << "block " << j << " at " << q;
+        }
+    }
+}
+
+TEST(Blocks, WarpMovesTheSurfaceAtMostTheAmplitudeWithoutFragments)
+{
+    initialize();
+    const double amp = 0.08, dx = 0.04;
+    TileParams p = small(BlockType::Equidimensional, 8);
+    p.relief.amplitude = amp;
+    p.relief.scale = 1.0;
+    TileParams flat = p;
+    flat.relief.amplitude = 0.0;
+    auto warped = make(p);
+    auto plain = make(flat);
+    ASSERT_EQ(warped->blocks.size(), plain->blocks.size());
+    double maxMove = 0;
+    for (size_t j = 0; j < 3; ++j) {
+        auto g = bake(*blockField(warped, j), settings(dx)).surface;
+        auto h = bake(*blockField(plain, j), settings(dx)).surface;
+        EXPECT_EQ(openvdb::tools::checkLevelSet(*g, 8), "") << "block " << j;
+        // Zero crossings of the warped block lie within amp (+ a voxel) of the plain one.
+        auto hf = blockField(plain, j);
+        for (auto it = g->cbeginValueOn(); it; ++it) {
+            if (std::abs(*it) > 0.5 * dx) continue;
+            const Vec3d w = g->indexToWorld(it.getCoord());
+            const double d = std::abs(hf->eval(w));
+            ASSERT_LE(d, amp + dx) << "block " << j;
+            maxMove = std::max(maxMove, d);
+        }
+        // One connected inside region before and after.
+        std::vector<openvdb::FloatGrid::Ptr> a, b;
+        openvdb::tools::segmentSDF(*g, a);
+        openvdb::tools::segmentSDF(*h, b);
+        EXPECT_EQ(a.size(), 1u) << "block " << j;
+        EXPECT_EQ(b.size(), 1u) << "block " << j;
+    }
+    EXPECT_GT(maxMove, 0.4 * amp) << "the relief should really move the surface";
+}
+
+TEST(Blocks, DeterministicAcrossThreadsAndThroughTheTileFile)
+{
+    initialize();
+    TileParams p = small(BlockType::Tabular, 4);
+    auto tile = make(p);
+    auto f = tileField(tile, TileFieldOptions{});
+    BakeSettings s = settings(0.1);
+    s.withAttribute = true;
+    openvdb::FloatGrid::Ptr one, two;
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        one = bake(*f, s).surface;
+    }
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        two = bake(*f, s).surface;
+    }
+    EXPECT_TRUE(bitwiseEqual(*one, *two));
+    // Generation itself is deterministic, and the tile file round-trips bit-exactly.
+    const std::string text = tileToJson(*tile).dump();
+    auto noTimes = [](nlohmann::json j) { j["stats"].erase("seconds"); return j.dump(); };
+    EXPECT_EQ(noTimes(tileToJson(generateTile(p))), noTimes(tileToJson(*tile)));
+    auto back = std::make_shared<const BlockTile>(tileFromJson(nlohmann::json::parse(text)));
+    ASSERT_EQ(back->blocks.size(), tile->blocks.size());
+    auto again = bake(*tileField(back, TileFieldOptions{}), s).surface;
+    EXPECT_TRUE(bitwiseEqual(*one, *again));
+    EXPECT_LT(text.size(), 1000000u); // compact: < 1 MB per tile
+}
+
+TEST(Blocks, BadParametersAreClearErrors)
+{
+    EXPECT_THROW(blockTypeFromString("granite"), ValueError);
+    TileParams p = small(BlockType::Equidimensional);
+    p.pointRadius = 6.0; // >= tile / 2
+    EXPECT_THROW(generateTile(p), ValueError);
+    p = small(BlockType::Equidimensional);
+    p.neighbourRadius = 0.3; // <= point radius
+    EXPECT_THROW(generateTile(p), ValueError);
+    p = small(BlockType::Equidimensional);
+    p.discRadiusMin = -1;
+    p.discRadiusMax = -2;
+    p.resolveDefaults(); // negative = default, so make it explicit
+    p.discRadiusMax = p.discRadiusMin / 2;
+    EXPECT_THROW(p.validate(), ValueError);
+    EXPECT_THROW(TileParams::fromJson(nlohmann::json::parse(R"({"fractures": [{"center": [1,2]}]})")),
+                 ValueError);
+    EXPECT_THROW(TileParams::fromJson(nlohmann::json::parse(R"({"colour": 3})")), ValueError);
+    EXPECT_THROW(tileFromJson(nlohmann::json::parse(R"({"format": "other"})")), ValueError);
+}
