@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 
@@ -99,6 +100,8 @@ int main(int argc, char** argv)
             p.type = blockTypeFromString(type);
             p.seed = tool.seed();
             if (!discRadius.empty()) {
+                require(std::isfinite(discRadius[0]) && discRadius[0] > 0, "blocks",
+                        "disc radius (min)", "> 0", discRadius[0]);
                 p.discRadiusMin = discRadius[0];
                 p.discRadiusMax = discRadius[1];
             }

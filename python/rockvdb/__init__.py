@@ -11,10 +11,81 @@ Units are metres, values are signed distances (negative inside), z is up.
 """
 import pyopenvdb  # noqa: F401  (registers the grid converters used by the extension)
 
+import json as _json
+
+from . import _rockvdb
 from ._rockvdb import (Field, __version__, box, capsule, csg, expression, heightfield, mesh,
                        plane, polytope, preview, provenance, read, sphere, write,
                        write_heightfield)
 
-__all__ = ["Field", "box", "capsule", "csg", "expression", "heightfield", "mesh", "plane",
-           "polytope", "preview", "provenance", "read", "sphere", "write", "write_heightfield",
-           "__version__"]
+__all__ = ["BlockTile", "Field", "block_tile", "box", "capsule", "csg", "expression",
+           "heightfield", "load_tile", "mesh", "plane", "polytope", "preview", "provenance",
+           "read", "sphere", "write", "write_heightfield", "__version__"]
+
+
+class BlockTile:
+    """A fractured block tile: ``params``, ``blocks`` and ``stats`` (dicts as in the tile
+    file), and after a bake ``surface`` / ``block_id`` (pyopenvdb.FloatGrid)."""
+
+    def __init__(self, tile):
+        self._tile = tile
+        data = _json.loads(tile.to_json())
+        self.params = data["params"]
+        self.blocks = data["blocks"]
+        self.discs = data["discs"]
+        self.stats = data.get("stats", {})
+        self.surface = None
+        self.block_id = None
+
+    def bake(self, voxel_size=0.05, half_width=3.0, periods=(1, 1, 1)):
+        """Bake the tile; sets and returns (surface, block_id)."""
+        self.surface, self.block_id = self._tile.bake(voxel_size, half_width, list(periods))
+        return self.surface, self.block_id
+
+    def field(self, periods=(1, 1, 1), periodic=False):
+        """The tile as a rockvdb.Field (periodic=True: the infinite tiling)."""
+        return self._tile.field(list(periods), periodic)
+
+    def save(self, path):
+        """Write the tile file (JSON 'rockvdb-tile')."""
+        self._tile.save(str(path))
+
+    def __repr__(self):
+        return (f"<BlockTile {self.params['type']} {self.params['tile_size']} m: "
+                f"{len(self.blocks)} blocks>")
+
+
+_TILE_KEYS = ("tile_size", "point_radius", "neighbour_radius", "disc_count", "disc_spacing",
+              "disc_radius", "jitter", "irregular_fraction", "axis", "oblique_angle",
+              "min_points", "smooth_radius", "fractures", "authored")
+_RELIEF_KEYS = {"warp_amplitude": "amplitude", "relief_scale": "scale",
+                "relief_octaves": "octaves", "relief_image": "image",
+                "relief_sharpness": "sharpness"}
+
+
+def block_tile(type="equidimensional", seed=1, voxel_size=0.05, periods=(1, 1, 1),
+               half_width=3.0, bake=True, **params):
+    """Generate a block tile (vdb_blocks' parameters as keyword arguments: tile_size,
+    point_radius, disc_count, disc_radius=(min, max), axis, fractures=[{center, normal,
+    radius}], authored=[{type: box|polytope, ...}], warp_amplitude, relief_image, ...).
+    With bake=True (default) the grids are baked at voxel_size over ``periods``."""
+    spec = {"type": type, "seed": int(seed)}
+    relief = {}
+    for key, value in params.items():
+        if key in _TILE_KEYS:
+            spec[key] = list(value) if isinstance(value, tuple) else value
+        elif key in _RELIEF_KEYS:
+            relief[_RELIEF_KEYS[key]] = value
+        else:
+            raise TypeError(f"block_tile() got an unexpected keyword argument '{key}'")
+    if relief:
+        spec["relief"] = relief
+    tile = BlockTile(_rockvdb.generate_tile(_json.dumps(spec)))
+    if bake:
+        tile.bake(voxel_size, half_width, periods)
+    return tile
+
+
+def load_tile(path):
+    """Read a tile file (.tile) or a vdb_blocks .vdb; returns an unbaked BlockTile."""
+    return BlockTile(_rockvdb.load_tile(str(path)))

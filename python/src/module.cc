@@ -2,6 +2,7 @@
 // pyopenvdb.FloatGrid objects, CSG, heightfields and I/O helpers.
 #include "GridCaster.h"
 
+#include <blocks/BlockTile.h>
 #include <core/Bake.h>
 #include <core/Combinators.h>
 #include <core/Error.h>
@@ -85,6 +86,34 @@ py::object bakeField(const PyField& f, double voxelSize, double halfWidth,
     return py::make_tuple(py::cast(r.surface), py::cast(r.attribute));
 }
 
+struct PyTile
+{
+    std::shared_ptr<const blocks::BlockTile> tile;
+};
+
+py::tuple bakeTile(const PyTile& t, double voxelSize, double halfWidth,
+                   const std::array<int, 3>& periods)
+{
+    BakeSettings s;
+    s.voxelSize = voxelSize;
+    s.halfWidth = halfWidth;
+    s.withAttribute = true;
+    s.attributeName = "block_id";
+    blocks::TileFieldOptions o;
+    o.periods = periods;
+    BakeResult r;
+    {
+        py::gil_scoped_release release;
+        r = bake(*blocks::tileField(t.tile, o), s);
+    }
+    json p = {{"tile", t.tile->params.toJson()}, {"voxel_size", voxelSize},
+              {"half_width", halfWidth}, {"periods", periods}};
+    stampProvenance(*r.surface, "rockvdb.block_tile", p.dump());
+    stampProvenance(*r.attribute, "rockvdb.block_tile", p.dump());
+    r.surface->insertMeta("rockvdb:tile", openvdb::StringMetadata(blocks::tileToJson(*t.tile).dump()));
+    return py::make_tuple(py::cast(r.surface), py::cast(r.attribute));
+}
+
 } // namespace
 
 PYBIND11_MODULE(_rockvdb, m)
@@ -155,6 +184,38 @@ PYBIND11_MODULE(_rockvdb, m)
            py::arg("tracker_steps") = 0, py::arg("region") = py::none(), py::arg("attribute") = py::none(),
            "Bake to a level set (pyopenvdb.FloatGrid named 'surface'); with attribute='block_id' "
            "returns (surface, ids)");
+
+    py::class_<PyTile>(m, "Tile", "A fractured block tile (implicit-blocks §4); see rockvdb.block_tile")
+        .def("to_json", [](const PyTile& t) { return blocks::tileToJson(*t.tile).dump(); },
+             "The tile file's JSON text")
+        .def("save", [](const PyTile& t, const std::string& path) { blocks::writeTile(*t.tile, path); },
+             py::arg("path"), "Write the tile file (atomic)")
+        .def("bake", &bakeTile, py::arg("voxel_size") = 0.05, py::arg("half_width") = 3.0,
+             py::arg("periods") = std::array<int, 3>{1, 1, 1},
+             "Bake (surface, block_id) over the given tile periods")
+        .def("field", [](const PyTile& t, const std::array<int, 3>& periods, bool periodic) {
+            blocks::TileFieldOptions o;
+            o.periods = periods;
+            o.periodic = periodic;
+            return PyField{blocks::tileField(t.tile, o),
+                           {{"type", "block_tile"}, {"tile", t.tile->params.toJson()},
+                            {"periods", periods}, {"periodic", periodic}}};
+        }, py::arg("periods") = std::array<int, 3>{1, 1, 1}, py::arg("periodic") = false,
+           "The tile as a Field (union of its blocks; periodic=True tiles all of space)");
+    m.def("generate_tile", [](const std::string& params) {
+        const json j = json::parse(params, nullptr, false);
+        if (j.is_discarded()) throw ValueError("block_tile: parameters are not JSON");
+        blocks::TileParams p = blocks::TileParams::fromJson(j);
+        std::shared_ptr<const blocks::BlockTile> t;
+        {
+            py::gil_scoped_release release;
+            t = std::make_shared<const blocks::BlockTile>(blocks::generateTile(p));
+        }
+        return PyTile{t};
+    }, py::arg("params_json"));
+    m.def("load_tile", [](const std::string& path) {
+        return PyTile{std::make_shared<const blocks::BlockTile>(blocks::readTile(path))};
+    }, py::arg("path"), "Read a .tile file or a vdb_blocks .vdb");
 
     m.def("sphere", [](double radius, const V3& c) {
         return build({{"type", "sphere"}, {"radius", radius}, {"center", j3(c)}});

@@ -179,3 +179,63 @@ def test_errors_are_python_exceptions(tmp_path):
         rockvdb.expression('{"type": "sphre"}')
     with pytest.raises(IOError):
         rockvdb.heightfield(str(tmp_path / "none.exr"))
+
+
+SMALL_TILE = dict(tile_size=10, point_radius=0.5)
+
+
+def _dense(grid):
+    bb = grid.evalActiveVoxelBoundingBox()
+    a = np.zeros(tuple(bb[1][k] - bb[0][k] + 1 for k in range(3)), dtype=np.float32)
+    grid.copyToArray(a, ijk=bb[0])
+    return bb, a
+
+
+def test_block_tile_grids_blocks_and_stats():
+    t = rockvdb.block_tile(type="tabular", seed=4, voxel_size=0.1, **SMALL_TILE)
+    assert isinstance(t.surface, vdb.FloatGrid) and isinstance(t.block_id, vdb.FloatGrid)
+    assert t.surface.gridClass == vdb.GridClass.LEVEL_SET and t.block_id.name == "block_id"
+    assert t.stats["blocks"] == len(t.blocks) > 10
+    assert t.stats["points"] > 4000 and t.stats["discs"] == 30
+    assert all(b["kind"] in ("polytope", "segment", "point") for b in t.blocks)
+    # Every block's planes hold its anchors (centroid first) inside: n·a <= d.
+    for b in t.blocks:
+        if b["kind"] != "polytope":
+            continue
+        for nx, ny, nz, d in b["planes"]:
+            ax, ay, az = b["anchors"][0]
+            assert nx * ax + ny * ay + nz * az <= d + 1e-4
+    # The periodic field repeats with the tile.
+    f = t.field(periodic=True)
+    for p in [(1.3, 2.7, 4.1), (7.9, 0.2, 9.6)]:
+        q = (p[0] + 10, p[1], p[2] - 10)
+        assert f.eval(p) == pytest.approx(f.eval(q), abs=2e-4)
+
+
+def test_tile_file_round_trip_is_bitwise(tmp_path):
+    t = rockvdb.block_tile(type="equidimensional", seed=2, voxel_size=0.1, **SMALL_TILE)
+    path = tmp_path / "eq.tile"
+    t.save(path)
+    u = rockvdb.load_tile(path)
+    assert u.blocks == t.blocks and u.params == t.params
+    s, ids = u.bake(voxel_size=0.1)
+    (ba, a), (bb, b) = _dense(t.surface), _dense(s)
+    assert ba == bb and np.array_equal(a.view(np.uint32), b.view(np.uint32))
+    assert json.loads(s["rockvdb:tile"])["blocks"] == t.blocks
+    assert rockvdb.provenance(s)[1] == "rockvdb.block_tile"
+
+
+def test_block_tile_errors_are_exceptions(tmp_path):
+    with pytest.raises(ValueError, match="unknown type"):
+        rockvdb.block_tile(type="granite", bake=False)
+    with pytest.raises(ValueError, match="point radius"):
+        rockvdb.block_tile(tile_size=10, point_radius=6, bake=False)
+    with pytest.raises(ValueError, match="fractures"):
+        rockvdb.block_tile(fractures=[{"center": [1, 2, 3]}], bake=False, **SMALL_TILE)
+    with pytest.raises(TypeError):
+        rockvdb.block_tile(colour="red", bake=False)
+    with pytest.raises(IOError):
+        rockvdb.load_tile(tmp_path / "missing.tile")
+    (tmp_path / "bad.tile").write_text("{}")
+    with pytest.raises(ValueError, match="tile file"):
+        rockvdb.load_tile(tmp_path / "bad.tile")

@@ -1,0 +1,142 @@
+"""vdb_blocks: Table-1 statistics, grids and tile metadata, the tile file round trip, per-block
+meshes, periods, and bad input (one line, right exit code, nothing written)."""
+import json
+import re
+import struct
+import zlib
+
+import numpy as np
+import pyopenvdb as vdb
+import pytest
+
+from conftest import run, tool
+
+SMALL = ["--tile-size", "10", "--point-radius", "0.5", "--voxel-size", "0.1", "--seed", "3"]
+
+
+def one_line_error(p, code, *needles):
+    assert p.returncode == code, (p.returncode, p.stderr)
+    lines = [l for l in p.stderr.splitlines() if l.strip()]
+    assert len(lines) == 1, p.stderr
+    assert "error:" in lines[0]
+    for n in needles:
+        assert n in lines[0], lines[0]
+
+
+def dense(grid):
+    bb = grid.evalActiveVoxelBoundingBox()
+    shape = tuple(bb[1][k] - bb[0][k] + 1 for k in range(3))
+    a = np.zeros(shape, dtype=np.float32)
+    grid.copyToArray(a, ijk=bb[0])
+    return bb, a
+
+
+@pytest.fixture(scope="module")
+def tile(tmp_path_factory):
+    d = tmp_path_factory.mktemp("tile")
+    out, tfile, mesh = d / "t.vdb", d / "t.tile", d / "t.obj"
+    p = run([tool("vdb_blocks"), "--type", "tabular", *SMALL, "-o", str(out), "--tile", str(tfile),
+             "--meshes", str(mesh)], check=True)
+    return {"dir": d, "vdb": out, "tile": tfile, "obj": mesh, "stderr": p.stderr}
+
+
+def test_statistics_like_table_1(tile):
+    err = tile["stderr"]
+    m = re.search(r"#P (\d+) points, #D (\d+) discs, #B (\d+) blocks, mean #Pi ([\d.]+)", err)
+    assert m, err
+    points, discs, blocks, mean = int(m[1]), int(m[2]), int(m[3]), float(m[4])
+    assert 4000 < points < 5500 and discs == 30 and blocks > 10
+    assert mean * blocks <= points  # dropped clusters lose points, never gain
+    g = re.findall(r"^generation: (\d+\.\d{3}) s$", err, re.M)
+    assert len(g) == 1 and 0 < float(g[0]) < 5
+
+
+def test_grids_ids_and_tile_metadata(tile):
+    grids, meta = vdb.readAll(str(tile["vdb"]))
+    names = {g.name: g for g in grids}
+    assert set(names) == {"surface", "block_id"}
+    s, ids = names["surface"], names["block_id"]
+    assert s.gridClass == vdb.GridClass.LEVEL_SET
+    assert s.activeVoxelCount() == ids.activeVoxelCount() > 10000
+    t = json.loads(s["rockvdb:tile"])
+    assert t["format"] == "rockvdb-tile" and t["params"]["type"] == "tabular"
+    nblocks = len(t["blocks"])
+    # Every active voxel carries an integer id of an existing block.
+    seen = set()
+    for item in ids.citerOnValues():
+        v = item.value
+        assert v == int(v) and 0 <= v < nblocks
+        seen.add(int(v))
+    assert len(seen) > nblocks // 2
+    # The standalone tile file is the same description, and compact.
+    assert json.loads(tile["tile"].read_text())["blocks"] == t["blocks"]
+    assert tile["tile"].stat().st_size < 1_000_000
+
+
+@pytest.mark.parametrize("source", ["tile", "vdb"])
+def test_from_tile_reproduces_the_grid_bitwise(tile, source, tmp_path):
+    out = tmp_path / "again.vdb"
+    run([tool("vdb_blocks"), "-q", "--from-tile", str(tile[source]), "--voxel-size", "0.1",
+         "-o", str(out)], check=True)
+    a = vdb.read(str(tile["vdb"]), "surface")
+    b = vdb.read(str(out), "surface")
+    assert a.activeVoxelCount() == b.activeVoxelCount()
+    (bba, da), (bbb, db) = dense(a), dense(b)
+    assert bba == bbb
+    assert np.array_equal(da.view(np.uint32), db.view(np.uint32))
+
+
+def test_one_mesh_per_block(tile):
+    blocks = int(re.search(r"#B (\d+) blocks", tile["stderr"])[1])
+    objects = [l for l in tile["obj"].read_text().splitlines() if l.startswith("o block_")]
+    assert len(objects) == blocks
+
+
+def test_periods_repeat_the_tile(tmp_path):
+    one, two = tmp_path / "1.vdb", tmp_path / "2.vdb"
+    common = [tool("vdb_blocks"), "-q", "--type", "equidimensional", *SMALL, "--warp-amplitude", "0"]
+    run(common + ["-o", str(one)], check=True)
+    run(common + ["--periods", "2,1,1", "-o", str(two)], check=True)
+    a, b = vdb.read(str(one), "surface"), vdb.read(str(two), "surface")
+    # Two copies; where their bands meet across the shared face voxels are counted once.
+    assert 1.95 * a.activeVoxelCount() < b.activeVoxelCount() <= 2 * a.activeVoxelCount()
+    lo, hi = b.evalActiveVoxelBoundingBox()
+    lo1, hi1 = a.evalActiveVoxelBoundingBox()
+    assert hi[0] - lo[0] == pytest.approx(hi1[0] - lo1[0] + 100, abs=2)  # one tile = 100 voxels
+
+
+def write_png8_rgb(path, w, h):
+    raw = b"".join(b"\x00" + b"".join(bytes([(x * 7) % 256, (y * 5) % 256, 9]) for x in range(w))
+                   for y in range(h))
+
+    def chunk(tag, data):
+        c = struct.pack(">I", len(data)) + tag + data
+        return c + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    png = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+    png += chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+    path.write_bytes(png)
+
+
+def test_bad_input(tmp_path):
+    out = tmp_path / "o.vdb"
+    base = [tool("vdb_blocks"), *SMALL, "-o", str(out)]
+    one_line_error(run(base + ["--type", "granite"]), 2, "unknown type 'granite'")
+    one_line_error(run([tool("vdb_blocks"), "--tile-size", "10", "--point-radius", "6", "-o",
+                        str(out)]), 2, "point radius must be in (0, tile size / 2) (got 6)")
+    one_line_error(run(base + ["--neighbour-radius", "0.3"]), 2, "neighbour radius")
+    one_line_error(run(base + ["--disc-radius", "2,1"]), 2, "disc radius (max)")
+    one_line_error(run(base + ["--disc-radius", "-1,2"]), 2, "disc radius (min)")
+    bad = tmp_path / "f.json"
+    bad.write_text('[{"center": [1, 2, 3], "normal": [0, 0, 1]}]')
+    one_line_error(run(base + ["--fractures", str(bad)]), 2, "radius")
+    bad.write_text('[{"center": [1, 2, 3], "normal": [0, 0, 1], "radius": }]')
+    one_line_error(run(base + ["--fractures", str(bad)]), 2, "malformed")
+    one_line_error(run(base + ["--relief-image", str(tmp_path / "none.png")]), 1, "none.png")
+    rgb = tmp_path / "rgb.png"
+    write_png8_rgb(rgb, 8, 8)
+    one_line_error(run(base + ["--relief-image", str(rgb)]), 2, "rgb.png")
+    one_line_error(run(base + ["--from-tile", str(bad)]), 2, "tile file")
+    one_line_error(run(base + ["--tile", "/nonexistent/dir/t.tile"]), 1, "does not exist")
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.json", "rgb.png"]
