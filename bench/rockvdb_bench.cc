@@ -1,6 +1,8 @@
 // rockvdb_bench — each issue's numbers beside a reference run in the same process.
-// usage: rockvdb_bench [--quick]      (groups: foundation; later stages add theirs)
+// usage: rockvdb_bench [--quick] [foundation] [blocks]   (no group: all of them)
+#include <blocks/BlockTile.h>
 #include <core/Bake.h>
+#include <core/Combinators.h>
 #include <core/Primitives.h>
 #include <core/VdbIO.h>
 
@@ -78,14 +80,75 @@ void foundation(bool quick)
     }
 }
 
+void blocksGroup(bool quick)
+{
+    using namespace rockvdb::blocks;
+    std::printf("\n## blocks: tile generation (sampling through hulls) beside the paper's Table 1\n\n");
+    std::printf("| type | #P | #D | #B | mean #Pi | generation | paper #P / #D / #B / #Pi | paper time | speed-up |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|\n");
+    struct Paper { BlockType type; int P, D, B, Pi; double seconds; };
+    const Paper paper[] = {{BlockType::Equidimensional, 14524, 15, 125, 110, 6.9},
+                           {BlockType::Rhombohedral, 14589, 24, 78, 161, 12.0},
+                           {BlockType::Polyhedral, 14532, 44, 100, 140, 25.4},
+                           {BlockType::Tabular, 14554, 30, 82, 143, 16.3}};
+    std::vector<std::shared_ptr<const BlockTile>> tiles;
+    for (const Paper& ref : paper) {
+        TileParams p;
+        p.type = ref.type;
+        p.seed = 7;
+        std::shared_ptr<const BlockTile> tile;
+        const double t = bestOf(quick ? 1 : 3, [&] { tile = std::make_shared<const BlockTile>(generateTile(p)); });
+        const TileStats& st = tile->stats;
+        std::printf("| %s | %zu | %zu | %zu | %.0f | %.3f s | %d / %d / %d / %d | %.1f s | %.0fx |\n",
+                    blockTypeName(ref.type), st.points, st.discs, st.blocks, st.meanPoints, t,
+                    ref.P, ref.D, ref.B, ref.Pi, ref.seconds, ref.seconds / t);
+        std::printf("ratio blocks %s generation vs paper: %.1fx\n", blockTypeName(ref.type), ref.seconds / t);
+        tiles.push_back(tile);
+    }
+    std::printf("\n## blocks: tile bake at 5 cm (2 threads), and the cell-culled tile field vs a generic union (same run)\n\n");
+    std::printf("| type | active voxels | tile bake | 3 m region: tile field | generic union | ratio |\n|---|---|---|---|---|---|\n");
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+    for (size_t k = 0; k < tiles.size(); ++k) {
+        const auto& tile = tiles[k];
+        BakeSettings s;
+        s.voxelSize = 0.05;
+        s.withAttribute = true;
+        size_t active = 0;
+        const double full = quick ? 0.0 : bestOf(1, [&] {
+            active = bake(*tileField(tile, TileFieldOptions{}), s).surface->activeVoxelCount();
+        });
+        // Same region with both evaluators.
+        BakeSettings r = s;
+        r.withAttribute = false;
+        r.region = BBoxd(Vec3d(8), Vec3d(11));
+        std::vector<FieldPtr> parts;
+        for (size_t j = 0; j < tile->blocks.size(); ++j) parts.push_back(blockField(tile, j));
+        auto generic = csg(CsgOp::Union, parts);
+        auto field = tileField(tile, TileFieldOptions{});
+        const double ours = bestOf(2, [&] { bake(*field, r); });
+        const double ref = bestOf(1, [&] { bake(*generic, r); });
+        std::printf("| %s | %zu | %.2f s | %.3f s | %.3f s | %.1fx |\n", blockTypeName(tile->params.type),
+                    active, full, ours, ref, ref / ours);
+        std::printf("ratio blocks %s tile field vs generic union: %.1fx\n",
+                    blockTypeName(tile->params.type), ref / ours);
+    }
+}
+
 } // namespace
 
 int main(int argc, char** argv)
 {
     initialize();
-    const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+    bool quick = false;
+    for (int i = 1; i < argc; ++i) quick = quick || std::strcmp(argv[i], "--quick") == 0;
     std::printf("allocator: %s (both sides of every ratio run in this process with it)\n\n",
                 ROCKVDB_ALLOCATOR);
-    foundation(quick);
+    bool all = true, wantFoundation = false, wantBlocks = false;
+    for (int i = 1; i < argc; ++i) {
+        if (std::strcmp(argv[i], "foundation") == 0) { wantFoundation = true; all = false; }
+        if (std::strcmp(argv[i], "blocks") == 0) { wantBlocks = true; all = false; }
+    }
+    if (all || wantFoundation) foundation(quick);
+    if (all || wantBlocks) blocksGroup(quick);
     return 0;
 }

@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <climits>
+#include <mutex>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -53,11 +54,11 @@ public:
             mInvRange = b > a ? 1.0f / (b - a) : 0.0f;
             return;
         }
-        // Procedural relief: tabulate the turbulence once (texel = scale/128, finer than the
-        // smallest octave worth resolving at 5 cm voxels for the default scale) over the
-        // coordinate range, then read it bilinearly: the three projections of every point
-        // cost three lookups instead of 3·octaves noise evaluations.
-        const double texel = p.relief.scale / 128.0;
+        // Procedural relief: tabulate the turbulence once (texel = scale/64: 8 texels across
+        // the 4th octave's wavelength at the default scale) over the coordinate range, then
+        // read it bilinearly: the three projections of every point cost three lookups
+        // instead of 3·octaves noise evaluations.
+        const double texel = p.relief.scale / 64.0;
         const double span = double(hi - lo) + 2.0;
         const double n = std::ceil(span / texel) + 2;
         if (n * n <= 16e6) {
@@ -175,7 +176,7 @@ float maxPlane(const PlaneSoA& P, const Vec3f& c)
 
 // f = h_0 ∩̃ h_1 ∩̃ ... with a ∩̃ b = max(a, b) + R·k³/6, k = max(1 - |a - b|/R, 0) (§4.2 in
 // our sign convention, see core/Combinators.h).
-void fold(const PlaneSoA& P, const std::vector<int>& act, float R, int n,
+__attribute__((noinline)) void fold(const PlaneSoA& P, const std::vector<int>& act, float R, int n,
           const float* __restrict x, const float* __restrict y, const float* __restrict z,
           float* __restrict f)
 {
@@ -203,7 +204,7 @@ void fold(const PlaneSoA& P, const std::vector<int>& act, float R, int n,
 
 // The same fold with its gradient (forward mode): ∂(a ∩̃ b)/∂a = 1 - k²/2 where a >= b,
 // k²/2 where a < b, and symmetrically for b.
-void foldGrad(const PlaneSoA& P, const std::vector<int>& act, float R, int n,
+__attribute__((noinline)) void foldGrad(const PlaneSoA& P, const std::vector<int>& act, float R, int n,
               const float* __restrict x, const float* __restrict y, const float* __restrict z,
               float* __restrict f, float* __restrict gx, float* __restrict gy,
               float* __restrict gz)
@@ -443,6 +444,25 @@ private:
     float mR, mP, mMargin = 0.5f;
 };
 
+// One evaluator (and relief table) per tile, shared by its tile field and block fields.
+std::shared_ptr<const Blocks> blocksFor(const std::shared_ptr<const BlockTile>& tile)
+{
+    static std::mutex mutex;
+    static std::vector<std::pair<std::weak_ptr<const BlockTile>, std::weak_ptr<const Blocks>>> cache;
+    std::lock_guard<std::mutex> lock(mutex);
+    cache.erase(std::remove_if(cache.begin(), cache.end(),
+                               [](const auto& e) { return e.first.expired() || e.second.expired(); }),
+                cache.end());
+    for (const auto& e : cache) {
+        if (e.first.lock() == tile) {
+            if (auto b = e.second.lock()) return b;
+        }
+    }
+    auto b = std::make_shared<const Blocks>(*tile);
+    cache.emplace_back(tile, b);
+    return b;
+}
+
 // ---- the tile field ---------------------------------------------------------------------
 
 struct Candidate
@@ -463,7 +483,8 @@ class TileField final : public Field
 {
 public:
     TileField(std::shared_ptr<const BlockTile> tile, const TileFieldOptions& o)
-        : mTile(std::move(tile)), mOpt(o), mBlocks(*mTile), mS(float(mTile->size()))
+        : mTile(std::move(tile)), mOpt(o), mBlocksPtr(blocksFor(mTile)), mBlocks(*mBlocksPtr),
+          mS(float(mTile->size()))
     {
         const double s = mTile->size();
         // Exact range C: values are min(t, C). Every point is close to some block in a
@@ -627,7 +648,8 @@ private:
 
     std::shared_ptr<const BlockTile> mTile;
     TileFieldOptions mOpt;
-    Blocks mBlocks;
+    std::shared_ptr<const Blocks> mBlocksPtr;
+    const Blocks& mBlocks;
     float mS;
     float mCap = 5.0f;
     int mN = 1;
@@ -640,7 +662,7 @@ class SingleBlock final : public Field
 {
 public:
     SingleBlock(std::shared_ptr<const BlockTile> tile, size_t j)
-        : mTile(std::move(tile)), mBlocks(*mTile), mJ(j) {}
+        : mTile(std::move(tile)), mBlocksPtr(blocksFor(mTile)), mBlocks(*mBlocksPtr), mJ(j) {}
 
     void evalBatch(const Batch& b, float* out) const override
     {
@@ -665,7 +687,8 @@ public:
 
 private:
     std::shared_ptr<const BlockTile> mTile;
-    Blocks mBlocks;
+    std::shared_ptr<const Blocks> mBlocksPtr;
+    const Blocks& mBlocks;
     size_t mJ;
 };
 

@@ -26,8 +26,18 @@ def scene(tmp_path_factory):
     return out
 
 
-def every_output(tmp_path, scene, heightfield_png):
-    files = [scene]
+@pytest.fixture(scope="module")
+def blocks(tmp_path_factory):
+    """A small fractured block tile from vdb_blocks (surface + block_id + tile metadata)."""
+    out = tmp_path_factory.mktemp("blocks") / "tile.vdb"
+    run([tool("vdb_blocks"), "-q", "--type", "rhombohedral", "--tile-size", "6",
+         "--point-radius", "0.35", "--voxel-size", "0.05", "--seed", "5", "-o", str(out)],
+        check=True)
+    return out
+
+
+def every_output(tmp_path, scene, heightfield_png, blocks):
+    files = [scene, blocks]
     h = tmp_path / "hf.vdb"
     run([tool("vdb_heightfield"), "-q", str(heightfield_png), "--cell-size", "0.1",
          "--voxel-size", "0.05", "-o", str(h)], check=True)
@@ -36,9 +46,9 @@ def every_output(tmp_path, scene, heightfield_png):
     return files + [h, c]
 
 
-def test_pyopenvdb_reads_every_file(tmp_path, scene, heightfield_png):
+def test_pyopenvdb_reads_every_file(tmp_path, scene, heightfield_png, blocks):
     import pyopenvdb as vdb
-    for f in every_output(tmp_path, scene, heightfield_png):
+    for f in every_output(tmp_path, scene, heightfield_png, blocks):
         grids, meta = vdb.readAll(str(f))
         names = [g.name for g in grids]
         assert "surface" in names
@@ -57,10 +67,11 @@ def test_pyopenvdb_reads_every_file(tmp_path, scene, heightfield_png):
 
 
 @pytest.mark.skipif(not shutil.which("vdb_print"), reason="libopenvdb-tools not installed")
-def test_vdb_print_lists_surface(scene):
-    p = subprocess.run(["vdb_print", "-l", str(scene)], capture_output=True, text=True, check=True)
-    assert "surface" in p.stdout and "block_id" in p.stdout
-    assert "level set" in p.stdout or "level_set" in p.stdout
+def test_vdb_print_lists_surface(scene, blocks):
+    for f in (scene, blocks):
+        p = subprocess.run(["vdb_print", "-l", str(f)], capture_output=True, text=True, check=True)
+        assert "surface" in p.stdout and "block_id" in p.stdout
+        assert "level set" in p.stdout or "level_set" in p.stdout
 
 
 @pytest.mark.skipif(not shutil.which("vdb_render"), reason="libopenvdb-tools not installed")
@@ -77,8 +88,10 @@ def test_vdb_render_renders(scene, tmp_path):
 
 
 @pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
-def test_blender_imports_and_meshes_surface(scene, tmp_path):
+@pytest.mark.parametrize("which", ["scene", "blocks"])
+def test_blender_imports_and_meshes_surface(which, scene, blocks, tmp_path):
     import pyopenvdb as vdb
+    scene = scene if which == "scene" else blocks
     report = tmp_path / "blender.json"
     p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
                         os.path.join(HERE, "blender_mesh.py"), "--", str(scene), str(report)],
@@ -88,12 +101,15 @@ def test_blender_imports_and_meshes_surface(scene, tmp_path):
     assert r["grids"] and "surface" in r["grids"]
     assert r["vertices"] > 1000
     s = vdb.read(str(scene), "surface")
-    lo, hi = s.evalActiveVoxelBoundingBox()
     dx = s.transform.voxelSize()[0]
-    # Our surface's bounds: the zero crossing lies within the active band; compare against the
-    # band shrunk by the half width (3 voxels), allowing 2 voxels.
-    ours_lo = [(l + 3) * dx for l in lo]
-    ours_hi = [(h - 3) * dx for h in hi]
+    # Our own zero isosurface (tools::volumeToMesh through rockvdb.mesh) bounds Blender's.
+    import rockvdb
+    obj = tmp_path / "ours.obj"
+    rockvdb.mesh(s, str(obj))
+    pts = [list(map(float, l.split()[1:4])) for l in obj.read_text().splitlines()
+           if l.startswith("v ")]
+    ours_lo = [min(p[a] for p in pts) for a in range(3)]
+    ours_hi = [max(p[a] for p in pts) for a in range(3)]
     for a in range(3):
         assert abs(r["min"][a] - ours_lo[a]) <= 2 * dx + 1e-6, (a, r, ours_lo)
         assert abs(r["max"][a] - ours_hi[a]) <= 2 * dx + 1e-6, (a, r, ours_hi)
