@@ -480,7 +480,7 @@ std::vector<int> hull2d(const std::vector<std::array<double, 2>>& q)
 }
 
 // Block geometry from a cluster (unwrapped points, home frame).
-Block makeBlock(const std::vector<Vec3d>& P, double thickness)
+Block makeBlock(const std::vector<Vec3d>& P, double thickness, double smoothRadius)
 {
     Block b;
     b.points = int(P.size());
@@ -534,11 +534,18 @@ Block makeBlock(const std::vector<Vec3d>& P, double thickness)
             const Vec3d pa = p0 + e1 * a[0] + e2 * a[1];
             b.planes.push_back({float(m[0]), float(m[1]), float(m[2]), float(m.dot(pa))});
         }
+        // The smooth intersection raises the value by at most R/6 per fold step: push every
+        // plane out by R·(n - 1)/6 so the rounded slab still holds the cluster's points
+        // (a small flat block would otherwise round away).
+        const float push = float(smoothRadius * double(b.planes.size() - 1) / 6.0);
+        for (auto& pl : b.planes) pl[3] += push;
         for (const auto& i : h) {
             const Vec3d pa = p0 + e1 * q[size_t(i)][0] + e2 * q[size_t(i)][1];
             b.vertices.push_back(f3(pa + n * t));
             b.vertices.push_back(f3(pa - n * t));
         }
+        lo -= Vec3d(double(push));
+        hi += Vec3d(double(push));
     } else if (hull.dimension == 1) {
         size_t i0 = 0, i1 = 0;
         for (size_t i = 0; i < P.size(); ++i) {
@@ -1116,7 +1123,9 @@ BlockTile generateTile(const TileParams& in)
         tile.blocks.push_back(makeAuthored(p.authored[a], authoredPts[a]));
     }
     std::vector<Block> made(clusters.size());
-    for (size_t c = 0; c < clusters.size(); ++c) made[c] = makeBlock(clusters[c], p.pointRadius);
+    for (size_t c = 0; c < clusters.size(); ++c) {
+        made[c] = makeBlock(clusters[c], p.pointRadius, p.smoothRadius);
+    }
     std::vector<size_t> order(made.size());
     std::iota(order.begin(), order.end(), 0);
     std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {

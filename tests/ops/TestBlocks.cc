@@ -524,3 +524,37 @@ TEST(Blocks, BadParametersAreClearErrors)
     EXPECT_THROW(TileParams::fromJson(nlohmann::json::parse(R"({"colour": 3})")), ValueError);
     EXPECT_THROW(tileFromJson(nlohmann::json::parse(R"({"format": "other"})")), ValueError);
 }
+
+TEST(Blocks, DegenerateClustersBecomePointsSegmentsAndThickPolygons)
+{
+    // With min_points 1 the tiny clusters stay: 1 point → a point primitive, 2 → a segment,
+    // 3 coplanar → a thick polygon. Points and segments hold their points half a point
+    // radius deep; a thick polygon, its points despite the rounding.
+    TileParams p = small(BlockType::Polyhedral, 6);
+    p.minPoints = 1;
+    p.relief.amplitude = 0.0;
+    auto tile = make(p);
+    std::map<BlockKind, int> kinds;
+    int flat = 0;
+    for (size_t j = 0; j < tile->blocks.size(); ++j) {
+        const Block& b = tile->blocks[j];
+        ++kinds[b.kind];
+        if (b.cluster.size() == 3 && b.kind == BlockKind::Polytope) {
+            ++flat;
+            EXPECT_EQ(b.planes.size(), 5u); // top, bottom and three sides
+        }
+        if (b.cluster.size() > 3) continue;
+        auto f = blockField(tile, j);
+        if (b.kind == BlockKind::Polytope) {
+            ASSERT_LT(f->eval(v3(b.anchors[0])), 0.0f) << "thick polygon " << j;
+            for (const auto& q : b.cluster) ASSERT_LE(f->eval(v3(q)), 1e-5f) << "thick polygon " << j;
+            continue;
+        }
+        for (const auto& q : b.cluster) {
+            ASSERT_NEAR(f->eval(v3(q)), -0.5 * p.pointRadius, 1e-4) << "block " << j;
+        }
+    }
+    EXPECT_GT(kinds[BlockKind::Point], 0);
+    EXPECT_GT(kinds[BlockKind::Segment], 0);
+    EXPECT_GT(flat, 0);
+}
