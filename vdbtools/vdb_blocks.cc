@@ -136,8 +136,6 @@ int main(int argc, char** argv)
             tool.info(line);
             std::fprintf(stderr, "generation: %.3f s\n", s.generation);
         }
-        if (!tileOut.empty()) writeTile(*tile, tileOut);
-
         TileFieldOptions opt;
         opt.periods = {periods[0], periods[1], periods[2]};
         BakeSettings bs = settings;
@@ -157,6 +155,8 @@ int main(int argc, char** argv)
         stampProvenance(*r.attribute, tool.name(), params);
         r.surface->insertMeta("rockvdb:tile", openvdb::StringMetadata(tileToJson(*tile).dump()));
         writeGrids(tool.output(), {r.surface, r.attribute});
+        // The tile file after the grids: a failed bake leaves no file at all.
+        if (!tileOut.empty()) writeTile(*tile, tileOut);
 
         if (!meshes.empty()) {
             Mesh all;

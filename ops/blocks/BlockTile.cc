@@ -19,7 +19,6 @@
 #include <tuple>
 #include <deque>
 #include <fstream>
-#include <map>
 #include <numeric>
 #include <sstream>
 
