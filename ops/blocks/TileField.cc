@@ -444,6 +444,16 @@ private:
     float mR, mP, mMargin = 0.5f;
 };
 
+// A slope bound of the warped blocks, for the renormaliser's floor only (|∇δ| from the relief
+// and the curvature of the rounded edges, generously): 1 + L_δ.
+double warpedSlope(const BlockTile& t)
+{
+    const double amp = t.params.relief.amplitude;
+    if (amp <= 0) return 1.0;
+    const double r = std::max(1e-3, t.params.smoothRadius);
+    return 1.0 + amp * (8.0 / r + 2.8 * noise::kGradientBound2 * 4.0 / t.params.relief.scale);
+}
+
 // One evaluator (and relief table) per tile, shared by its tile field and block fields.
 std::shared_ptr<const Blocks> blocksFor(const std::shared_ptr<const BlockTile>& tile)
 {
@@ -552,15 +562,7 @@ public:
     }
     // |b(p) - b(q)| <= |p - q| + |δ(p) - δ(q)| <= |p - q| + 2A; min, max and the cap keep it.
     double modulus(double r) const override { return r + 2.0 * double(mBlocks.amplitude()); }
-    // A slope bound for the renormaliser's floor only (|∇δ| from the relief and the
-    // curvature of the rounded edges, generously).
-    double lipschitz() const override
-    {
-        const double amp = mBlocks.amplitude();
-        if (amp <= 0) return 1.0;
-        const double r = std::max(1e-3, mTile->params.smoothRadius);
-        return 1.0 + amp * (8.0 / r + 2.8 * noise::kGradientBound2 * 4.0 / mTile->params.relief.scale);
-    }
+    double lipschitz() const override { return warpedSlope(*mTile); }
     bool exact() const override { return false; }
 
 private:
@@ -683,6 +685,7 @@ public:
         return BBoxd(Vec3d(s.lo), Vec3d(s.hi));
     }
     double modulus(double r) const override { return r + 2.0 * double(mBlocks.amplitude()); }
+    double lipschitz() const override { return warpedSlope(*mTile); }
     bool exact() const override { return false; }
 
 private:
