@@ -132,11 +132,24 @@ void writeTile(const BlockTile& tile, const std::string& path);
 /// @throw IoError for unreadable files; ValueError for malformed content.
 BlockTile readTile(const std::string& path);
 
+/// @brief Which replicated copies exist (the presence function e_i of §5): copy
+/// (ix, iy, iz) of block j is the block translated by s·(ix, iy, iz). Implementations
+/// decide once per (cell, block), not per voxel.
+class Presence
+{
+public:
+    virtual ~Presence() = default;
+    virtual bool present(int block, int ix, int iy, int iz) const = 0;
+    /// @brief World box holding every present copy (blocks' bounds included).
+    virtual BBoxd bounds() const = 0;
+};
+
 /// @brief Which copies of the blocks a tile field holds.
 struct TileFieldOptions
 {
     bool periodic = false;                   ///< the infinite periodic tiling t(p)
     std::array<int, 3> periods = {1, 1, 1};  ///< else: blocks whose home tile index < periods
+    std::shared_ptr<const Presence> presence; ///< when set: the present copies only (§5)
 };
 
 /// @brief The tile as a Field: the union of its (warped) blocks, each a complete convex

@@ -535,7 +535,9 @@ public:
                     }
         }
         // Bounds of a finite copy range: the blocks' boxes over the copies.
-        if (!mOpt.periodic) {
+        if (mOpt.presence) {
+            mBounds = mOpt.presence->bounds();
+        } else if (!mOpt.periodic) {
             bool first = true;
             for (size_t j = 0; j < mBlocks.size(); ++j) {
                 const BlockShape& b = mBlocks.shape(j);
@@ -556,6 +558,7 @@ public:
 
     BBoxd bounds() const override
     {
+        if (mOpt.presence) return mBounds;
         if (mOpt.periodic) return infiniteBounds();
         if (mBlocks.size() == 0) return BBoxd(Vec3d(0), Vec3d(-1)); // empty
         return mBounds;
@@ -597,7 +600,9 @@ private:
                                               (z - T[2] * mN)];
                     for (const auto& e : list) {
                         Candidate c{e.block, e.ix + T[0], e.iy + T[1], e.iz + T[2]};
-                        if (!mOpt.periodic &&
+                        if (mOpt.presence) {
+                            if (!mOpt.presence->present(c.block, c.ix, c.iy, c.iz)) continue;
+                        } else if (!mOpt.periodic &&
                             (c.ix < 0 || c.ix >= mOpt.periods[0] || c.iy < 0 ||
                              c.iy >= mOpt.periods[1] || c.iz < 0 || c.iz >= mOpt.periods[2])) {
                             continue;

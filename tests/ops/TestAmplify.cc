@@ -1,0 +1,156 @@
+// Terrain amplification (implicit-blocks §5): slope rule, union property, chunks,
+// determinism, and a flat terrain that qualifies nowhere.
+#include <amplify/Amplify.h>
+#include <blocks/BlockTile.h>
+#include <core/Bake.h>
+#include <core/Error.h>
+#include <core/Heightfield.h>
+#include <core/VdbIO.h>
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <cstring>
+
+using namespace rockvdb;
+
+namespace {
+
+// 32 m × 32 m: plateau 10 m high for x < 14, valley at 0 for x > 18, a 68° cliff between.
+std::shared_ptr<Heightfield> cliff(bool flat = false)
+{
+    auto hf = std::make_shared<Heightfield>();
+    hf->nx = hf->ny = 65;
+    hf->cellSize = 0.5;
+    for (int j = 0; j < 65; ++j)
+        for (int i = 0; i < 65; ++i) {
+            const double x = i * 0.5;
+            const double h = flat ? 5.0 : x < 14 ? 10.0 : x > 18 ? 0.0 : 10.0 - 2.5 * (x - 14);
+            hf->z.push_back(float(h));
+        }
+    return hf;
+}
+
+std::shared_ptr<const blocks::BlockTile> smallTile()
+{
+    blocks::TileParams p;
+    p.type = blocks::BlockType::Equidimensional;
+    p.tileSize = 10;
+    p.pointRadius = 0.5;
+    p.seed = 3;
+    return std::make_shared<const blocks::BlockTile>(blocks::generateTile(p));
+}
+
+struct Scene
+{
+    FieldPtr terrain, amplified;
+    amplify::AmplifyStats stats;
+};
+
+Scene scene(bool flat = false)
+{
+    Scene s;
+    auto hf = cliff(flat);
+    HeightfieldSettings hs;
+    hs.baseDepth = 2.0;
+    hs.exactDistance = 1.5;
+    s.terrain = heightfieldField(hf, hs);
+    amplify::PlacementRules rules;
+    rules.region = BBoxd(Vec3d(1, 1, -1e30), Vec3d(31, 31, 1e30));
+    s.amplified = amplify::amplifiedTerrain(s.terrain, smallTile(), rules, s.stats);
+    return s;
+}
+
+BakeSettings settings()
+{
+    BakeSettings b;
+    b.voxelSize = 0.1;
+    b.withAttribute = true;
+    b.attributeName = "block_id";
+    return b;
+}
+
+bool bitwiseEqual(const openvdb::FloatGrid& a, const openvdb::FloatGrid& b)
+{
+    if (a.activeVoxelCount() != b.activeVoxelCount()) return false;
+    auto acc = b.getConstAccessor();
+    for (auto leaf = a.tree().cbeginLeaf(); leaf; ++leaf) {
+        const auto* o = acc.probeConstLeaf(leaf->origin());
+        if (!o || o->getValueMask() != leaf->getValueMask()) return false;
+        if (std::memcmp(o->buffer().data(), leaf->buffer().data(), 512 * sizeof(float)) != 0) return false;
+    }
+    return true;
+}
+
+} // namespace
+
+TEST(Amplify, BlocksOnTheCliffOnlyAndTheTerrainStaysInside)
+{
+    initialize();
+    Scene s = scene();
+    EXPECT_GT(s.stats.replicated, 10u);
+    EXPECT_LT(s.stats.blockBytes, 1e6);
+    auto r = bake(*s.amplified, settings());
+    auto bare = bake(*s.terrain, settings()).surface;
+    // Slope rule: no block voxels over the plateau or the valley floor (blocks on the cliff
+    // may overhang its rims by their own size, < 3.5 m here).
+    size_t onCliff = 0;
+    for (auto it = r.attribute->cbeginValueOn(); it; ++it) {
+        if (*it < 0) continue;
+        const double x = r.attribute->indexToWorld(it.getCoord())[0];
+        ASSERT_GT(x, 14.0 - 3.5) << "block voxel over the plateau";
+        ASSERT_LT(x, 18.0 + 3.5) << "block voxel over the valley";
+        ++onCliff;
+    }
+    EXPECT_GT(onCliff, 5000u);
+    // Union property: every voxel inside the terrain is inside the amplified terrain.
+    auto acc = r.surface->getConstAccessor();
+    for (auto it = bare->cbeginValueOn(); it; ++it) {
+        if (*it < 0) ASSERT_LT(acc.getValue(it.getCoord()), 0.0f) << it.getCoord();
+    }
+}
+
+TEST(Amplify, ChunksAndThreadsGiveTheWholeBakeBitwise)
+{
+    initialize();
+    Scene s = scene();
+    BakeSettings whole = settings();
+    openvdb::FloatGrid::Ptr one, two;
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        one = bake(*s.amplified, whole).surface;
+    }
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        two = bake(*s.amplified, whole).surface;
+    }
+    EXPECT_TRUE(bitwiseEqual(*one, *two));
+    // Two chunks split at x = 16 m (160 voxels, a leaf boundary) across the cliff.
+    BakeSettings left = whole, right = whole;
+    left.region = BBoxd(Vec3d(-5, -5, -5), Vec3d(16, 40, 20));
+    right.region = BBoxd(Vec3d(16, -5, -5), Vec3d(40, 40, 20));
+    auto a = bake(*s.amplified, left).surface;
+    auto b = bake(*s.amplified, right).surface;
+    EXPECT_EQ(a->activeVoxelCount() + b->activeVoxelCount(), one->activeVoxelCount());
+    auto acc = one->getConstAccessor();
+    for (const auto& g : {a, b}) {
+        for (auto it = g->cbeginValueOn(); it; ++it) {
+            float v;
+            ASSERT_TRUE(acc.probeValue(it.getCoord(), v));
+            ASSERT_EQ(v, *it);
+        }
+    }
+}
+
+TEST(Amplify, FlatTerrainQualifiesNowhere)
+{
+    initialize();
+    Scene s = scene(/*flat=*/true);
+    EXPECT_EQ(s.stats.replicated, 0u);
+    EXPECT_EQ(s.amplified, s.terrain); // the bare terrain, still a valid field to bake
+    amplify::PlacementRules bad;
+    bad.distanceMin = 1;
+    bad.distanceMax = 0;
+    EXPECT_THROW(bad.validate(), ValueError);
+}

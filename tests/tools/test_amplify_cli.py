@@ -1,0 +1,84 @@
+"""vdb_amplify (first increment: heightfield terrain, one tile, slope / distance / anchor
+rules): grids, the slope rule on a plateau-and-cliff, flat terrain, bad input."""
+import pyopenvdb as vdb
+import pytest
+
+from conftest import run, tool, write_png16
+
+
+def one_line_error(p, code, *needles):
+    assert p.returncode == code, (p.returncode, p.stderr)
+    lines = [l for l in p.stderr.splitlines() if l.strip()]
+    assert len(lines) == 1, p.stderr
+    for n in needles:
+        assert n in lines[0], lines[0]
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("amp")
+    cliff, flat = d / "cliff.png", d / "flat.png"
+    rows = []
+    for _ in range(65):
+        rows.append([round(65535 * (1.0 if i * 0.5 < 14 else 0.0 if i * 0.5 > 18
+                                     else 1.0 - (i * 0.5 - 14) / 4)) for i in range(65)])
+    write_png16(cliff, rows)
+    write_png16(flat, [[30000] * 65 for _ in range(65)])
+    t = d / "eq.tile"
+    run([tool("vdb_blocks"), "-q", "--type", "equidimensional", "--tile-size", "10",
+         "--point-radius", "0.5", "--voxel-size", "0.25", "--seed", "3", "-o", str(d / "eq.vdb"),
+         "--tile", str(t)], check=True)
+    return {"dir": d, "cliff": cliff, "flat": flat, "tile": t}
+
+
+def amplify(inputs, terrain, out, *extra):
+    return run([tool("vdb_amplify"), "--terrain", str(terrain), "--cell-size", "0.5",
+                "--height-scale", "10", "--tiles", str(inputs["tile"]), "--voxel-size", "0.2",
+                "-o", str(out), *extra])
+
+
+def test_cliff_gets_blocks_plateau_and_floor_stay_bare(inputs, tmp_path):
+    out = tmp_path / "cliff.vdb"
+    p = amplify(inputs, inputs["cliff"], out)
+    assert p.returncode == 0, p.stderr
+    assert "#R " in p.stderr
+    grids, _ = vdb.readAll(str(out))
+    g = {x.name: x for x in grids}
+    assert set(g) == {"surface", "block_id", "material"}
+    ids, mat = g["block_id"], g["material"]
+    dx = g["surface"].transform.voxelSize()[0]
+    count = 0
+    for it in ids.citerOnValues():
+        if it.value < 0:
+            continue
+        x = it.min[0] * dx
+        assert 14 - 3.5 < x < 18 + 3.5, x
+        count += 1
+    assert count > 500
+    assert {it.value for it in mat.citerOnValues()} == {0.0, -1.0}
+
+
+def test_flat_terrain_writes_the_bare_terrain(inputs, tmp_path):
+    out = tmp_path / "flat.vdb"
+    p = amplify(inputs, inputs["flat"], out)
+    assert p.returncode == 0, p.stderr
+    assert "no block qualifies" in p.stderr
+    grids, _ = vdb.readAll(str(out))
+    ids = [x for x in grids if x.name == "block_id"][0]
+    assert all(it.value == -1.0 for it in ids.citerOnValues())
+
+
+def test_bad_input(inputs, tmp_path):
+    out = tmp_path / "o.vdb"
+    one_line_error(run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--tiles",
+                        f"{inputs['tile']},{inputs['tile']}", "-o", str(out)]), 2, "exactly one tile")
+    one_line_error(run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--tiles",
+                        str(tmp_path / "none.tile"), "-o", str(out)]), 1, "none.tile")
+    bad = tmp_path / "bad.tile"
+    bad.write_text('{"format": "other"}')
+    one_line_error(run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--tiles",
+                        str(bad), "-o", str(out)]), 2, "tile file")
+    one_line_error(amplify(inputs, inputs["cliff"], out, "--distance-range", "1,0"), 2,
+                   "distance range")
+    one_line_error(amplify(inputs, inputs["cliff"], out, "--max-slope", "2"), 2, "max slope")
+    assert not out.exists()
