@@ -4,10 +4,15 @@
 #include <amplify/Amplify.h>
 #include <blocks/BlockTile.h>
 #include <core/Error.h>
+#include <core/Expression.h>
 #include <core/Heightfield.h>
 #include <core/VdbIO.h>
 
+#include <nlohmann/json.hpp>
+
+#include <cmath>
 #include <cstdio>
+#include <memory>
 
 using namespace rockvdb;
 
@@ -19,11 +24,13 @@ int main(int argc, char** argv)
         "than --fraction of its anchors lie within --distance-range of the terrain surface on "
         "ground steeper than --max-slope (|g.u_z| < max-slope). The kept copies are united with "
         "the terrain. Writes 'surface', 'block_id' (block index, -1 on bare terrain) and "
-        "'material' (tile index of the block, -1 on bare terrain). The heightfield convention "
-        "is vdb_heightfield's.");
+        "'material' (tile index of the block, -1 on bare terrain). With several tiles a strata "
+        "file chooses the tile by elevation (the material of sec. 5). The heightfield "
+        "convention is vdb_heightfield's.");
     CLI::App& app = tool.app();
-    std::string terrain;
+    std::string terrain, strataFile;
     std::vector<std::string> tiles;
+    bool mixedSizes = false;
     double cellSize = 1.0, heightScale = 1.0, baseDepth = 1.0;
     amplify::PlacementRules rules;
     std::vector<double> range{rules.distanceMin, rules.distanceMax};
@@ -34,8 +41,14 @@ int main(int argc, char** argv)
         ->capture_default_str();
     app.add_option("--base-depth", baseDepth, "Heightfield: floor depth below the lowest sample (m)")
         ->capture_default_str();
-    app.add_option("--tiles", tiles, "Block tile (.tile or vdb_blocks .vdb)")
-        ->delimiter(',')->required();
+    app.add_option("--tiles", tiles,
+                   "Block tiles (.tile or vdb_blocks .vdb), comma-separated; strata name them by "
+                   "file stem")->delimiter(',')->required();
+    app.add_option("--strata", strataFile,
+                   "Strata JSON: {\"normal\": [0,0,1], \"noise\": {\"amplitude\": 1, "
+                   "\"frequency\": 0.05}, \"layers\": [{\"tile\": \"equi\", \"top\": 12}, "
+                   "{\"tile\": \"tabular\"}]} (needed for several tiles)");
+    app.add_flag("--mixed-tile-sizes", mixedSizes, "Allow tiles of different sizes");
     app.add_option("--max-slope", rules.maxSlope, "epsilon: replicate where |g.u_z| < this")
         ->capture_default_str();
     app.add_option("--distance-range", range, "[va, vb]: anchor distance to the surface (m)")
@@ -51,11 +64,26 @@ int main(int argc, char** argv)
         rules.distanceMin = range[0];
         rules.distanceMax = range[1];
         rules.validate();
-        if (tiles.size() != 1) {
-            fail<ValueError>("amplify: give exactly one tile (", tiles.size(), " given); several "
-                             "tiles need a strata definition, not supported yet");
+        if (tiles.size() > 1 && strataFile.empty()) {
+            fail<ValueError>("amplify: ", tiles.size(), " tiles need --strata to say where each "
+                             "one goes");
         }
-        auto tile = std::make_shared<const blocks::BlockTile>(blocks::readTile(tiles[0]));
+        std::vector<std::shared_ptr<const blocks::BlockTile>> loaded;
+        std::vector<std::string> names;
+        for (const auto& t : tiles) {
+            loaded.push_back(std::make_shared<const blocks::BlockTile>(blocks::readTile(t)));
+            std::string stem = t.substr(t.find_last_of('/') + 1);
+            names.push_back(stem.substr(0, stem.find_last_of('.')));
+            if (!mixedSizes && loaded.back()->size() != loaded.front()->size()) {
+                fail<ValueError>("amplify: tile sizes differ (", loaded.front()->size(), " m and ",
+                                 loaded.back()->size(), " m); pass --mixed-tile-sizes to allow it");
+            }
+        }
+        std::unique_ptr<amplify::Strata> strata;
+        if (!strataFile.empty()) {
+            strata = std::make_unique<amplify::Strata>(
+                amplify::Strata::fromJson(readJsonFile(strataFile), names));
+        }
         auto hf = std::make_shared<Heightfield>(loadHeightfield(terrain, cellSize, heightScale));
         HeightfieldSettings hs;
         hs.baseDepth = baseDepth;
@@ -65,7 +93,7 @@ int main(int argc, char** argv)
         // vertical side walls are not terrain.
         rules.region = BBoxd(Vec3d(1.0, 1.0, -1e30), Vec3d(hf->width() - 1.0, hf->depth() - 1.0, 1e30));
         amplify::AmplifyStats stats;
-        auto field = amplify::amplifiedTerrain(ground, tile, rules, stats);
+        auto field = amplify::amplifiedTerrain(ground, loaded, rules, stats, strata.get());
         char line[256];
         std::snprintf(line, sizeof line, "#R %zu replicated blocks (%zu cells examined, presence "
                       "%.3f s); block fields %.2f MB", stats.replicated, stats.cells,
@@ -80,11 +108,15 @@ int main(int argc, char** argv)
         auto bar = tool.progress("baking");
         BakeResult r = bake(*field, settings, bar.get());
         bar->end();
-        // material: the tile index wherever a block claims the voxel.
+        // The bake's ids are tile·65536 + block: split them into block_id and material.
         auto material = r.attribute->deepCopy();
         material->setName("material");
-        for (auto it = material->beginValueOn(); it; ++it) {
-            if (it.getValue() >= 0) it.setValue(0.0f);
+        for (auto it = r.attribute->beginValueOn(); it; ++it) {
+            const float id = it.getValue();
+            if (id < 0) continue;
+            const float tileIndex = std::floor(id / amplify::kMaterialStride);
+            it.setValue(id - tileIndex * amplify::kMaterialStride);
+            material->tree().setValueOn(it.getCoord(), tileIndex);
         }
         std::snprintf(line, sizeof line, "bake: %zu active voxels, cull %.3f s, fill %.3f s",
                       r.stats.activeVoxels, r.stats.cullSeconds, r.stats.fillSeconds);

@@ -2,6 +2,9 @@
 
 #include <core/Combinators.h>
 #include <core/Error.h>
+#include <core/Noise.h>
+
+#include <nlohmann/json.hpp>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -55,10 +58,94 @@ void PlacementRules::validate() const
             "in [0, 1)", fraction);
 }
 
+double Strata::elevation(const Vec3d& p) const
+{
+    double e = normal.unit().dot(p);
+    if (noiseAmplitude > 0) {
+        noise::Fbm f;
+        f.frequency = noiseFrequency;
+        f.octaves = 3;
+        e += noiseAmplitude / f.amplitudeSum() *
+             noise::fbm3(noiseSeed, f, float(p[0]), float(p[1]), float(p[2]));
+    }
+    return e;
+}
+
+int Strata::tileAt(const Vec3d& p) const
+{
+    const double e = elevation(p);
+    size_t k = 0;
+    while (k < tops.size() && e >= tops[k]) ++k;
+    return tiles[k];
+}
+
+Strata Strata::fromJson(const nlohmann::json& j, const std::vector<std::string>& names)
+{
+    using nlohmann::json;
+    Strata st;
+    try {
+        if (!j.is_object()) fail<ValueError>("strata: expected an object with \"layers\"");
+        for (auto it = j.begin(); it != j.end(); ++it) {
+            if (it.key() != "normal" && it.key() != "noise" && it.key() != "layers") {
+                fail<ValueError>("strata: unknown key '", it.key(), "'");
+            }
+        }
+        if (j.contains("normal")) {
+            const auto& n = j.at("normal");
+            st.normal = Vec3d(n.at(0).get<double>(), n.at(1).get<double>(), n.at(2).get<double>());
+            require(st.normal.length() > 1e-9, "strata", "normal", "non-zero", "0");
+        }
+        if (j.contains("noise")) {
+            const auto& n = j.at("noise");
+            st.noiseAmplitude = n.value("amplitude", 0.0);
+            st.noiseFrequency = n.value("frequency", 0.05);
+            st.noiseSeed = n.value("seed", uint64_t(1));
+            require(std::isfinite(st.noiseAmplitude) && st.noiseAmplitude >= 0, "strata",
+                    "noise amplitude", ">= 0", st.noiseAmplitude);
+            require(std::isfinite(st.noiseFrequency) && st.noiseFrequency > 0, "strata",
+                    "noise frequency", "> 0", st.noiseFrequency);
+        }
+        const json& layers = j.at("layers");
+        if (!layers.is_array() || layers.empty()) fail<ValueError>("strata: \"layers\" must be a non-empty array");
+        for (size_t k = 0; k < layers.size(); ++k) {
+            const json& L = layers[k];
+            const json& t = L.at("tile");
+            int index = -1;
+            if (t.is_number_integer()) {
+                index = t.get<int>();
+            } else {
+                const std::string name = t.get<std::string>();
+                for (size_t i = 0; i < names.size(); ++i) if (names[i] == name) index = int(i);
+                if (index < 0) {
+                    std::string known;
+                    for (const auto& n : names) known += (known.empty() ? "" : ", ") + n;
+                    fail<ValueError>("strata: layer ", k, " names unknown tile '", name,
+                                     "' (tiles: ", known, ")");
+                }
+            }
+            if (index < 0 || index >= int(names.size())) {
+                fail<ValueError>("strata: layer ", k, " tile index ", index, " out of range");
+            }
+            st.tiles.push_back(index);
+            if (k + 1 < layers.size()) {
+                const double top = L.at("top").get<double>();
+                if (!st.tops.empty() && !(top > st.tops.back())) {
+                    fail<ValueError>("strata: layer tops must increase (layer ", k, ")");
+                }
+                st.tops.push_back(top);
+            }
+        }
+    } catch (const nlohmann::json::exception& e) {
+        fail<ValueError>("strata: malformed (", e.what(), ")");
+    }
+    return st;
+}
+
 std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
                                                         const BlockTile& tile,
                                                         const PlacementRules& rules,
-                                                        AmplifyStats& stats)
+                                                        AmplifyStats& stats,
+                                                        const Strata* strata, int tileIndex)
 {
     rules.validate();
     const auto t0 = std::chrono::steady_clock::now();
@@ -102,6 +189,7 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
                     for (size_t k = 0; k < n; ++k) {
                         const Vec3d w = Vec3d(anchors[k][0], anchors[k][1], anchors[k][2]) + shift;
                         if (!rules.region.isInside(w)) continue;
+                        if (strata && strata->tileAt(w) != tileIndex) continue;
                         const double d = terrain.eval(w);
                         if (d < rules.distanceMin || d > rules.distanceMax) continue;
                         const Vec3d g(terrain.eval(w + Vec3d(h, 0, 0)) - terrain.eval(w - Vec3d(h, 0, 0)),
@@ -140,14 +228,26 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
     return grid;
 }
 
-FieldPtr amplifiedTerrain(FieldPtr terrain, std::shared_ptr<const BlockTile> tile,
-                          const PlacementRules& rules, AmplifyStats& stats)
+FieldPtr amplifiedTerrain(FieldPtr terrain,
+                          const std::vector<std::shared_ptr<const BlockTile>>& tiles,
+                          const PlacementRules& rules, AmplifyStats& stats,
+                          const Strata* strata)
 {
-    if (!terrain || !tile) fail<ValueError>("amplify: terrain and tile are required");
-    blocks::TileFieldOptions o;
-    o.presence = computePresence(*terrain, *tile, rules, stats);
-    if (stats.replicated == 0) return terrain;
-    return csg(CsgOp::Union, {terrain, blocks::tileField(tile, o)});
+    if (!terrain) fail<ValueError>("amplify: the terrain is required");
+    if (tiles.empty()) fail<ValueError>("amplify: at least one tile is required");
+    if (tiles.size() > 255) fail<ValueError>("amplify: at most 255 tiles");
+    std::vector<FieldPtr> parts{terrain};
+    for (size_t i = 0; i < tiles.size(); ++i) {
+        if (!tiles[i]) fail<ValueError>("amplify: tile ", i, " is null");
+        if (!strata && i > 0) break; // without strata only the first tile is used
+        const size_t before = stats.replicated;
+        blocks::TileFieldOptions o;
+        o.presence = computePresence(*terrain, *tiles[i], rules, stats, strata, int(i));
+        o.idOffset = float(i) * kMaterialStride;
+        if (stats.replicated > before) parts.push_back(blocks::tileField(tiles[i], o));
+    }
+    if (parts.size() == 1) return terrain;
+    return csg(CsgOp::Union, parts);
 }
 
 } // namespace amplify

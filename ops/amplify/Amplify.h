@@ -10,7 +10,11 @@
 #include <blocks/BlockTile.h>
 #include <core/Field.h>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include <memory>
+#include <string>
+#include <vector>
 
 namespace rockvdb {
 namespace amplify {
@@ -29,6 +33,27 @@ struct PlacementRules
     void validate() const;
 };
 
+/// Strata (the material γ of §5): layers stacked along a (possibly tilted) normal, their
+/// boundaries optionally warped by noise; each layer names the tile its blocks come from.
+struct Strata
+{
+    Vec3d normal = Vec3d(0, 0, 1);
+    double noiseAmplitude = 0.0; ///< boundary warp (m)
+    double noiseFrequency = 0.05;
+    uint64_t noiseSeed = 1;
+    std::vector<double> tops;    ///< ascending layer tops; the last layer has none
+    std::vector<int> tiles;      ///< tile index per layer (tops.size() + 1 entries)
+
+    /// @brief Elevation e(p) = n·p + noise(p) used to find the layer.
+    double elevation(const Vec3d& p) const;
+    /// @brief The tile index of the layer holding p.
+    int tileAt(const Vec3d& p) const;
+    /// @brief {"normal": [..], "noise": {"amplitude", "frequency", "seed"}, "layers":
+    /// [{"tile": name, "top": z}, ..., {"tile": name}]}; tile names are the tiles' file stems
+    /// (or their 0-based index). ValueError for unknown tiles or unordered tops.
+    static Strata fromJson(const nlohmann::json& j, const std::vector<std::string>& tileNames);
+};
+
 struct AmplifyStats
 {
     size_t cells = 0;          ///< tile cells examined
@@ -38,15 +63,23 @@ struct AmplifyStats
 };
 
 /// @brief The set of present copies for one tile over a terrain (computed on construction).
+/// With @a strata, an anchor also needs the strata's tile at its position to be @a tileIndex.
 std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
                                                         const blocks::BlockTile& tile,
                                                         const PlacementRules& rules,
-                                                        AmplifyStats& stats);
+                                                        AmplifyStats& stats,
+                                                        const Strata* strata = nullptr,
+                                                        int tileIndex = 0);
 
-/// @brief f̃ = f ∪ t: the terrain united with the present block copies of @a tile. Attribute
-/// ids are block indices (terrain voxels: kNoId).
-FieldPtr amplifiedTerrain(FieldPtr terrain, std::shared_ptr<const blocks::BlockTile> tile,
-                          const PlacementRules& rules, AmplifyStats& stats);
+/// Attribute ids of the amplified terrain: tile·kMaterialStride + block (terrain: kNoId).
+constexpr float kMaterialStride = 65536.0f;
+
+/// @brief f̃ = f ∪ t: the terrain united with the present block copies of every tile (one
+/// tile, or several chosen per stratum). Attribute ids: see kMaterialStride.
+FieldPtr amplifiedTerrain(FieldPtr terrain,
+                          const std::vector<std::shared_ptr<const blocks::BlockTile>>& tiles,
+                          const PlacementRules& rules, AmplifyStats& stats,
+                          const Strata* strata = nullptr);
 
 } // namespace amplify
 } // namespace rockvdb

@@ -150,6 +150,7 @@ struct TileFieldOptions
     bool periodic = false;                   ///< the infinite periodic tiling t(p)
     std::array<int, 3> periods = {1, 1, 1};  ///< else: blocks whose home tile index < periods
     std::shared_ptr<const Presence> presence; ///< when set: the present copies only (§5)
+    float idOffset = 0.0f;                    ///< attribute id = block index + idOffset
 };
 
 /// @brief The tile as a Field: the union of its (warped) blocks, each a complete convex

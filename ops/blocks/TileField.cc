@@ -641,7 +641,7 @@ private:
             }
             mBlocks.eval(size_t(c.block), b.n, w.lx, w.ly, w.lz, lc, rho, w, v);
             if (id) {
-                const float bid = float(c.block);
+                const float bid = float(c.block) + mOpt.idOffset;
                 for (int i = 0; i < b.n; ++i) {
                     if (v[i] < out[i]) { out[i] = v[i]; id[i] = bid; }
                 }

@@ -8,6 +8,7 @@
 #include <core/VdbIO.h>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
 #include <cmath>
@@ -48,17 +49,27 @@ struct Scene
     amplify::AmplifyStats stats;
 };
 
-Scene scene(bool flat = false)
+Scene scene(bool flat = false, const amplify::Strata* strata = nullptr, double height = 10.0)
 {
     Scene s;
     auto hf = cliff(flat);
+    for (auto& z : hf->z) z = float(z * height / 10.0);
     HeightfieldSettings hs;
     hs.baseDepth = 2.0;
     hs.exactDistance = 1.5;
     s.terrain = heightfieldField(hf, hs);
     amplify::PlacementRules rules;
     rules.region = BBoxd(Vec3d(1, 1, -1e30), Vec3d(31, 31, 1e30));
-    s.amplified = amplify::amplifiedTerrain(s.terrain, smallTile(), rules, s.stats);
+    std::vector<std::shared_ptr<const blocks::BlockTile>> tiles{smallTile()};
+    if (strata) {
+        blocks::TileParams p;
+        p.type = blocks::BlockType::Tabular;
+        p.tileSize = 10;
+        p.pointRadius = 0.5;
+        p.seed = 4;
+        tiles.push_back(std::make_shared<const blocks::BlockTile>(blocks::generateTile(p)));
+    }
+    s.amplified = amplify::amplifiedTerrain(s.terrain, tiles, rules, s.stats, strata);
     return s;
 }
 
@@ -153,4 +164,35 @@ TEST(Amplify, FlatTerrainQualifiesNowhere)
     bad.distanceMin = 1;
     bad.distanceMax = 0;
     EXPECT_THROW(bad.validate(), ValueError);
+}
+
+TEST(Amplify, StrataChooseTheTileByElevationAlsoTilted)
+{
+    initialize();
+    // A 20 m cliff; tile 0 (equidimensional) below the boundary, tile 1 (tabular) above.
+    for (const Vec3d normal : {Vec3d(0, 0, 1), Vec3d(0, 0.4, 1)}) {
+        amplify::Strata st = amplify::Strata::fromJson(
+            nlohmann::json{{"normal", {normal[0], normal[1], normal[2]}},
+                           {"layers", {{{"tile", "equi"}, {"top", 10.0}}, {{"tile", "tab"}}}}},
+            {"equi", "tab"});
+        Scene s = scene(false, &st, 20.0);
+        auto r = bake(*s.amplified, settings());
+        size_t counts[2] = {0, 0};
+        for (auto it = r.attribute->cbeginValueOn(); it; ++it) {
+            if (*it < 0) continue;
+            const int tile = int(*it / amplify::kMaterialStride);
+            ASSERT_TRUE(tile == 0 || tile == 1);
+            ++counts[tile];
+            // A copy's anchors (its centroid among them) are on its own side; its voxels
+            // reach at most a block size (< 3.5 m) across the boundary.
+            const double e = st.elevation(r.attribute->indexToWorld(it.getCoord()));
+            if (tile == 0) ASSERT_LT(e, 10.0 + 3.5) << "tile A above the boundary";
+            else ASSERT_GT(e, 10.0 - 3.5) << "tile B below the boundary";
+        }
+        EXPECT_GT(counts[0], 2000u);
+        EXPECT_GT(counts[1], 2000u);
+    }
+    EXPECT_THROW(amplify::Strata::fromJson(nlohmann::json{{"layers", {{{"tile", "granite"}}}}},
+                                           {"equi", "tab"}),
+                 ValueError);
 }

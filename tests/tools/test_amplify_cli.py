@@ -1,5 +1,5 @@
-"""vdb_amplify (first increment: heightfield terrain, one tile, slope / distance / anchor
-rules): grids, the slope rule on a plateau-and-cliff, flat terrain, bad input."""
+"""vdb_amplify (heightfield terrains, one tile or several by strata; slope / distance /
+anchor rules): grids, the slope rule on a plateau-and-cliff, flat terrain, bad input."""
 import pyopenvdb as vdb
 import pytest
 
@@ -71,7 +71,19 @@ def test_flat_terrain_writes_the_bare_terrain(inputs, tmp_path):
 def test_bad_input(inputs, tmp_path):
     out = tmp_path / "o.vdb"
     one_line_error(run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--tiles",
-                        f"{inputs['tile']},{inputs['tile']}", "-o", str(out)]), 2, "exactly one tile")
+                        f"{inputs['tile']},{inputs['tile']}", "-o", str(out)]), 2, "need --strata")
+    strata = tmp_path / "strata.json"
+    strata.write_text('{"layers": [{"tile": "eq", "top": 5}, {"tile": "granite"}]}')
+    one_line_error(amplify(inputs, inputs["cliff"], out, "--strata", str(strata)), 2,
+                   "unknown tile 'granite'", "eq")
+    other = tmp_path / "other.tile"
+    run([tool("vdb_blocks"), "-q", "--tile-size", "12", "--point-radius", "0.6",
+         "--voxel-size", "0.5", "-o", str(tmp_path / "other.vdb"), "--tile", str(other)],
+        check=True)
+    strata.write_text('{"layers": [{"tile": "eq", "top": 5}, {"tile": "other"}]}')
+    one_line_error(run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--tiles",
+                        f"{inputs['tile']},{other}", "--strata", str(strata), "-o", str(out)]),
+                   2, "tile sizes differ", "--mixed-tile-sizes")
     one_line_error(run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--tiles",
                         str(tmp_path / "none.tile"), "-o", str(out)]), 1, "none.tile")
     bad = tmp_path / "bad.tile"
