@@ -91,6 +91,17 @@ int main(int argc, char** argv)
 
     return tool.run(argc, argv, [&] {
         const BakeSettings settings = tool.bake().settings();
+        {
+            // The tile field is exact up to s/4 from the blocks; a renormalised bake reads
+            // values up to about 2·band + a voxel + 2·amplitude. Refuse before generating.
+            const double need = (2.0 * settings.halfWidth * settings.voxelSize +
+                                 settings.voxelSize + 2.0 * p.relief.amplitude) * 1.01;
+            if (fromTile.empty() && need > p.tileSize / 4) {
+                fail<ValueError>("blocks: voxel size ", settings.voxelSize, " m is too coarse for a ",
+                                 p.tileSize, " m tile (the band needs ", need,
+                                 " m, the tile field is exact to tile size / 4)");
+            }
+        }
         if (!tileOut.empty()) requireWritable(tileOut);
         if (!meshes.empty()) requireWritable(meshes);
         std::shared_ptr<BlockTile> tile;

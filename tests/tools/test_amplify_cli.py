@@ -78,7 +78,7 @@ def test_bad_input(inputs, tmp_path):
                    "unknown tile 'granite'", "eq")
     other = tmp_path / "other.tile"
     run([tool("vdb_blocks"), "-q", "--tile-size", "12", "--point-radius", "0.6",
-         "--voxel-size", "0.5", "-o", str(tmp_path / "other.vdb"), "--tile", str(other)],
+         "--voxel-size", "0.25", "-o", str(tmp_path / "other.vdb"), "--tile", str(other)],
         check=True)
     strata.write_text('{"layers": [{"tile": "eq", "top": 5}, {"tile": "other"}]}')
     one_line_error(run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--tiles",

@@ -125,6 +125,8 @@ def test_bad_input(tmp_path):
     one_line_error(run([tool("vdb_blocks"), "--tile-size", "10", "--point-radius", "6", "-o",
                         str(out)]), 2, "point radius must be in (0, tile size / 2) (got 6)")
     one_line_error(run(base + ["--neighbour-radius", "0.3"]), 2, "neighbour radius")
+    one_line_error(run([tool("vdb_blocks"), "--tile-size", "10", "--voxel-size", "0.5", "-o",
+                        str(out)]), 2, "too coarse")
     one_line_error(run(base + ["--disc-radius", "2,1"]), 2, "disc radius (max)")
     one_line_error(run(base + ["--disc-radius", "-1,2"]), 2, "disc radius (min)")
     bad = tmp_path / "f.json"
