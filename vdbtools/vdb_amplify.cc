@@ -5,6 +5,7 @@
 #include <blocks/BlockTile.h>
 #include <core/Error.h>
 #include <core/Expression.h>
+#include <core/GridField.h>
 #include <core/Heightfield.h>
 #include <core/VdbIO.h>
 
@@ -34,7 +35,11 @@ int main(int argc, char** argv)
     double cellSize = 1.0, heightScale = 1.0, baseDepth = 1.0;
     amplify::PlacementRules rules;
     std::vector<double> range{rules.distanceMin, rules.distanceMax};
-    app.add_option("--terrain", terrain, "Heightfield .exr / 16-bit .png")->required();
+    app.add_option("--terrain", terrain,
+                   "Heightfield .exr / 16-bit .png, or a terrain level set .vdb")->required();
+    std::string terrainGrid = "surface";
+    app.add_option("--terrain-grid", terrainGrid, "Level-set grid name in a .vdb terrain")
+        ->capture_default_str();
     app.add_option("--cell-size", cellSize, "Heightfield: distance between pixel centres (m)")
         ->capture_default_str();
     app.add_option("--height-scale", heightScale, "Heightfield: metres per image unit")
@@ -84,14 +89,24 @@ int main(int argc, char** argv)
             strata = std::make_unique<amplify::Strata>(
                 amplify::Strata::fromJson(readJsonFile(strataFile), names));
         }
-        auto hf = std::make_shared<Heightfield>(loadHeightfield(terrain, cellSize, heightScale));
-        HeightfieldSettings hs;
-        hs.baseDepth = baseDepth;
-        hs.exactDistance = std::max(1.0, std::max(std::abs(rules.distanceMin), std::abs(rules.distanceMax)) + 0.5);
-        auto ground = heightfieldField(hf, hs);
-        // Anchors must stand over the footprint (1 m in from its edge): the closed solid's
-        // vertical side walls are not terrain.
-        rules.region = BBoxd(Vec3d(1.0, 1.0, -1e30), Vec3d(hf->width() - 1.0, hf->depth() - 1.0, 1e30));
+        const double exact =
+            std::max(1.0, std::max(std::abs(rules.distanceMin), std::abs(rules.distanceMax)) + 0.5);
+        FieldPtr ground;
+        const bool isVdb = terrain.size() > 4 && terrain.substr(terrain.size() - 4) == ".vdb";
+        if (isVdb) {
+            // A 3D terrain level set (overhangs, arches): its band widened to the rules' reach.
+            ground = levelSetField(readLevelSet(terrain, terrainGrid), exact);
+        } else {
+            auto hf = std::make_shared<Heightfield>(loadHeightfield(terrain, cellSize, heightScale));
+            HeightfieldSettings hs;
+            hs.baseDepth = baseDepth;
+            hs.exactDistance = exact;
+            ground = heightfieldField(hf, hs);
+            // Anchors must stand over the footprint (1 m in from its edge): the closed
+            // solid's vertical side walls are not terrain.
+            rules.region = BBoxd(Vec3d(1.0, 1.0, -1e30),
+                                 Vec3d(hf->width() - 1.0, hf->depth() - 1.0, 1e30));
+        }
         amplify::AmplifyStats stats;
         auto field = amplify::amplifiedTerrain(ground, loaded, rules, stats, strata.get());
         char line[256];

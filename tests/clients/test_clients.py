@@ -36,8 +36,23 @@ def blocks(tmp_path_factory):
     return out
 
 
-def every_output(tmp_path, scene, heightfield_png, blocks):
-    files = [scene, blocks]
+@pytest.fixture(scope="module")
+def amplified(tmp_path_factory, blocks):
+    """vdb_amplify on a ramp heightfield steep enough to qualify (surface, block_id, material)."""
+    from conftest import write_png16
+    d = tmp_path_factory.mktemp("amplified")
+    png = d / "ramp.png"
+    write_png16(png, [[round(65535 * min(1.0, max(0.0, (i - 10) / 12))) for i in range(33)]
+                      for _ in range(33)])
+    out = d / "amp.vdb"
+    run([tool("vdb_amplify"), "-q", "--terrain", str(png), "--cell-size", "0.25",
+         "--height-scale", "6", "--tiles", str(blocks), "--voxel-size", "0.05",
+         "--distance-range=-0.5,0.5", "-o", str(out)], check=True)
+    return out
+
+
+def every_output(tmp_path, scene, heightfield_png, blocks, amplified=None):
+    files = [scene, blocks] + ([amplified] if amplified else [])
     h = tmp_path / "hf.vdb"
     run([tool("vdb_heightfield"), "-q", str(heightfield_png), "--cell-size", "0.1",
          "--voxel-size", "0.05", "-o", str(h)], check=True)
@@ -46,9 +61,9 @@ def every_output(tmp_path, scene, heightfield_png, blocks):
     return files + [h, c]
 
 
-def test_pyopenvdb_reads_every_file(tmp_path, scene, heightfield_png, blocks):
+def test_pyopenvdb_reads_every_file(tmp_path, scene, heightfield_png, blocks, amplified):
     import pyopenvdb as vdb
-    for f in every_output(tmp_path, scene, heightfield_png, blocks):
+    for f in every_output(tmp_path, scene, heightfield_png, blocks, amplified):
         grids, meta = vdb.readAll(str(f))
         names = [g.name for g in grids]
         assert "surface" in names
@@ -57,6 +72,10 @@ def test_pyopenvdb_reads_every_file(tmp_path, scene, heightfield_png, blocks):
         assert s.background == pytest.approx(3 * 0.05)
         assert s["rockvdb:generator"].startswith("vdb_")
         json.loads(s["rockvdb:params"])
+    grids, _ = vdb.readAll(str(amplified))
+    assert {g.name for g in grids} == {"surface", "block_id", "material"}
+    amp_ids = [g for g in grids if g.name == "block_id"][0]
+    assert any(it.value >= 0 for it in amp_ids.citerOnValues()), "no replicated block"
     grids, _ = vdb.readAll(str(scene))
     ids = [g for g in grids if g.name == "block_id"][0]
     assert ids.activeVoxelCount() == [g for g in grids if g.name == "surface"][0].activeVoxelCount()
@@ -88,10 +107,10 @@ def test_vdb_render_renders(scene, tmp_path):
 
 
 @pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
-@pytest.mark.parametrize("which", ["scene", "blocks"])
-def test_blender_imports_and_meshes_surface(which, scene, blocks, tmp_path):
+@pytest.mark.parametrize("which", ["scene", "blocks", "amplified"])
+def test_blender_imports_and_meshes_surface(which, scene, blocks, amplified, tmp_path):
     import pyopenvdb as vdb
-    scene = scene if which == "scene" else blocks
+    scene = {"scene": scene, "blocks": blocks, "amplified": amplified}[which]
     report = tmp_path / "blender.json"
     p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
                         os.path.join(HERE, "blender_mesh.py"), "--", str(scene), str(report)],

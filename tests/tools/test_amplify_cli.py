@@ -94,3 +94,25 @@ def test_bad_input(inputs, tmp_path):
                    "distance range")
     one_line_error(amplify(inputs, inputs["cliff"], out, "--max-slope", "2"), 2, "max slope")
     assert not out.exists()
+
+
+def test_level_set_terrain_and_union_property(inputs, tmp_path):
+    """A 3D terrain level set (.vdb) in; every voxel inside the terrain stays inside."""
+    ground = tmp_path / "ground.vdb"
+    run([tool("vdb_heightfield"), "-q", str(inputs["cliff"]), "--cell-size", "0.5",
+         "--height-scale", "10", "--voxel-size", "0.2", "-o", str(ground)], check=True)
+    out = tmp_path / "amp.vdb"
+    p = run([tool("vdb_amplify"), "--terrain", str(ground), "--tiles", str(inputs["tile"]),
+             "--voxel-size", "0.2", "-o", str(out)])
+    assert p.returncode == 0, p.stderr
+    r = int(p.stderr.split("#R ")[1].split()[0])
+    assert r > 10
+    t = vdb.read(str(ground), "surface")
+    a = vdb.read(str(out), "surface")
+    acc = a.getConstAccessor()
+    inside = 0
+    for it in t.citerOnValues():
+        if it.count == 1 and it.value < 0:
+            assert acc.getValue(it.min) < 0, it.min
+            inside += 1
+    assert inside > 1000
