@@ -18,7 +18,7 @@ from ._rockvdb import (Field, __version__, box, capsule, csg, expression, height
                        plane, polytope, preview, provenance, read, sphere, write,
                        write_heightfield)
 
-__all__ = ["BlockTile", "Field", "block_tile", "box", "capsule", "csg", "expression",
+__all__ = ["BlockTile", "Field", "amplify", "block_tile", "box", "capsule", "csg", "expression",
            "heightfield", "load_tile", "mesh", "plane", "polytope", "preview", "provenance",
            "read", "sphere", "write", "write_heightfield", "__version__"]
 
@@ -89,3 +89,34 @@ def block_tile(type="equidimensional", seed=1, voxel_size=0.05, periods=(1, 1, 1
 def load_tile(path):
     """Read a tile file (.tile) or a vdb_blocks .vdb; returns an unbaked BlockTile."""
     return BlockTile(_rockvdb.load_tile(str(path)))
+
+
+
+def amplify(terrain, tiles, strata=None, max_slope=0.5, distance_range=(-1.0, 0.5), anchors=8,
+            fraction=0.5, voxel_size=0.1, half_width=3.0, region=None, cell_size=1.0,
+            height_scale=1.0, base_depth=1.0):
+    """Amplify a terrain with block tiles (implicit-blocks §5).
+
+    terrain: a pyopenvdb.FloatGrid level set, or a heightfield image path (cell_size,
+    height_scale, base_depth apply). tiles: BlockTile objects or tile paths (.tile / .vdb);
+    strata: a dict (see vdb_amplify --strata) naming tiles by file stem or index, required
+    for several tiles. Returns (surface, block_id, material) pyopenvdb grids."""
+    import os
+    loaded, names = [], []
+    for i, t in enumerate(tiles):
+        if isinstance(t, BlockTile):
+            loaded.append(t._tile)
+            names.append(str(i))
+        else:
+            loaded.append(_rockvdb.load_tile(str(t)))
+            names.append(os.path.splitext(os.path.basename(str(t)))[0])
+    strata_json = _json.dumps(strata) if strata is not None else ""
+    common = (loaded, names, strata_json, float(max_slope), list(distance_range), int(anchors),
+              float(fraction), float(voxel_size), float(half_width),
+              list(region) if region is not None else None)
+    if terrain is None:
+        raise TypeError("amplify(): terrain must be a pyopenvdb.FloatGrid or a heightfield path")
+    if isinstance(terrain, (str, os.PathLike)):
+        return _rockvdb.amplify_heightfield(str(terrain), float(cell_size), float(height_scale),
+                                            float(base_depth), *common)
+    return _rockvdb.amplify_grid(terrain, *common)

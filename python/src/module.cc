@@ -2,7 +2,9 @@
 // pyopenvdb.FloatGrid objects, CSG, heightfields and I/O helpers.
 #include "GridCaster.h"
 
+#include <amplify/Amplify.h>
 #include <blocks/BlockTile.h>
+#include <core/GridField.h>
 #include <core/Bake.h>
 #include <core/Combinators.h>
 #include <core/Error.h>
@@ -114,6 +116,70 @@ py::tuple bakeTile(const PyTile& t, double voxelSize, double halfWidth,
     return py::make_tuple(py::cast(r.surface), py::cast(r.attribute));
 }
 
+py::tuple amplifyTerrain(FieldPtr ground, const std::vector<PyTile>& tiles,
+                         const std::vector<std::string>& names, const std::string& strataJson,
+                         amplify::PlacementRules rules, double voxelSize, double halfWidth,
+                         std::optional<std::array<double, 6>> region, const json& provenanceParams)
+{
+    std::vector<std::shared_ptr<const blocks::BlockTile>> list;
+    for (const auto& t : tiles) list.push_back(t.tile);
+    std::unique_ptr<amplify::Strata> strata;
+    if (!strataJson.empty()) {
+        const json j = json::parse(strataJson, nullptr, false);
+        if (j.is_discarded()) throw ValueError("amplify: strata are not JSON");
+        strata = std::make_unique<amplify::Strata>(amplify::Strata::fromJson(j, names));
+    } else if (list.size() > 1) {
+        throw ValueError("amplify: several tiles need strata to say where each one goes");
+    }
+    BakeSettings s;
+    s.voxelSize = voxelSize;
+    s.halfWidth = halfWidth;
+    s.withAttribute = true;
+    s.attributeName = "block_id";
+    if (region) {
+        const auto& r = *region;
+        s.region = BBoxd(Vec3d(r[0], r[1], r[2]), Vec3d(r[3], r[4], r[5]));
+    }
+    amplify::AmplifyStats stats;
+    BakeResult r;
+    openvdb::FloatGrid::Ptr material;
+    {
+        py::gil_scoped_release release;
+        auto field = amplify::amplifiedTerrain(ground, list, rules, stats, strata.get());
+        r = bake(*field, s);
+        material = r.attribute->deepCopy();
+        material->setName("material");
+        for (auto it = r.attribute->beginValueOn(); it; ++it) {
+            const float id = it.getValue();
+            if (id < 0) continue;
+            const float t = std::floor(id / amplify::kMaterialStride);
+            it.setValue(id - t * amplify::kMaterialStride);
+            material->tree().setValueOn(it.getCoord(), t);
+        }
+    }
+    json p = provenanceParams;
+    p["voxel_size"] = voxelSize;
+    p["half_width"] = halfWidth;
+    p["replicated"] = stats.replicated;
+    for (const auto& g : {r.surface, r.attribute, material}) {
+        stampProvenance(*g, "rockvdb.amplify", p.dump());
+    }
+    return py::make_tuple(py::cast(r.surface), py::cast(r.attribute), py::cast(material));
+}
+
+amplify::PlacementRules makeRules(double maxSlope, const std::array<double, 2>& range, int anchors,
+                                  double fraction)
+{
+    amplify::PlacementRules rules;
+    rules.maxSlope = maxSlope;
+    rules.distanceMin = range[0];
+    rules.distanceMax = range[1];
+    rules.anchors = anchors;
+    rules.fraction = fraction;
+    rules.validate();
+    return rules;
+}
+
 } // namespace
 
 PYBIND11_MODULE(_rockvdb, m)
@@ -216,6 +282,37 @@ PYBIND11_MODULE(_rockvdb, m)
     m.def("load_tile", [](const std::string& path) {
         return PyTile{std::make_shared<const blocks::BlockTile>(blocks::readTile(path))};
     }, py::arg("path"), "Read a .tile file or a vdb_blocks .vdb");
+
+    m.def("amplify_grid", [](Grid terrain, const std::vector<PyTile>& tiles,
+                             const std::vector<std::string>& names, const std::string& strata,
+                             double maxSlope, const std::array<double, 2>& range, int anchors,
+                             double fraction, double voxelSize, double halfWidth,
+                             std::optional<std::array<double, 6>> region) {
+        auto rules = makeRules(maxSlope, range, anchors, fraction);
+        const double exact = std::max(1.0, std::max(std::abs(range[0]), std::abs(range[1])) + 0.5);
+        return amplifyTerrain(levelSetField(terrain, exact), tiles, names, strata, rules,
+                              voxelSize, halfWidth, region,
+                              {{"terrain", "level set"}, {"names", names}, {"strata", strata},
+                               {"max_slope", maxSlope}, {"distance_range", range}});
+    });
+    m.def("amplify_heightfield", [](const std::string& path, double cellSize, double heightScale,
+                                    double baseDepth, const std::vector<PyTile>& tiles,
+                                    const std::vector<std::string>& names, const std::string& strata,
+                                    double maxSlope, const std::array<double, 2>& range, int anchors,
+                                    double fraction, double voxelSize, double halfWidth,
+                                    std::optional<std::array<double, 6>> region) {
+        auto rules = makeRules(maxSlope, range, anchors, fraction);
+        auto hf = std::make_shared<Heightfield>(loadHeightfield(path, cellSize, heightScale));
+        HeightfieldSettings hs;
+        hs.baseDepth = baseDepth;
+        hs.exactDistance = std::max(1.0, std::max(std::abs(range[0]), std::abs(range[1])) + 0.5);
+        rules.region = BBoxd(Vec3d(1.0, 1.0, -1e30), Vec3d(hf->width() - 1.0, hf->depth() - 1.0, 1e30));
+        return amplifyTerrain(heightfieldField(hf, hs), tiles, names, strata, rules, voxelSize,
+                              halfWidth, region,
+                              {{"terrain", path}, {"cell_size", cellSize}, {"height_scale", heightScale},
+                               {"names", names}, {"strata", strata}, {"max_slope", maxSlope},
+                               {"distance_range", range}});
+    });
 
     m.def("sphere", [](double radius, const V3& c) {
         return build({{"type", "sphere"}, {"radius", radius}, {"center", j3(c)}});

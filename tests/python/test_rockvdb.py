@@ -239,3 +239,31 @@ def test_block_tile_errors_are_exceptions(tmp_path):
     (tmp_path / "bad.tile").write_text("{}")
     with pytest.raises(ValueError, match="tile file"):
         rockvdb.load_tile(tmp_path / "bad.tile")
+
+
+def test_amplify_grids_in_and_out(tmp_path):
+    """pyopenvdb terrain grid in, (surface, block_id, material) out; strata by tile index."""
+    # A ramp terrain: flat, a 60° slope, flat (heightfield written to disk, baked to a grid).
+    png = tmp_path / "ramp.png"
+    from conftest import write_png16
+    write_png16(png, [[round(65535 * min(1.0, max(0.0, (i - 20) / 12))) for i in range(65)]
+                      for _ in range(65)])
+    ground = rockvdb.heightfield(str(png), cell_size=0.25, height_scale=5.0, voxel_size=0.1)
+    eq = rockvdb.block_tile(type="equidimensional", seed=3, bake=False, **SMALL_TILE)
+    tab = rockvdb.block_tile(type="tabular", seed=4, bake=False, **SMALL_TILE)
+    strata = {"layers": [{"tile": 0, "top": 2.5}, {"tile": 1}]}
+    s, ids, mat = rockvdb.amplify(ground, [eq, tab], strata=strata, voxel_size=0.1)
+    assert s.gridClass == vdb.GridClass.LEVEL_SET and ids.name == "block_id"
+    assert mat.name == "material"
+    assert s.activeVoxelCount() == ids.activeVoxelCount() == mat.activeVoxelCount()
+    mats = {it.value for it in mat.citerOnValues()}
+    assert mats == {-1.0, 0.0, 1.0}
+    # The same from the heightfield path; bad input raises.
+    s2, _, _ = rockvdb.amplify(str(png), [eq], cell_size=0.25, height_scale=5.0, voxel_size=0.1)
+    assert s2.activeVoxelCount() > 0
+    with pytest.raises(ValueError, match="strata"):
+        rockvdb.amplify(ground, [eq, tab], voxel_size=0.1)
+    with pytest.raises(ValueError, match="unknown tile"):
+        rockvdb.amplify(ground, [eq, tab], strata={"layers": [{"tile": "granite"}]})
+    with pytest.raises(TypeError):
+        rockvdb.amplify(None, [eq])
