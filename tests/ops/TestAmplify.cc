@@ -3,6 +3,7 @@
 #include <amplify/Amplify.h>
 #include <blocks/BlockTile.h>
 #include <core/Bake.h>
+#include <core/Combinators.h>
 #include <core/Error.h>
 #include <core/Heightfield.h>
 #include <core/VdbIO.h>
@@ -15,6 +16,7 @@
 #include <cstring>
 
 using namespace rockvdb;
+using rockvdb::blocks::Block;
 
 namespace {
 
@@ -195,4 +197,67 @@ TEST(Amplify, StrataChooseTheTileByElevationAlsoTilted)
     EXPECT_THROW(amplify::Strata::fromJson(nlohmann::json{{"layers", {{{"tile", "granite"}}}}},
                                            {"equi", "tab"}),
                  ValueError);
+}
+
+TEST(Amplify, ABlockStraddlingACellFaceIsComplete)
+{
+    // A present copy whose block reaches past a face of its cell, into open air: every voxel
+    // inside the lone block (translated by its cell), outside the terrain and beyond the cell
+    // face, is inside the amplified terrain — no flat cut at the cell face.
+    initialize();
+    auto hf = cliff();
+    HeightfieldSettings hs;
+    hs.baseDepth = 2.0;
+    hs.exactDistance = 1.5;
+    auto terrain = heightfieldField(hf, hs);
+    // Tabular blocks are long: some reach well past their cell's faces.
+    blocks::TileParams tp;
+    tp.type = blocks::BlockType::Tabular;
+    tp.tileSize = 10;
+    tp.pointRadius = 0.5;
+    tp.seed = 4;
+    auto tile = std::make_shared<const blocks::BlockTile>(blocks::generateTile(tp));
+    amplify::PlacementRules rules;
+    rules.distanceMin = -2.0;
+    rules.region = BBoxd(Vec3d(1, 1, -1e30), Vec3d(31, 31, 1e30));
+    amplify::AmplifyStats stats;
+    auto presence = amplify::computePresence(*terrain, *tile, rules, stats);
+    const double s = tile->size();
+    BakeSettings b = settings();
+    b.withAttribute = false;
+    std::vector<openvdb::Coord> probe;
+    for (int ix = 0; ix <= 3 && probe.empty(); ++ix)
+        for (int iy = 0; iy <= 3 && probe.empty(); ++iy)
+            for (int iz = -1; iz <= 2 && probe.empty(); ++iz)
+                for (size_t j = 0; j < tile->blocks.size() && probe.empty(); ++j) {
+                    if (!presence->present(int(j), ix, iy, iz)) continue;
+                    const Vec3d shift = Vec3d(ix, iy, iz) * s;
+                    const Block& B = tile->blocks[j];
+                    BakeSettings r = b;
+                    r.region = BBoxd(Vec3d(B.boundsMin[0], B.boundsMin[1], B.boundsMin[2]) + shift - Vec3d(0.5),
+                                     Vec3d(B.boundsMax[0], B.boundsMax[1], B.boundsMax[2]) + shift + Vec3d(0.5));
+                    auto alone = transform(blocks::blockField(tile, j), makeTransform(shift, Vec3d(0), Vec3d(1)));
+                    auto g = bake(*alone, r).surface;
+                    std::vector<openvdb::Coord> outside;
+                    for (auto it = g->cbeginValueOn(); it; ++it) {
+                        if (*it > -0.1f) continue;
+                        const Vec3d w = g->indexToWorld(it.getCoord());
+                        bool beyond = false;
+                        for (int a = 0; a < 3; ++a) {
+                            beyond = beyond || w[a] < shift[a] || w[a] >= shift[a] + s;
+                        }
+                        if (beyond && terrain->eval(w) > 0.05f) outside.push_back(it.getCoord());
+                    }
+                    if (outside.size() >= 30) probe = outside;
+                }
+    ASSERT_FALSE(probe.empty()) << "no block reaches past its cell into open air";
+    blocks::TileFieldOptions o;
+    o.presence = presence;
+    auto amplified = csg(CsgOp::Union, {terrain, blocks::tileField(tile, o)});
+    // Baked whole: a region-clipped bake cannot flood-fill inside tiles that touch its box.
+    auto h = bake(*amplified, b).surface;
+    auto acc = h->getConstAccessor();
+    for (const auto& ijk : probe) {
+        ASSERT_LT(acc.getValue(ijk), 0.0f) << "cut at " << h->indexToWorld(ijk);
+    }
 }
