@@ -123,16 +123,7 @@ int main(int argc, char** argv)
         auto bar = tool.progress("baking");
         BakeResult r = bake(*field, settings, bar.get());
         bar->end();
-        // The bake's ids are tile·65536 + block: split them into block_id and material.
-        auto material = r.attribute->deepCopy();
-        material->setName("material");
-        for (auto it = r.attribute->beginValueOn(); it; ++it) {
-            const float id = it.getValue();
-            if (id < 0) continue;
-            const float tileIndex = std::floor(id / amplify::kMaterialStride);
-            it.setValue(id - tileIndex * amplify::kMaterialStride);
-            material->tree().setValueOn(it.getCoord(), tileIndex);
-        }
+        auto material = amplify::splitMaterial(*r.attribute);
         std::snprintf(line, sizeof line, "bake: %zu active voxels, cull %.3f s, fill %.3f s",
                       r.stats.activeVoxels, r.stats.cullSeconds, r.stats.fillSeconds);
         tool.info(line);

@@ -228,6 +228,20 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
     return grid;
 }
 
+openvdb::FloatGrid::Ptr splitMaterial(openvdb::FloatGrid& ids)
+{
+    auto material = ids.deepCopy();
+    material->setName("material");
+    for (auto it = ids.beginValueOn(); it; ++it) {
+        const float id = it.getValue();
+        if (id < 0) continue;
+        const float tile = std::floor(id / kMaterialStride);
+        it.setValue(id - tile * kMaterialStride);
+        material->tree().setValueOn(it.getCoord(), tile);
+    }
+    return material;
+}
+
 FieldPtr amplifiedTerrain(FieldPtr terrain,
                           const std::vector<std::shared_ptr<const BlockTile>>& tiles,
                           const PlacementRules& rules, AmplifyStats& stats,

@@ -10,6 +10,8 @@
 #include <blocks/BlockTile.h>
 #include <core/Field.h>
 
+#include <openvdb/openvdb.h>
+
 #include <nlohmann/json_fwd.hpp>
 
 #include <memory>
@@ -73,6 +75,10 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
 
 /// Attribute ids of the amplified terrain: tile·kMaterialStride + block (terrain: kNoId).
 constexpr float kMaterialStride = 65536.0f;
+
+/// @brief Split a bake's ids (tile·kMaterialStride + block) in place into block indices and
+/// return the matching "material" grid (tile index; kNoId on bare terrain).
+openvdb::FloatGrid::Ptr splitMaterial(openvdb::FloatGrid& ids);
 
 /// @brief f̃ = f ∪ t: the terrain united with the present block copies of every tile (one
 /// tile, or several chosen per stratum). Attribute ids: see kMaterialStride.

@@ -147,15 +147,7 @@ py::tuple amplifyTerrain(FieldPtr ground, const std::vector<PyTile>& tiles,
         py::gil_scoped_release release;
         auto field = amplify::amplifiedTerrain(ground, list, rules, stats, strata.get());
         r = bake(*field, s);
-        material = r.attribute->deepCopy();
-        material->setName("material");
-        for (auto it = r.attribute->beginValueOn(); it; ++it) {
-            const float id = it.getValue();
-            if (id < 0) continue;
-            const float t = std::floor(id / amplify::kMaterialStride);
-            it.setValue(id - t * amplify::kMaterialStride);
-            material->tree().setValueOn(it.getCoord(), t);
-        }
+        material = amplify::splitMaterial(*r.attribute);
     }
     json p = provenanceParams;
     p["voxel_size"] = voxelSize;
