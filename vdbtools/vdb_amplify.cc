@@ -54,6 +54,11 @@ int main(int argc, char** argv)
                    "\"frequency\": 0.05}, \"layers\": [{\"tile\": \"equi\", \"top\": 12}, "
                    "{\"tile\": \"tabular\"}]} (needed for several tiles)");
     app.add_flag("--mixed-tile-sizes", mixedSizes, "Allow tiles of different sizes");
+    double carve = 0.0;
+    app.add_option("--carve", carve,
+                   "Carving variant: blocks replace the terrain's skin where present, the terrain "
+                   "cut back to the blocks dilated by this gap (m; 0 = plain union)")
+        ->capture_default_str();
     app.add_option("--max-slope", rules.maxSlope, "epsilon: replicate where |g.u_z| < this")
         ->capture_default_str();
     app.add_option("--distance-range", range, "[va, vb]: anchor distance to the surface (m)")
@@ -108,7 +113,9 @@ int main(int argc, char** argv)
                                  Vec3d(hf->width() - 1.0, hf->depth() - 1.0, 1e30));
         }
         amplify::AmplifyStats stats;
-        auto field = amplify::amplifiedTerrain(ground, loaded, rules, stats, strata.get());
+        require(std::isfinite(carve) && carve >= 0 && carve < 10, "amplify", "carve gap",
+                "in [0, 10) m", carve);
+        auto field = amplify::amplifiedTerrain(ground, loaded, rules, stats, strata.get(), carve);
         char line[256];
         std::snprintf(line, sizeof line, "#R %zu replicated blocks (%zu cells examined, presence "
                       "%.3f s); block fields %.2f MB", stats.replicated, stats.cells,

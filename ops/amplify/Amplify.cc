@@ -9,6 +9,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -41,6 +42,47 @@ public:
         return it != cells.end() && it->second[size_t(block)] != 0;
     }
     BBoxd bounds() const override { return any ? box : BBoxd(Vec3d(0), Vec3d(-1)); }
+};
+
+// f̃ = min(t, max(f, gap - t)): blocks replace the terrain's skin (the carving variant).
+class Carved final : public Field
+{
+public:
+    Carved(FieldPtr terrain, FieldPtr blocks, float gap)
+        : mF(std::move(terrain)), mT(std::move(blocks)), mGap(gap) {}
+
+    void evalBatch(const Batch& b, float* out) const override { eval(b, out, nullptr); }
+    void evalIdBatch(const Batch& b, float* out, float* id) const override { eval(b, out, id); }
+    BBoxd bounds() const override
+    {
+        BBoxd bb = mF->bounds();
+        bb.expand(mT->bounds());
+        return bb;
+    }
+    // min and max of ω-continuous functions are ω-continuous.
+    double modulus(double r) const override { return std::max(mF->modulus(r), mT->modulus(r)); }
+    double lipschitz() const override { return std::max(mF->lipschitz(), mT->lipschitz()); }
+    bool exact() const override { return false; }
+
+private:
+    void eval(const Batch& b, float* out, float* id) const
+    {
+        alignas(64) float f[kMaxBatch], t[kMaxBatch];
+        // The blocks are needed exactly where gap - t may exceed f: widen their band by the gap.
+        Batch wide = b;
+        wide.band = b.band + mGap;
+        if (id) mT->evalIdBatch(wide, t, id);
+        else mT->evalBatch(wide, t);
+        mF->evalBatch(b, f);
+        for (int i = 0; i < b.n; ++i) {
+            const float carved = std::max(f[i], mGap - t[i]);
+            if (id && !(t[i] < carved)) id[i] = kNoId;
+            out[i] = std::min(t[i], carved);
+        }
+    }
+
+    FieldPtr mF, mT;
+    float mGap;
 };
 
 } // namespace
@@ -245,7 +287,7 @@ openvdb::FloatGrid::Ptr splitMaterial(openvdb::FloatGrid& ids)
 FieldPtr amplifiedTerrain(FieldPtr terrain,
                           const std::vector<std::shared_ptr<const BlockTile>>& tiles,
                           const PlacementRules& rules, AmplifyStats& stats,
-                          const Strata* strata)
+                          const Strata* strata, double carveGap)
 {
     if (!terrain) fail<ValueError>("amplify: the terrain is required");
     if (tiles.empty()) fail<ValueError>("amplify: at least one tile is required");
@@ -261,6 +303,13 @@ FieldPtr amplifiedTerrain(FieldPtr terrain,
         if (stats.replicated > before) parts.push_back(blocks::tileField(tiles[i], o));
     }
     if (parts.size() == 1) return terrain;
+    if (carveGap > 0) {
+        require(std::isfinite(carveGap) && carveGap < 10, "amplify", "carve gap", "in (0, 10) m",
+                carveGap);
+        FieldPtr t = parts.size() == 2 ? parts[1]
+                                       : csg(CsgOp::Union, std::vector<FieldPtr>(parts.begin() + 1, parts.end()));
+        return std::make_shared<Carved>(terrain, t, float(carveGap));
+    }
     return csg(CsgOp::Union, parts);
 }
 

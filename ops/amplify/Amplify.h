@@ -82,10 +82,13 @@ openvdb::FloatGrid::Ptr splitMaterial(openvdb::FloatGrid& ids);
 
 /// @brief f̃ = f ∪ t: the terrain united with the present block copies of every tile (one
 /// tile, or several chosen per stratum). Attribute ids: see kMaterialStride.
+/// With @a carveGap > 0 the carving variant: blocks replace the terrain's skin where they
+/// are present, f̃ = min(t, max(f, gap - t)): the terrain is cut back to the blocks dilated
+/// by the gap, so rock faces are made of blocks and the fractures between them open up.
 FieldPtr amplifiedTerrain(FieldPtr terrain,
                           const std::vector<std::shared_ptr<const blocks::BlockTile>>& tiles,
                           const PlacementRules& rules, AmplifyStats& stats,
-                          const Strata* strata = nullptr);
+                          const Strata* strata = nullptr, double carveGap = 0.0);
 
 } // namespace amplify
 } // namespace rockvdb

@@ -261,3 +261,46 @@ TEST(Amplify, ABlockStraddlingACellFaceIsComplete)
         ASSERT_LT(acc.getValue(ijk), 0.0f) << "cut at " << h->indexToWorld(ijk);
     }
 }
+
+TEST(Amplify, CarvingReplacesTheSkinNearBlocksOnly)
+{
+    initialize();
+    auto hf = cliff();
+    HeightfieldSettings hs;
+    hs.baseDepth = 2.0;
+    hs.exactDistance = 1.5;
+    auto terrain = heightfieldField(hf, hs);
+    amplify::PlacementRules rules;
+    rules.region = BBoxd(Vec3d(1, 1, -1e30), Vec3d(31, 31, 1e30));
+    amplify::AmplifyStats a, b;
+    auto plain = amplify::amplifiedTerrain(terrain, {smallTile()}, rules, a);
+    auto carved = amplify::amplifiedTerrain(terrain, {smallTile()}, rules, b, nullptr, 0.15);
+    auto P = bake(*plain, settings());
+    auto C = bake(*carved, settings());
+    auto bare = bake(*terrain, settings()).surface;
+    auto pacc = P.surface->getConstAccessor();
+    auto cacc = C.surface->getConstAccessor();
+    // Carved: voxels inside the bare terrain that are now open (the fractures between
+    // blocks, cut back into the rock), and only near the cliff.
+    size_t opened = 0;
+    for (auto it = bare->cbeginValueOn(); it; ++it) {
+        if (*it > -0.05f) continue;
+        if (cacc.getValue(it.getCoord()) > 0.0f) {
+            ++opened;
+            const double x = bare->indexToWorld(it.getCoord())[0];
+            ASSERT_GT(x, 14.0 - 3.5);
+            ASSERT_LT(x, 18.0 + 3.5);
+        }
+    }
+    EXPECT_GT(opened, 200u);
+    // Far from every block (the plateau's middle and the valley floor) nothing changes.
+    for (auto it = C.surface->cbeginValueOn(); it; ++it) {
+        const double x = C.surface->indexToWorld(it.getCoord())[0];
+        if (x > 6 && x < 8) ASSERT_EQ(*it, pacc.getValue(it.getCoord()));
+        if (x > 26 && x < 28) ASSERT_EQ(*it, pacc.getValue(it.getCoord()));
+    }
+    // Blocks still make the face.
+    size_t blockVoxels = 0;
+    for (auto it = C.attribute->cbeginValueOn(); it; ++it) blockVoxels += *it >= 0;
+    EXPECT_GT(blockVoxels, 5000u);
+}

@@ -116,3 +116,12 @@ def test_level_set_terrain_and_union_property(inputs, tmp_path):
             assert acc.getValue(it.min) < 0, it.min
             inside += 1
     assert inside > 1000
+
+
+def test_carve_option(inputs, tmp_path):
+    out = tmp_path / "carved.vdb"
+    p = amplify(inputs, inputs["cliff"], out, "--carve", "0.15")
+    assert p.returncode == 0, p.stderr
+    grids, _ = vdb.readAll(str(out))
+    assert {g.name for g in grids} == {"surface", "block_id", "material"}
+    one_line_error(amplify(inputs, inputs["cliff"], tmp_path / "o.vdb", "--carve=-1"), 2, "carve")
