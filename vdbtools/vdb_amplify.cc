@@ -54,6 +54,10 @@ int main(int argc, char** argv)
                    "\"frequency\": 0.05}, \"layers\": [{\"tile\": \"equi\", \"top\": 12}, "
                    "{\"tile\": \"tabular\"}]} (needed for several tiles)");
     app.add_flag("--mixed-tile-sizes", mixedSizes, "Allow tiles of different sizes");
+    std::vector<double> roi;
+    app.add_option("--roi", roi,
+                   "Region of interest xmin,ymin,zmin,xmax,ymax,zmax (m): only anchors inside "
+                   "count (heightfields: also within the footprint)")->delimiter(',')->expected(6);
     double carve = 0.0;
     app.add_option("--carve", carve,
                    "Carving variant: blocks replace the terrain's skin where present, the terrain "
@@ -111,6 +115,17 @@ int main(int argc, char** argv)
             // solid's vertical side walls are not terrain.
             rules.region = BBoxd(Vec3d(1.0, 1.0, -1e30),
                                  Vec3d(hf->width() - 1.0, hf->depth() - 1.0, 1e30));
+        }
+        if (!roi.empty()) {
+            for (int a = 0; a < 3; ++a) {
+                require(std::isfinite(roi[size_t(a)]) && std::isfinite(roi[size_t(a) + 3]) &&
+                            roi[size_t(a)] < roi[size_t(a) + 3],
+                        "amplify", "roi", "finite with min < max on every axis",
+                        std::to_string(roi[size_t(a)]) + ".." + std::to_string(roi[size_t(a) + 3]));
+            }
+            const BBoxd user(Vec3d(roi[0], roi[1], roi[2]), Vec3d(roi[3], roi[4], roi[5]));
+            rules.region = BBoxd(maxComponent(rules.region.min(), user.min()),
+                                 minComponent(rules.region.max(), user.max()));
         }
         amplify::AmplifyStats stats;
         require(std::isfinite(carve) && carve >= 0 && carve < 10, "amplify", "carve gap",

@@ -125,3 +125,22 @@ def test_carve_option(inputs, tmp_path):
     grids, _ = vdb.readAll(str(out))
     assert {g.name for g in grids} == {"surface", "block_id", "material"}
     one_line_error(amplify(inputs, inputs["cliff"], tmp_path / "o.vdb", "--carve=-1"), 2, "carve")
+
+
+def test_roi_limits_the_blocks_and_huge_bakes_are_refused(inputs, tmp_path):
+    out = tmp_path / "roi.vdb"
+    p = amplify(inputs, inputs["cliff"], out, "--roi", "0,0,-10,40,12,40")
+    assert p.returncode == 0, p.stderr
+    ids = vdb.read(str(out), "block_id")
+    dx = ids.transform.voxelSize()[0]
+    ys = [it.min[1] * dx for it in ids.citerOnValues() if it.value >= 0]
+    assert ys and max(ys) < 12 + 3.5  # anchors below y = 12; blocks reach < 3.5 m past
+    one_line_error(amplify(inputs, inputs["cliff"], tmp_path / "o.vdb", "--roi", "0,0,0,1,1"), 2,
+                   "--roi")
+    huge = tmp_path / "huge.vdb"
+    p = run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--cell-size", "0.5",
+             "--height-scale", "10", "--tiles", str(inputs["tile"]), "--voxel-size", "0.0005",
+             "-o", str(huge)])
+    assert p.returncode == 2, p.stderr
+    assert "refusing" in p.stderr and "needed" in p.stderr
+    assert not huge.exists()
