@@ -6,6 +6,7 @@
 #include <core/Error.h>
 #include <core/Expression.h>
 #include <core/GridField.h>
+#include <core/Image.h>
 #include <core/Heightfield.h>
 #include <core/VdbIO.h>
 
@@ -58,6 +59,13 @@ int main(int argc, char** argv)
     app.add_option("--roi", roi,
                    "Region of interest xmin,ymin,zmin,xmax,ymax,zmax (m): only anchors inside "
                    "count (heightfields: also within the footprint)")->delimiter(',')->expected(6);
+    std::string mask;
+    double maskCell = 0.0;
+    app.add_option("--mask", mask,
+                   "Mask image (EXR / 16-bit PNG) over the terrain's xy: blocks only where it "
+                   "reads >= 0.5 (PNG: >= 32768)");
+    app.add_option("--mask-cell-size", maskCell,
+                   "Mask pixel spacing (m; 0 = the heightfield's --cell-size)")->capture_default_str();
     double carve = 0.0;
     app.add_option("--carve", carve,
                    "Carving variant: blocks replace the terrain's skin where present, the terrain "
@@ -126,6 +134,11 @@ int main(int argc, char** argv)
             const BBoxd user(Vec3d(roi[0], roi[1], roi[2]), Vec3d(roi[3], roi[4], roi[5]));
             rules.region = BBoxd(maxComponent(rules.region.min(), user.min()),
                                  minComponent(rules.region.max(), user.max()));
+        }
+        if (!mask.empty()) {
+            rules.mask = std::make_shared<const GrayImage>(readGrayImage(mask, "mask"));
+            rules.maskCellSize = maskCell > 0 ? maskCell : cellSize;
+            rules.validate();
         }
         amplify::AmplifyStats stats;
         require(std::isfinite(carve) && carve >= 0 && carve < 10, "amplify", "carve gap",

@@ -98,6 +98,8 @@ void PlacementRules::validate() const
     require(anchors >= 1 && anchors <= 16, op, "anchors", "in [1, 16]", anchors);
     require(std::isfinite(fraction) && fraction >= 0 && fraction < 1, op, "fraction",
             "in [0, 1)", fraction);
+    require(std::isfinite(maskCellSize) && maskCellSize > 0, op, "mask cell size", "> 0",
+            maskCellSize);
 }
 
 double Strata::elevation(const Vec3d& p) const
@@ -231,6 +233,13 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
                     for (size_t k = 0; k < n; ++k) {
                         const Vec3d w = Vec3d(anchors[k][0], anchors[k][1], anchors[k][2]) + shift;
                         if (!rules.region.isInside(w)) continue;
+                        if (rules.mask) {
+                            // Nearest pixel centre; outside the image counts as masked out.
+                            const long i = std::lround(w[0] / rules.maskCellSize);
+                            const long j = std::lround(w[1] / rules.maskCellSize);
+                            if (i < 0 || j < 0 || i >= rules.mask->width || j >= rules.mask->height) continue;
+                            if (rules.mask->at(int(i), int(j)) < 0.5f) continue;
+                        }
                         if (strata && strata->tileAt(w) != tileIndex) continue;
                         const double d = terrain.eval(w);
                         if (d < rules.distanceMin || d > rules.distanceMax) continue;

@@ -9,6 +9,7 @@
 
 #include <blocks/BlockTile.h>
 #include <core/Field.h>
+#include <core/Image.h>
 
 #include <openvdb/openvdb.h>
 
@@ -32,6 +33,11 @@ struct PlacementRules
     /// Region of interest: anchors outside it fail (default: everywhere). Heightfield
     /// terrains use their footprint, so the solid's artificial side walls stay bare.
     BBoxd region = infiniteBounds();
+    /// Optional mask image over the xy plane (pixel column i, row j at x = i·maskCellSize,
+    /// y = j·maskCellSize, like heightfields): anchors where it reads < 0.5 fail; outside the
+    /// image they fail too.
+    std::shared_ptr<const GrayImage> mask;
+    double maskCellSize = 1.0;
     void validate() const;
 };
 

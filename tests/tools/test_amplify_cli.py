@@ -144,3 +144,19 @@ def test_roi_limits_the_blocks_and_huge_bakes_are_refused(inputs, tmp_path):
     assert p.returncode == 2, p.stderr
     assert "refusing" in p.stderr and "needed" in p.stderr
     assert not huge.exists()
+
+
+def test_mask_image_limits_the_blocks(inputs, tmp_path):
+    mask = tmp_path / "mask.png"
+    # White (blocks allowed) for rows y < 12 m (row j at y = 0.5 j), black beyond.
+    write_png16(mask, [[65535 if j * 0.5 < 12 else 0] * 65 for j in range(65)])
+    out = tmp_path / "masked.vdb"
+    p = amplify(inputs, inputs["cliff"], out, "--mask", str(mask))
+    assert p.returncode == 0, p.stderr
+    ids = vdb.read(str(out), "block_id")
+    dx = ids.transform.voxelSize()[0]
+    ys = [it.min[1] * dx for it in ids.citerOnValues() if it.value >= 0]
+    assert ys and max(ys) < 12 + 3.5
+    one_line_error(amplify(inputs, inputs["cliff"], tmp_path / "o.vdb", "--mask",
+                           str(tmp_path / "none.png")), 1, "none.png")
+    assert not (tmp_path / "o.vdb").exists()
