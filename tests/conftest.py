@@ -22,6 +22,25 @@ def run(args, stdin=None, check=False):
     return p
 
 
+def dense(grid):
+    """(active bounding box, dense float32 array over it) of a pyopenvdb grid."""
+    import numpy as np
+    bb = grid.evalActiveVoxelBoundingBox()
+    a = np.zeros(tuple(bb[1][k] - bb[0][k] + 1 for k in range(3)), dtype=np.float32)
+    grid.copyToArray(a, ijk=bb[0])
+    return bb, a
+
+
+def one_line_error(p, code, *needles):
+    """A failed run: exit code, exactly one stderr line saying "error:", with each needle."""
+    assert p.returncode == code, (p.returncode, p.stderr)
+    lines = [l for l in p.stderr.splitlines() if l.strip()]
+    assert len(lines) == 1, p.stderr
+    assert "error:" in lines[0]
+    for n in needles:
+        assert n in lines[0], lines[0]
+
+
 @pytest.fixture
 def sphere_vdb(tmp_path):
     out = tmp_path / "sphere.vdb"

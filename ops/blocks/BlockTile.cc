@@ -108,6 +108,20 @@ std::vector<Disc> makeDiscs(const TileParams& p)
         return c;
     };
 
+    // Three sets of discs taken in turn, evenly spaced along their (jittered) normals, plus
+    // the irregular share with random normals (equidimensional, prismatic, rhombohedral).
+    auto threeSets = [&](const Vec3d (&dirs)[3]) {
+        for (size_t i = 0; i < centres.size(); ++i) {
+            if (irregular(i)) {
+                discs.push_back({centres[i], randomNormal(i), radius(i)});
+                continue;
+            }
+            const int set = int(i % 3);
+            discs.push_back({inSet(i, dirs[set]),
+                             jitter(dirs[set], p.jitterDeg, rnd(i, 5), rnd(i, 6)), radius(i)});
+        }
+    };
+
     switch (p.type) {
     case BlockType::Equidimensional:
     case BlockType::Prismatic: {
@@ -119,15 +133,7 @@ std::vector<Disc> makeDiscs(const TileParams& p)
         // that is not a lattice direction meets its own periodic images at other offsets,
         // and the gaps between them become sliver blocks.
         const Vec3d dirs[3] = {e1, e2, u};
-        for (size_t i = 0; i < centres.size(); ++i) {
-            if (irregular(i)) {
-                discs.push_back({centres[i], randomNormal(i), radius(i)});
-                continue;
-            }
-            const int set = int(i % 3);
-            discs.push_back({inSet(i, dirs[set]), jitter(dirs[set], p.jitterDeg, rnd(i, 5), rnd(i, 6)),
-                             radius(i)});
-        }
+        threeSets(dirs);
         break;
     }
     case BlockType::Polyhedral:
@@ -147,15 +153,7 @@ std::vector<Disc> makeDiscs(const TileParams& p)
             const double az = 2 * M_PI * k / 3.0;
             dirs[k] = (u * cosB + (f1 * std::cos(az) + f2 * std::sin(az)) * sinB).unit();
         }
-        for (size_t i = 0; i < centres.size(); ++i) {
-            if (irregular(i)) {
-                discs.push_back({centres[i], randomNormal(i), radius(i)});
-                continue;
-            }
-            const int set = int(i % 3);
-            discs.push_back({inSet(i, dirs[set]), jitter(dirs[set], p.jitterDeg, rnd(i, 5), rnd(i, 6)),
-                             radius(i)});
-        }
+        threeSets(dirs);
         break;
     }
     case BlockType::Tabular: {

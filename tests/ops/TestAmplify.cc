@@ -8,6 +8,8 @@
 #include <core/Heightfield.h>
 #include <core/VdbIO.h>
 
+#include "GridCompare.h"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
@@ -16,6 +18,7 @@
 #include <cstring>
 
 using namespace rockvdb;
+using rockvdb::test::bitwiseEqual;
 using rockvdb::blocks::Block;
 
 namespace {
@@ -45,6 +48,17 @@ std::shared_ptr<const blocks::BlockTile> smallTile()
     return std::make_shared<const blocks::BlockTile>(blocks::generateTile(p));
 }
 
+// The cliff as a terrain field (exact within 1.5 m), its height scaled to @a height metres.
+FieldPtr cliffTerrain(bool flat = false, double height = 10.0)
+{
+    auto hf = cliff(flat);
+    for (auto& z : hf->z) z = float(z * height / 10.0);
+    HeightfieldSettings hs;
+    hs.baseDepth = 2.0;
+    hs.exactDistance = 1.5;
+    return heightfieldField(hf, hs);
+}
+
 struct Scene
 {
     FieldPtr terrain, amplified;
@@ -54,12 +68,7 @@ struct Scene
 Scene scene(bool flat = false, const amplify::Strata* strata = nullptr, double height = 10.0)
 {
     Scene s;
-    auto hf = cliff(flat);
-    for (auto& z : hf->z) z = float(z * height / 10.0);
-    HeightfieldSettings hs;
-    hs.baseDepth = 2.0;
-    hs.exactDistance = 1.5;
-    s.terrain = heightfieldField(hf, hs);
+    s.terrain = cliffTerrain(flat, height);
     amplify::PlacementRules rules;
     rules.region = BBoxd(Vec3d(1, 1, -1e30), Vec3d(31, 31, 1e30));
     std::vector<std::shared_ptr<const blocks::BlockTile>> tiles{smallTile()};
@@ -84,17 +93,6 @@ BakeSettings settings()
     return b;
 }
 
-bool bitwiseEqual(const openvdb::FloatGrid& a, const openvdb::FloatGrid& b)
-{
-    if (a.activeVoxelCount() != b.activeVoxelCount()) return false;
-    auto acc = b.getConstAccessor();
-    for (auto leaf = a.tree().cbeginLeaf(); leaf; ++leaf) {
-        const auto* o = acc.probeConstLeaf(leaf->origin());
-        if (!o || o->getValueMask() != leaf->getValueMask()) return false;
-        if (std::memcmp(o->buffer().data(), leaf->buffer().data(), 512 * sizeof(float)) != 0) return false;
-    }
-    return true;
-}
 
 } // namespace
 
@@ -205,11 +203,7 @@ TEST(Amplify, ABlockStraddlingACellFaceIsComplete)
     // inside the lone block (translated by its cell), outside the terrain and beyond the cell
     // face, is inside the amplified terrain — no flat cut at the cell face.
     initialize();
-    auto hf = cliff();
-    HeightfieldSettings hs;
-    hs.baseDepth = 2.0;
-    hs.exactDistance = 1.5;
-    auto terrain = heightfieldField(hf, hs);
+    auto terrain = cliffTerrain();
     // Tabular blocks are long: some reach well past their cell's faces.
     blocks::TileParams tp;
     tp.type = blocks::BlockType::Tabular;
@@ -265,11 +259,7 @@ TEST(Amplify, ABlockStraddlingACellFaceIsComplete)
 TEST(Amplify, CarvingReplacesTheSkinNearBlocksOnly)
 {
     initialize();
-    auto hf = cliff();
-    HeightfieldSettings hs;
-    hs.baseDepth = 2.0;
-    hs.exactDistance = 1.5;
-    auto terrain = heightfieldField(hf, hs);
+    auto terrain = cliffTerrain();
     amplify::PlacementRules rules;
     rules.region = BBoxd(Vec3d(1, 1, -1e30), Vec3d(31, 31, 1e30));
     amplify::AmplifyStats a, b;

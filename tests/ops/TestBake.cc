@@ -5,6 +5,8 @@
 #include <core/Primitives.h>
 #include <core/VdbIO.h>
 
+#include "GridCompare.h"
+
 #include <gtest/gtest.h>
 #include <openvdb/tools/Composite.h>
 #include <openvdb/tools/Diagnostics.h>
@@ -15,6 +17,7 @@
 #include <cmath>
 
 using namespace rockvdb;
+using rockvdb::test::bitwiseEqual;
 using openvdb::FloatGrid;
 
 namespace {
@@ -27,27 +30,6 @@ BakeSettings settings(double dx, double hw = 3.0)
     return s;
 }
 
-// Bitwise equality of two trees: same leaves, same masks, same value bits.
-bool bitwiseEqual(const FloatGrid& a, const FloatGrid& b)
-{
-    if (a.tree().leafCount() != b.tree().leafCount()) return false;
-    if (a.activeVoxelCount() != b.activeVoxelCount()) return false;
-    if (a.background() != b.background()) return false;
-    auto bacc = b.getConstAccessor();
-    for (auto leaf = a.tree().cbeginLeaf(); leaf; ++leaf) {
-        const auto* other = bacc.probeConstLeaf(leaf->origin());
-        if (!other) return false;
-        if (leaf->getValueMask() != other->getValueMask()) return false;
-        if (std::memcmp(leaf->buffer().data(), other->buffer().data(), 512 * sizeof(float)) != 0)
-            return false;
-    }
-    // Tiles (inside fill) must agree too.
-    for (auto it = a.tree().cbeginValueAll(); it; ++it) {
-        if (it.isVoxelValue()) continue;
-        if (bacc.getValue(it.getCoord()) != *it) return false;
-    }
-    return true;
-}
 
 } // namespace
 

@@ -7,6 +7,7 @@ import pyopenvdb as vdb
 import pytest
 
 import rockvdb
+from conftest import dense, write_png16
 
 
 def inside_volume(grid):
@@ -184,12 +185,6 @@ def test_errors_are_python_exceptions(tmp_path):
 SMALL_TILE = dict(tile_size=10, point_radius=0.5)
 
 
-def _dense(grid):
-    bb = grid.evalActiveVoxelBoundingBox()
-    a = np.zeros(tuple(bb[1][k] - bb[0][k] + 1 for k in range(3)), dtype=np.float32)
-    grid.copyToArray(a, ijk=bb[0])
-    return bb, a
-
 
 def test_block_tile_grids_blocks_and_stats():
     t = rockvdb.block_tile(type="tabular", seed=4, voxel_size=0.1, **SMALL_TILE)
@@ -219,7 +214,7 @@ def test_tile_file_round_trip_is_bitwise(tmp_path):
     u = rockvdb.load_tile(path)
     assert u.blocks == t.blocks and u.params == t.params
     s, ids = u.bake(voxel_size=0.1)
-    (ba, a), (bb, b) = _dense(t.surface), _dense(s)
+    (ba, a), (bb, b) = dense(t.surface), dense(s)
     assert ba == bb and np.array_equal(a.view(np.uint32), b.view(np.uint32))
     assert json.loads(s["rockvdb:tile"])["blocks"] == t.blocks
     assert rockvdb.provenance(s)[1] == "rockvdb.block_tile"
@@ -245,7 +240,6 @@ def test_amplify_grids_in_and_out(tmp_path):
     """pyopenvdb terrain grid in, (surface, block_id, material) out; strata by tile index."""
     # A ramp terrain: flat, a 60° slope, flat (heightfield written to disk, baked to a grid).
     png = tmp_path / "ramp.png"
-    from conftest import write_png16
     write_png16(png, [[round(65535 * min(1.0, max(0.0, (i - 20) / 12))) for i in range(65)]
                       for _ in range(65)])
     ground = rockvdb.heightfield(str(png), cell_size=0.25, height_scale=5.0, voxel_size=0.1)

@@ -3,15 +3,8 @@ anchor rules): grids, the slope rule on a plateau-and-cliff, flat terrain, bad i
 import pyopenvdb as vdb
 import pytest
 
-from conftest import run, tool, write_png16
+from conftest import one_line_error, run, tool, write_png16
 
-
-def one_line_error(p, code, *needles):
-    assert p.returncode == code, (p.returncode, p.stderr)
-    lines = [l for l in p.stderr.splitlines() if l.strip()]
-    assert len(lines) == 1, p.stderr
-    for n in needles:
-        assert n in lines[0], lines[0]
 
 
 @pytest.fixture(scope="module")

@@ -9,26 +9,11 @@ import numpy as np
 import pyopenvdb as vdb
 import pytest
 
-from conftest import run, tool
+from conftest import dense, one_line_error, run, tool
 
 SMALL = ["--tile-size", "10", "--point-radius", "0.5", "--voxel-size", "0.1", "--seed", "3"]
 
 
-def one_line_error(p, code, *needles):
-    assert p.returncode == code, (p.returncode, p.stderr)
-    lines = [l for l in p.stderr.splitlines() if l.strip()]
-    assert len(lines) == 1, p.stderr
-    assert "error:" in lines[0]
-    for n in needles:
-        assert n in lines[0], lines[0]
-
-
-def dense(grid):
-    bb = grid.evalActiveVoxelBoundingBox()
-    shape = tuple(bb[1][k] - bb[0][k] + 1 for k in range(3))
-    a = np.zeros(shape, dtype=np.float32)
-    grid.copyToArray(a, ijk=bb[0])
-    return bb, a
 
 
 @pytest.fixture(scope="module")

@@ -8,19 +8,11 @@ import subprocess
 
 import pytest
 
-from conftest import run, tool
+from conftest import one_line_error, run, tool
 
 ALL_TOOLS = ["vdb_primitive", "vdb_heightfield", "vdb_csg", "vdb_mesh", "vdb_preview", "vdb_info",
              "vdb_blocks", "vdb_amplify"]
 
-
-def one_line_error(p, code, *needles):
-    assert p.returncode == code, (p.returncode, p.stderr)
-    lines = [l for l in p.stderr.splitlines() if l.strip()]
-    assert len(lines) == 1, p.stderr
-    assert "error:" in lines[0]
-    for n in needles:
-        assert n in lines[0], lines[0]
 
 
 def leftovers(folder):
