@@ -5,13 +5,12 @@
 #include <blocks/BlockTile.h>
 #include <core/Error.h>
 #include <core/Expression.h>
-#include <core/GridField.h>
 #include <core/Image.h>
-#include <core/Heightfield.h>
 #include <core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -82,6 +81,8 @@ int main(int argc, char** argv)
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
 
     return tool.run(argc, argv, [&] {
+        using Clock = std::chrono::steady_clock;
+        const auto t0 = Clock::now();
         BakeSettings settings = tool.bake().settings();
         rules.distanceMin = range[0];
         rules.distanceMax = range[1];
@@ -96,76 +97,54 @@ int main(int argc, char** argv)
             loaded.push_back(std::make_shared<const blocks::BlockTile>(blocks::readTile(t)));
             std::string stem = t.substr(t.find_last_of('/') + 1);
             names.push_back(stem.substr(0, stem.find_last_of('.')));
-            if (!mixedSizes && loaded.back()->size() != loaded.front()->size()) {
-                fail<ValueError>("amplify: tile sizes differ (", loaded.front()->size(), " m and ",
-                                 loaded.back()->size(), " m); pass --mixed-tile-sizes to allow it");
-            }
         }
+        amplify::checkTileSizes(loaded, mixedSizes);
         std::unique_ptr<amplify::Strata> strata;
         if (!strataFile.empty()) {
             strata = std::make_unique<amplify::Strata>(
                 amplify::Strata::fromJson(readJsonFile(strataFile), names));
         }
-        const double exact =
-            std::max(1.0, std::max(std::abs(rules.distanceMin), std::abs(rules.distanceMax)) + 0.5);
         FieldPtr ground;
         const bool isVdb = terrain.size() > 4 && terrain.substr(terrain.size() - 4) == ".vdb";
         if (isVdb) {
-            // A 3D terrain level set (overhangs, arches): its band widened to the rules' reach.
-            ground = levelSetField(readLevelSet(terrain, terrainGrid), exact);
+            ground = amplify::levelSetTerrain(readLevelSet(terrain, terrainGrid), rules);
         } else {
-            auto hf = std::make_shared<Heightfield>(loadHeightfield(terrain, cellSize, heightScale));
-            HeightfieldSettings hs;
-            hs.baseDepth = baseDepth;
-            hs.exactDistance = exact;
-            ground = heightfieldField(hf, hs);
-            // Anchors must stand over the footprint (1 m in from its edge): the closed
-            // solid's vertical side walls are not terrain.
-            rules.region = BBoxd(Vec3d(1.0, 1.0, -1e30),
-                                 Vec3d(hf->width() - 1.0, hf->depth() - 1.0, 1e30));
+            ground = amplify::heightfieldTerrain(
+                std::make_shared<Heightfield>(loadHeightfield(terrain, cellSize, heightScale)),
+                baseDepth, rules);
         }
         if (!roi.empty()) {
-            for (int a = 0; a < 3; ++a) {
-                require(std::isfinite(roi[size_t(a)]) && std::isfinite(roi[size_t(a) + 3]) &&
-                            roi[size_t(a)] < roi[size_t(a) + 3],
-                        "amplify", "roi", "finite with min < max on every axis",
-                        std::to_string(roi[size_t(a)]) + ".." + std::to_string(roi[size_t(a) + 3]));
-            }
-            const BBoxd user(Vec3d(roi[0], roi[1], roi[2]), Vec3d(roi[3], roi[4], roi[5]));
-            rules.region = BBoxd(maxComponent(rules.region.min(), user.min()),
-                                 minComponent(rules.region.max(), user.max()));
+            rules.restrictTo(BBoxd(Vec3d(roi[0], roi[1], roi[2]), Vec3d(roi[3], roi[4], roi[5])));
         }
         if (!mask.empty()) {
             rules.mask = std::make_shared<const GrayImage>(readGrayImage(mask, "mask"));
             rules.maskCellSize = maskCell > 0 ? maskCell : cellSize;
             rules.validate();
         }
-        amplify::AmplifyStats stats;
         require(std::isfinite(carve) && carve >= 0 && carve < 10, "amplify", "carve gap",
                 "in [0, 10) m", carve);
+        const double loadSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+
+        amplify::AmplifyStats stats;
         auto field = amplify::amplifiedTerrain(ground, loaded, rules, stats, strata.get(), carve);
-        char line[256];
-        std::snprintf(line, sizeof line, "#R %zu replicated blocks (%zu cells examined, presence "
-                      "%.3f s); block fields %.2f MB", stats.replicated, stats.cells,
-                      stats.presenceSeconds, stats.blockBytes / 1e6);
-        tool.info(line);
         if (stats.replicated == 0) {
             tool.info("no block qualifies (flat terrain or rules too strict): writing the bare "
                       "terrain");
         }
-        settings.withAttribute = true;
-        settings.attributeName = "block_id";
         auto bar = tool.progress("baking");
-        BakeResult r = bake(*field, settings, bar.get());
+        amplify::AmplifyResult r = amplify::bakeAmplified(*field, settings, stats, bar.get());
         bar->end();
-        auto material = amplify::splitMaterial(*r.attribute);
-        std::snprintf(line, sizeof line, "bake: %zu active voxels, cull %.3f s, fill %.3f s",
-                      r.stats.activeVoxels, r.stats.cullSeconds, r.stats.fillSeconds);
-        tool.info(line);
         const std::string params = tool.paramsJson();
-        for (const auto& g : {r.surface, r.attribute, material}) {
+        for (const auto& g : {r.surface, r.blockId, r.material}) {
             stampProvenance(*g, tool.name(), params);
         }
-        writeGrids(tool.output(), {r.surface, r.attribute, material});
+        const auto tw = Clock::now();
+        writeGrids(tool.output(), {r.surface, r.blockId, r.material});
+        for (const auto& line : amplify::describe(stats)) tool.info(line);
+        char line[160];
+        std::snprintf(line, sizeof line, "io: load %.3f s, write %.3f s; total %.3f s", loadSeconds,
+                      std::chrono::duration<double>(Clock::now() - tw).count(),
+                      std::chrono::duration<double>(Clock::now() - t0).count());
+        tool.info(line);
     });
 }

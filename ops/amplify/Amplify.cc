@@ -2,6 +2,7 @@
 
 #include <core/Combinators.h>
 #include <core/Error.h>
+#include <core/GridField.h>
 #include <core/Noise.h>
 
 #include <nlohmann/json.hpp>
@@ -12,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <tuple>
 #include <vector>
@@ -121,6 +123,49 @@ int Strata::tileAt(const Vec3d& p) const
     size_t k = 0;
     while (k < tops.size() && e >= tops[k]) ++k;
     return tiles[k];
+}
+
+void PlacementRules::restrictTo(const BBoxd& roi)
+{
+    for (int a = 0; a < 3; ++a) {
+        require(std::isfinite(roi.min()[a]) && std::isfinite(roi.max()[a]) &&
+                    roi.min()[a] < roi.max()[a],
+                "amplify", "roi", "finite with min < max on every axis",
+                std::to_string(roi.min()[a]) + ".." + std::to_string(roi.max()[a]));
+    }
+    region = BBoxd(maxComponent(region.min(), roi.min()), minComponent(region.max(), roi.max()));
+}
+
+double PlacementRules::reach() const
+{
+    return std::max(1.0, std::max(std::abs(distanceMin), std::abs(distanceMax)) + 0.5);
+}
+
+FieldPtr heightfieldTerrain(std::shared_ptr<const Heightfield> hf, double baseDepth,
+                            PlacementRules& rules)
+{
+    HeightfieldSettings hs;
+    hs.baseDepth = baseDepth;
+    hs.exactDistance = rules.reach();
+    FieldPtr ground = heightfieldField(hf, hs);
+    rules.region = BBoxd(Vec3d(1.0, 1.0, -1e30), Vec3d(hf->width() - 1.0, hf->depth() - 1.0, 1e30));
+    return ground;
+}
+
+FieldPtr levelSetTerrain(openvdb::FloatGrid::ConstPtr grid, const PlacementRules& rules)
+{
+    return levelSetField(std::move(grid), rules.reach());
+}
+
+void checkTileSizes(const std::vector<std::shared_ptr<const BlockTile>>& tiles, bool mixedSizes)
+{
+    for (const auto& t : tiles) {
+        if (!mixedSizes && t->size() != tiles.front()->size()) {
+            fail<ValueError>("amplify: tile sizes differ (", tiles.front()->size(), " m and ",
+                             t->size(), " m); allow it explicitly (--mixed-tile-sizes / "
+                             "mixed_tile_sizes=True)");
+        }
+    }
 }
 
 Strata Strata::fromJson(const nlohmann::json& j, const std::vector<std::string>& names)
@@ -320,6 +365,36 @@ FieldPtr amplifiedTerrain(FieldPtr terrain,
         return std::make_shared<Carved>(terrain, t, float(carveGap));
     }
     return csg(CsgOp::Union, parts);
+}
+
+AmplifyResult bakeAmplified(const Field& amplified, BakeSettings settings, AmplifyStats& stats,
+                            openvdb::util::NullInterrupter* interrupt)
+{
+    settings.withAttribute = true;
+    settings.attributeName = "block_id";
+    const auto t0 = std::chrono::steady_clock::now();
+    BakeResult r = bake(amplified, settings, interrupt);
+    const auto t1 = std::chrono::steady_clock::now();
+    AmplifyResult out{r.surface, r.attribute, splitMaterial(*r.attribute)};
+    const auto t2 = std::chrono::steady_clock::now();
+    stats.bake = r.stats;
+    stats.bakeSeconds += std::chrono::duration<double>(t1 - t0).count();
+    stats.splitSeconds += std::chrono::duration<double>(t2 - t1).count();
+    return out;
+}
+
+std::vector<std::string> describe(const AmplifyStats& stats)
+{
+    char line[3][256];
+    std::snprintf(line[0], sizeof line[0], "#R %zu replicated blocks (%zu cells examined); block "
+                  "fields %.2f MB", stats.replicated, stats.cells, stats.blockBytes / 1e6);
+    std::snprintf(line[1], sizeof line[1], "bake: %zu active voxels in %zu leaves",
+                  stats.bake.activeVoxels, stats.bake.leaves);
+    std::snprintf(line[2], sizeof line[2], "phases: presence %.3f s, bake %.3f s (cull %.3f, fill "
+                  "%.3f, finish %.3f), split %.3f s", stats.presenceSeconds, stats.bakeSeconds,
+                  stats.bake.cullSeconds, stats.bake.fillSeconds, stats.bake.finishSeconds,
+                  stats.splitSeconds);
+    return {line[0], line[1], line[2]};
 }
 
 } // namespace amplify

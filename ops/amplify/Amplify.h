@@ -8,7 +8,9 @@
 #pragma once
 
 #include <blocks/BlockTile.h>
+#include <core/Bake.h>
 #include <core/Field.h>
+#include <core/Heightfield.h>
 #include <core/Image.h>
 
 #include <openvdb/openvdb.h>
@@ -39,6 +41,11 @@ struct PlacementRules
     std::shared_ptr<const GrayImage> mask;
     double maskCellSize = 1.0;
     void validate() const;
+    /// @brief Limit anchors to @a roi as well (intersected with the current region).
+    void restrictTo(const BBoxd& roi);
+    /// @brief The distance from the terrain surface within which presence reads exact
+    /// terrain distances: max(|va|, |vb|) + 0.5 m, at least 1 m.
+    double reach() const;
 };
 
 /// Strata (the material γ of §5): layers stacked along a (possibly tilted) normal, their
@@ -68,7 +75,38 @@ struct AmplifyStats
     size_t replicated = 0;     ///< #R: present (cell, block) copies
     double blockBytes = 0;     ///< memory of the block fields (planes, anchors, bounds)
     double presenceSeconds = 0;
+    double bakeSeconds = 0;    ///< band bake of f̃ (cull + fill + finish)
+    double splitSeconds = 0;   ///< block_id / material split
+    BakeStats bake;
 };
+
+/// @brief A heightfield terrain as a field with exact distances within rules.reach(); the
+/// rules' region is limited to the footprint (1 m in from its edge), so the closed solid's
+/// vertical side walls, which are not terrain, stay bare.
+FieldPtr heightfieldTerrain(std::shared_ptr<const Heightfield> hf, double baseDepth,
+                            PlacementRules& rules);
+
+/// @brief A 3D terrain level set (overhangs, arches) as a field, its band widened to
+/// rules.reach() so that presence reads true distances.
+FieldPtr levelSetTerrain(openvdb::FloatGrid::ConstPtr grid, const PlacementRules& rules);
+
+/// @brief ValueError unless all tiles share one size (or @a mixedSizes allows it).
+void checkTileSizes(const std::vector<std::shared_ptr<const blocks::BlockTile>>& tiles,
+                    bool mixedSizes);
+
+/// The baked amplified terrain: 'surface', 'block_id' and 'material'.
+struct AmplifyResult
+{
+    openvdb::FloatGrid::Ptr surface, blockId, material;
+};
+
+/// @brief Bake f̃ (from amplifiedTerrain) over @a settings' region with block ids, and split
+/// them into block_id and material; bake and split times go to @a stats.
+AmplifyResult bakeAmplified(const Field& amplified, BakeSettings settings, AmplifyStats& stats,
+                            openvdb::util::NullInterrupter* interrupt = nullptr);
+
+/// @brief One line per phase for logs: "#R ...", "bake: ...", "phases: ...".
+std::vector<std::string> describe(const AmplifyStats& stats);
 
 /// @brief The set of present copies for one tile over a terrain (computed on construction).
 /// With @a strata, an anchor also needs the strata's tile at its position to be @a tileIndex.

@@ -93,15 +93,23 @@ def load_tile(path):
 
 
 def amplify(terrain, tiles, strata=None, max_slope=0.5, distance_range=(-1.0, 0.5), anchors=8,
-            fraction=0.5, voxel_size=0.1, half_width=3.0, region=None, cell_size=1.0,
-            height_scale=1.0, base_depth=1.0):
-    """Amplify a terrain with block tiles (implicit-blocks §5).
+            fraction=0.5, voxel_size=0.1, half_width=3.0, region=None, roi=None, mask=None,
+            mask_cell_size=0.0, carve=0.0, mixed_tile_sizes=False, cell_size=1.0,
+            height_scale=1.0, base_depth=1.0, stats=None):
+    """Amplify a terrain with block tiles (implicit-blocks §5); vdb_amplify from Python.
 
     terrain: a pyopenvdb.FloatGrid level set, or a heightfield image path (cell_size,
     height_scale, base_depth apply). tiles: BlockTile objects or tile paths (.tile / .vdb);
-    strata: a dict (see vdb_amplify --strata) naming tiles by file stem or index, required
-    for several tiles. Returns (surface, block_id, material) pyopenvdb grids."""
+    strata: a dict or JSON file (see vdb_amplify --strata) naming tiles by file stem or
+    index, required for several tiles. region: the bake box (xmin, ymin, zmin, xmax, ymax, zmax) for chunked
+    baking; roi: the box anchors must lie in; mask: an image path or a 2D array (row j at
+    y = j * mask_cell_size, 0 = cell_size) where blocks are allowed (>= 0.5); carve > 0: the
+    carving variant with that gap (m). stats: a dict to fill with #R ("replicated"), block
+    field bytes, active voxels and the time per phase.
+    Returns (surface, block_id, material) pyopenvdb grids."""
     import os
+    if terrain is None:
+        raise TypeError("amplify(): terrain must be a pyopenvdb.FloatGrid or a heightfield path")
     loaded, names = [], []
     for i, t in enumerate(tiles):
         if isinstance(t, BlockTile):
@@ -110,13 +118,27 @@ def amplify(terrain, tiles, strata=None, max_slope=0.5, distance_range=(-1.0, 0.
         else:
             loaded.append(_rockvdb.load_tile(str(t)))
             names.append(os.path.splitext(os.path.basename(str(t)))[0])
-    strata_json = _json.dumps(strata) if strata is not None else ""
-    common = (loaded, names, strata_json, float(max_slope), list(distance_range), int(anchors),
-              float(fraction), float(voxel_size), float(half_width),
-              list(region) if region is not None else None)
-    if terrain is None:
-        raise TypeError("amplify(): terrain must be a pyopenvdb.FloatGrid or a heightfield path")
-    if isinstance(terrain, (str, os.PathLike)):
-        return _rockvdb.amplify_heightfield(str(terrain), float(cell_size), float(height_scale),
-                                            float(base_depth), *common)
-    return _rockvdb.amplify_grid(terrain, *common)
+    if isinstance(strata, (str, os.PathLike)):
+        with open(strata) as f:
+            strata = _json.load(f)
+    mask_array = None
+    if isinstance(mask, (str, os.PathLike)):
+        mask_array = _rockvdb.read_image(str(mask), "mask")
+    elif mask is not None:
+        mask_array = mask
+    options = {"strata": strata, "max_slope": float(max_slope),
+               "distance_range": [float(v) for v in distance_range], "anchors": int(anchors),
+               "fraction": float(fraction), "voxel_size": float(voxel_size),
+               "half_width": float(half_width),
+               "region": [float(v) for v in region] if region is not None else None,
+               "roi": [float(v) for v in roi] if roi is not None else None,
+               "mask_cell_size": float(mask_cell_size), "carve": float(carve),
+               "mixed_tile_sizes": bool(mixed_tile_sizes), "cell_size": float(cell_size),
+               "height_scale": float(height_scale), "base_depth": float(base_depth)}
+    if isinstance(terrain, os.PathLike):
+        terrain = str(terrain)
+    surface, block_id, material, st = _rockvdb.amplify(terrain, loaded, names, mask_array,
+                                                       _json.dumps(options))
+    if stats is not None:
+        stats.update(st)
+    return surface, block_id, material

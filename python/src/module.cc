@@ -116,60 +116,88 @@ py::tuple bakeTile(const PyTile& t, double voxelSize, double halfWidth,
     return py::make_tuple(py::cast(r.surface), py::cast(r.attribute));
 }
 
-py::tuple amplifyTerrain(FieldPtr ground, const std::vector<PyTile>& tiles,
-                         const std::vector<std::string>& names, const std::string& strataJson,
-                         amplify::PlacementRules rules, double voxelSize, double halfWidth,
-                         std::optional<std::array<double, 6>> region, const json& provenanceParams)
+// rockvdb.amplify: the terrain (a level-set grid or a heightfield path), tiles with their
+// names, an optional mask array and the options the Python wrapper gathers (JSON).
+py::tuple amplifyTerrain(py::object terrain, const std::vector<PyTile>& tiles,
+                         const std::vector<std::string>& names, std::optional<GrayImage> mask,
+                         const std::string& optionsJson)
 {
+    const json o = json::parse(optionsJson);
+    amplify::PlacementRules rules;
+    rules.maxSlope = o.at("max_slope");
+    rules.distanceMin = o.at("distance_range").at(0);
+    rules.distanceMax = o.at("distance_range").at(1);
+    rules.anchors = o.at("anchors");
+    rules.fraction = o.at("fraction");
+    rules.validate();
     std::vector<std::shared_ptr<const blocks::BlockTile>> list;
     for (const auto& t : tiles) list.push_back(t.tile);
+    amplify::checkTileSizes(list, o.at("mixed_tile_sizes"));
     std::unique_ptr<amplify::Strata> strata;
-    if (!strataJson.empty()) {
-        const json j = json::parse(strataJson, nullptr, false);
-        if (j.is_discarded()) throw ValueError("amplify: strata are not JSON");
-        strata = std::make_unique<amplify::Strata>(amplify::Strata::fromJson(j, names));
+    if (!o.at("strata").is_null()) {
+        strata = std::make_unique<amplify::Strata>(amplify::Strata::fromJson(o.at("strata"), names));
     } else if (list.size() > 1) {
         throw ValueError("amplify: several tiles need strata to say where each one goes");
     }
+    FieldPtr ground;
+    json p = {{"names", names}, {"strata", o.at("strata")}, {"max_slope", rules.maxSlope},
+              {"distance_range", o.at("distance_range")}, {"anchors", rules.anchors},
+              {"fraction", rules.fraction}, {"carve", o.at("carve")}};
+    if (py::isinstance<py::str>(terrain)) {
+        const std::string path = terrain.cast<std::string>();
+        const double cellSize = o.at("cell_size"), heightScale = o.at("height_scale");
+        ground = amplify::heightfieldTerrain(
+            std::make_shared<Heightfield>(loadHeightfield(path, cellSize, heightScale)),
+            o.at("base_depth"), rules);
+        p.update({{"terrain", path}, {"cell_size", cellSize}, {"height_scale", heightScale},
+                  {"base_depth", o.at("base_depth")}});
+    } else {
+        ground = amplify::levelSetTerrain(terrain.cast<Grid>(), rules);
+        p["terrain"] = "level set";
+    }
+    if (!o.at("roi").is_null()) {
+        const auto r = o.at("roi").get<std::array<double, 6>>();
+        rules.restrictTo(BBoxd(Vec3d(r[0], r[1], r[2]), Vec3d(r[3], r[4], r[5])));
+        p["roi"] = r;
+    }
+    if (mask) {
+        rules.mask = std::make_shared<const GrayImage>(std::move(*mask));
+        const double mc = o.at("mask_cell_size");
+        rules.maskCellSize = mc > 0 ? mc : double(o.at("cell_size"));
+        rules.validate();
+        p["mask_cell_size"] = rules.maskCellSize;
+    }
     BakeSettings s;
-    s.voxelSize = voxelSize;
-    s.halfWidth = halfWidth;
-    s.withAttribute = true;
-    s.attributeName = "block_id";
-    if (region) {
-        const auto& r = *region;
+    s.voxelSize = o.at("voxel_size");
+    s.halfWidth = o.at("half_width");
+    if (!o.at("region").is_null()) {
+        const auto r = o.at("region").get<std::array<double, 6>>();
         s.region = BBoxd(Vec3d(r[0], r[1], r[2]), Vec3d(r[3], r[4], r[5]));
+        p["region"] = r;
     }
     amplify::AmplifyStats stats;
-    BakeResult r;
-    openvdb::FloatGrid::Ptr material;
+    amplify::AmplifyResult r;
     {
         py::gil_scoped_release release;
-        auto field = amplify::amplifiedTerrain(ground, list, rules, stats, strata.get());
-        r = bake(*field, s);
-        material = amplify::splitMaterial(*r.attribute);
+        auto field = amplify::amplifiedTerrain(ground, list, rules, stats, strata.get(),
+                                               o.at("carve"));
+        r = amplify::bakeAmplified(*field, s, stats);
     }
-    json p = provenanceParams;
-    p["voxel_size"] = voxelSize;
-    p["half_width"] = halfWidth;
+    p["voxel_size"] = s.voxelSize;
+    p["half_width"] = s.halfWidth;
     p["replicated"] = stats.replicated;
-    for (const auto& g : {r.surface, r.attribute, material}) {
+    for (const auto& g : {r.surface, r.blockId, r.material}) {
         stampProvenance(*g, "rockvdb.amplify", p.dump());
     }
-    return py::make_tuple(py::cast(r.surface), py::cast(r.attribute), py::cast(material));
-}
-
-amplify::PlacementRules makeRules(double maxSlope, const std::array<double, 2>& range, int anchors,
-                                  double fraction)
-{
-    amplify::PlacementRules rules;
-    rules.maxSlope = maxSlope;
-    rules.distanceMin = range[0];
-    rules.distanceMax = range[1];
-    rules.anchors = anchors;
-    rules.fraction = fraction;
-    rules.validate();
-    return rules;
+    py::dict st;
+    st["replicated"] = stats.replicated;
+    st["cells"] = stats.cells;
+    st["block_field_bytes"] = stats.blockBytes;
+    st["active_voxels"] = stats.bake.activeVoxels;
+    st["presence_seconds"] = stats.presenceSeconds;
+    st["bake_seconds"] = stats.bakeSeconds;
+    st["split_seconds"] = stats.splitSeconds;
+    return py::make_tuple(py::cast(r.surface), py::cast(r.blockId), py::cast(r.material), st);
 }
 
 } // namespace
@@ -275,35 +303,17 @@ PYBIND11_MODULE(_rockvdb, m)
         return PyTile{std::make_shared<const blocks::BlockTile>(blocks::readTile(path))};
     }, py::arg("path"), "Read a .tile file or a vdb_blocks .vdb");
 
-    m.def("amplify_grid", [](Grid terrain, const std::vector<PyTile>& tiles,
-                             const std::vector<std::string>& names, const std::string& strata,
-                             double maxSlope, const std::array<double, 2>& range, int anchors,
-                             double fraction, double voxelSize, double halfWidth,
-                             std::optional<std::array<double, 6>> region) {
-        auto rules = makeRules(maxSlope, range, anchors, fraction);
-        const double exact = std::max(1.0, std::max(std::abs(range[0]), std::abs(range[1])) + 0.5);
-        return amplifyTerrain(levelSetField(terrain, exact), tiles, names, strata, rules,
-                              voxelSize, halfWidth, region,
-                              {{"terrain", "level set"}, {"names", names}, {"strata", strata},
-                               {"max_slope", maxSlope}, {"distance_range", range}});
-    });
-    m.def("amplify_heightfield", [](const std::string& path, double cellSize, double heightScale,
-                                    double baseDepth, const std::vector<PyTile>& tiles,
-                                    const std::vector<std::string>& names, const std::string& strata,
-                                    double maxSlope, const std::array<double, 2>& range, int anchors,
-                                    double fraction, double voxelSize, double halfWidth,
-                                    std::optional<std::array<double, 6>> region) {
-        auto rules = makeRules(maxSlope, range, anchors, fraction);
-        auto hf = std::make_shared<Heightfield>(loadHeightfield(path, cellSize, heightScale));
-        HeightfieldSettings hs;
-        hs.baseDepth = baseDepth;
-        hs.exactDistance = std::max(1.0, std::max(std::abs(range[0]), std::abs(range[1])) + 0.5);
-        rules.region = BBoxd(Vec3d(1.0, 1.0, -1e30), Vec3d(hf->width() - 1.0, hf->depth() - 1.0, 1e30));
-        return amplifyTerrain(heightfieldField(hf, hs), tiles, names, strata, rules, voxelSize,
-                              halfWidth, region,
-                              {{"terrain", path}, {"cell_size", cellSize}, {"height_scale", heightScale},
-                               {"names", names}, {"strata", strata}, {"max_slope", maxSlope},
-                               {"distance_range", range}});
+    m.def("amplify", [](py::object terrain, const std::vector<PyTile>& tiles,
+                        const std::vector<std::string>& names,
+                        std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>> mask,
+                        const std::string& options) {
+        std::optional<GrayImage> img;
+        if (mask) {
+            if (mask->ndim() != 2) throw ValueError("amplify: mask must be a 2D array (rows = y)");
+            img = GrayImage{int(mask->shape(1)), int(mask->shape(0)),
+                            std::vector<float>(mask->data(), mask->data() + mask->size())};
+        }
+        return amplifyTerrain(std::move(terrain), tiles, names, std::move(img), options);
     });
 
     m.def("sphere", [](double radius, const V3& c) {
@@ -353,6 +363,14 @@ PYBIND11_MODULE(_rockvdb, m)
         img.pixels.assign(a.data(), a.data() + a.size());
         writeGrayImage(path, img);
     }, py::arg("path"), py::arg("array"), "Write a 2D array as float EXR or 16-bit PNG (row 0 first)");
+
+    m.def("read_image", [](const std::string& path, const std::string& op) {
+        GrayImage img = readGrayImage(path, op.c_str());
+        py::array_t<float> a({img.height, img.width});
+        std::copy(img.pixels.begin(), img.pixels.end(), a.mutable_data());
+        return a;
+    }, py::arg("path"), py::arg("op") = "image",
+       "Read a float EXR / 16-bit PNG (0..1) as a 2D array (row 0 first)");
 
     m.def("csg", [](const std::string& op, const std::vector<Grid>& grids, double smooth) {
         std::vector<openvdb::FloatGrid::ConstPtr> in(grids.begin(), grids.end());

@@ -261,3 +261,54 @@ def test_amplify_grids_in_and_out(tmp_path):
         rockvdb.amplify(ground, [eq, tab], strata={"layers": [{"tile": "granite"}]})
     with pytest.raises(TypeError):
         rockvdb.amplify(None, [eq])
+
+
+def test_amplify_mask_roi_carve_and_stats(tmp_path):
+    """mask (array or image file), roi, carve and stats, as vdb_amplify offers them."""
+    png = tmp_path / "ramp.png"
+    write_png16(png, [[round(65535 * min(1.0, max(0.0, (i - 20) / 12))) for i in range(65)]
+                      for _ in range(65)])
+    eq = rockvdb.block_tile(type="equidimensional", seed=3, bake=False, **SMALL_TILE)
+    common = dict(cell_size=0.25, height_scale=5.0, voxel_size=0.1, max_slope=0.8)
+
+    def block_ys(ids):
+        return [it.min[1] * 0.1 for it in ids.citerOnValues() if it.value >= 0]
+
+    full = {}
+    _, ids_full, _ = rockvdb.amplify(str(png), [eq], stats=full, **common)
+    assert full["replicated"] > 0 and full["active_voxels"] > 0
+    assert 0 < full["block_field_bytes"] < 1e6
+    assert all(full[k] >= 0 for k in ("presence_seconds", "bake_seconds", "split_seconds"))
+    # Mask: blocks allowed only where y >= 8 m (rows are y, one pixel per heightfield cell).
+    mask = np.zeros((65, 65), dtype=np.float32)
+    mask[32:, :] = 1.0
+    masked = {}
+    _, ids_m, _ = rockvdb.amplify(str(png), [eq], mask=mask, stats=masked, **common)
+    assert 0 < masked["replicated"] < full["replicated"]
+    # A present copy has more than half its anchors in the mask: its voxels reach at most
+    # one block (10 m tile, blocks ~2 m) below y = 8 m.
+    assert min(block_ys(ids_m)) > 8.0 - 4.0
+    # The same mask as a 16-bit PNG file gives the same grids.
+    mpng = tmp_path / "mask.png"
+    write_png16(mpng, [[65535 if j >= 32 else 0 for _ in range(65)] for j in range(65)])
+    _, ids_f, _ = rockvdb.amplify(str(png), [eq], mask=str(mpng), **common)
+    assert ids_f.activeVoxelCount() == ids_m.activeVoxelCount()
+    assert np.array_equal(dense(ids_f)[1], dense(ids_m)[1])
+    # roi: anchors limited to y <= 6 m.
+    _, ids_r, _ = rockvdb.amplify(str(png), [eq], roi=(-100, -100, -100, 100, 6, 100), **common)
+    assert 0 < len(block_ys(ids_r)) and max(block_ys(ids_r)) < 6.0 + 4.0
+    # carve: the bare terrain is cut back beside blocks, so the carved solid is not a superset.
+    s_u, _, _ = rockvdb.amplify(str(png), [eq], **common)
+    s_c, _, _ = rockvdb.amplify(str(png), [eq], carve=0.05, **common)
+    _, du = dense(s_u)
+    _, dc = dense(s_c)
+    assert du.shape == dc.shape and not np.array_equal(du, dc)
+    # Mixed tile sizes need an explicit choice.
+    big = rockvdb.block_tile(type="equidimensional", seed=3, bake=False, tile_size=12,
+                             point_radius=0.5)
+    strata = {"layers": [{"tile": 0, "top": 2.5}, {"tile": 1}]}
+    with pytest.raises(ValueError, match="tile sizes differ"):
+        rockvdb.amplify(str(png), [eq, big], strata=strata, **common)
+    s_mix, _, _ = rockvdb.amplify(str(png), [eq, big], strata=strata, mixed_tile_sizes=True,
+                                  **common)
+    assert s_mix.activeVoxelCount() > 0

@@ -1,5 +1,7 @@
 """vdb_amplify (heightfield terrains, one tile or several by strata; slope / distance /
 anchor rules): grids, the slope rule on a plateau-and-cliff, flat terrain, bad input."""
+import os
+
 import pyopenvdb as vdb
 import pytest
 
@@ -38,6 +40,11 @@ def test_cliff_gets_blocks_plateau_and_floor_stay_bare(inputs, tmp_path):
     grids, _ = vdb.readAll(str(out))
     g = {x.name: x for x in grids}
     assert set(g) == {"surface", "block_id", "material"}
+    # Statistics: the active voxel count matches the file, and every phase is timed.
+    active = int(p.stderr.split("bake: ")[1].split()[0])
+    assert active == g["surface"].activeVoxelCount()
+    for phase in ("presence", "bake", "cull", "fill", "split", "load", "write", "total"):
+        assert f"{phase} " in p.stderr.split("phases: ")[1], p.stderr
     ids, mat = g["block_id"], g["material"]
     dx = g["surface"].transform.voxelSize()[0]
     count = 0
@@ -153,3 +160,29 @@ def test_mask_image_limits_the_blocks(inputs, tmp_path):
     one_line_error(amplify(inputs, inputs["cliff"], tmp_path / "o.vdb", "--mask",
                            str(tmp_path / "none.png")), 1, "none.png")
     assert not (tmp_path / "o.vdb").exists()
+
+
+def test_sample_03_strata_order_on_the_cliff(tmp_path):
+    """samples/03_amplify.sh at 25 cm: equidimensional blocks (tile 0) below the tilted
+    boundary, tabular (tile 1) above; the plateau and sea floor stay bare."""
+    from conftest import BUILD
+    sample = os.path.join(os.path.dirname(__file__), "..", "..", "samples", "03_amplify.sh")
+    p = run(["bash", sample, BUILD, str(tmp_path), "0.25"])
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "cliff.png").stat().st_size > 10000
+    grids, _ = vdb.readAll(str(tmp_path / "cliff.vdb"))
+    mat = {g.name: g for g in grids}["material"]
+    dx = 0.25
+    elev = {0: [], 1: []}
+    for it in mat.citerOnValues():
+        if it.value < 0:
+            continue
+        x, y, z = (c * dx for c in it.min)
+        elev[int(it.value)].append(z + 0.2 * x)  # the strata's n·p (unnormalised normal)
+        # The cliff (steeper than the rule) lies within 24..36 ± 4 m in x: the plateau and
+        # the sea floor beyond it stay bare (blocks reach ~2 m past their anchors).
+        assert 17 < x < 43, (x, y, z)
+    assert elev[0] and elev[1]
+    # Boundary at 14 (n·p with n = (0.2, 0, 1) normalised, ±1.5 m noise, blocks ~2 m).
+    assert max(elev[0]) < min(elev[1]) + 5
+    assert sum(elev[0]) / len(elev[0]) < 14 * 1.02 < sum(elev[1]) / len(elev[1])
