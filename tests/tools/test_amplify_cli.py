@@ -186,3 +186,51 @@ def test_sample_03_strata_order_on_the_cliff(tmp_path):
     # Boundary at 14 (n·p with n = (0.2, 0, 1) normalised, ±1.5 m noise, blocks ~2 m).
     assert max(elev[0]) < min(elev[1]) + 5
     assert sum(elev[0]) / len(elev[0]) < 14 * 1.02 < sum(elev[1]) / len(elev[1])
+
+
+def test_chunks_merge_to_the_whole_bake(inputs, tmp_path):
+    """Two --region chunks split on a leaf boundary (x = 16 m = 10 leaves of 0.2 m voxels),
+    merged by vdb_merge, equal the whole bake: every grid, active voxels and the inside /
+    outside values around them (a margin of 3 leaves)."""
+    import numpy as np
+    whole, a, b, merged = (tmp_path / f"{n}.vdb" for n in ("whole", "a", "b", "merged"))
+    assert amplify(inputs, inputs["cliff"], whole).returncode == 0
+    assert amplify(inputs, inputs["cliff"], a, "--region", "-5,-5,-5,16,40,40").returncode == 0
+    assert amplify(inputs, inputs["cliff"], b, "--region", "16,-5,-5,40,40,40").returncode == 0
+    p = run([tool("vdb_merge"), str(a), str(b), "-o", str(merged)])
+    assert p.returncode == 0, p.stderr
+    gw = {g.name: g for g in vdb.readAll(str(whole))[0]}
+    gm = {g.name: g for g in vdb.readAll(str(merged))[0]}
+    ga = {g.name: g for g in vdb.readAll(str(a))[0]}
+    assert set(gm) == set(gw) == {"surface", "block_id", "material"}
+    assert 0 < ga["surface"].activeVoxelCount() < gw["surface"].activeVoxelCount()
+    for name in gw:
+        assert gm[name].activeVoxelCount() == gw[name].activeVoxelCount()
+        lo, hi = gw[name].evalActiveVoxelBoundingBox()
+        lo = tuple(c - 24 for c in lo)
+        shape = tuple(hi[k] - lo[k] + 25 for k in range(3))
+        dw, dm = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
+        gw[name].copyToArray(dw, ijk=lo)
+        gm[name].copyToArray(dm, ijk=lo)
+        assert np.array_equal(dw, dm), name
+    assert gm["surface"].gridClass == vdb.GridClass.LEVEL_SET
+    assert "vdb_merge" in gm["surface"].metadata["rockvdb:generator"]
+
+
+def test_merge_refuses_chunks_of_different_bakes(inputs, tmp_path):
+    a, coarse, other, out = (tmp_path / f"{n}.vdb" for n in ("a", "coarse", "other", "out"))
+    assert amplify(inputs, inputs["cliff"], a, "--region", "-5,-5,-5,16,40,40").returncode == 0
+    assert run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--cell-size", "0.5",
+                "--height-scale", "10", "--tiles", str(inputs["tile"]), "--voxel-size", "0.25",
+                "-o", str(coarse)]).returncode == 0
+    one_line_error(run([tool("vdb_merge"), str(a), str(coarse), "-o", str(out)]), 2, "transform")
+    assert not out.exists()
+    # Overlapping chunks of two different bakes (the carving variant) disagree on voxels.
+    assert amplify(inputs, inputs["cliff"], other, "--carve", "0.1").returncode == 0
+    one_line_error(run([tool("vdb_merge"), str(a), str(other), "-o", str(out)]), 2, "disagree")
+    assert not out.exists()
+    # A file with other grids.
+    sphere = tmp_path / "sphere.vdb"
+    run([tool("vdb_primitive"), "sphere", "--radius", "1", "-o", str(sphere)], check=True)
+    one_line_error(run([tool("vdb_merge"), str(a), str(sphere), "-o", str(out)]), 2, "other grids")
+    assert not out.exists()

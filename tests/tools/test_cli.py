@@ -11,7 +11,7 @@ import pytest
 from conftest import one_line_error, run, tool
 
 ALL_TOOLS = ["vdb_primitive", "vdb_heightfield", "vdb_csg", "vdb_mesh", "vdb_preview", "vdb_info",
-             "vdb_blocks", "vdb_amplify"]
+             "vdb_blocks", "vdb_amplify", "vdb_merge"]
 
 
 
@@ -126,6 +126,7 @@ READERS = {
     "vdb_mesh": lambda f, o: [tool("vdb_mesh"), str(f), "-o", str(o) + ".obj"],
     "vdb_preview": lambda f, o: [tool("vdb_preview"), str(f), "-o", str(o) + ".png"],
     "vdb_info": lambda f, o: [tool("vdb_info"), str(f)],
+    "vdb_merge": lambda f, o: [tool("vdb_merge"), str(f), "-o", str(o) + ".vdb"],
 }
 
 
@@ -134,8 +135,8 @@ READERS = {
     ("missing", 1, "no such file"), ("text", 1, "not a VDB"), ("trunc", 1, "truncated"),
     ("fog", 2, "fog volume")])
 def test_readers_reject_bad_files(tmp_path, bad_files, name, kind, code, needle):
-    if name == "vdb_info" and kind == "fog":
-        pytest.skip("vdb_info describes any grid")
+    if name in ("vdb_info", "vdb_merge") and kind == "fog":
+        pytest.skip(f"{name} takes any float grid")
     out = tmp_path / "out"
     before = leftovers(tmp_path)
     one_line_error(run(READERS[name](bad_files[kind], out)), code, needle)
@@ -173,6 +174,7 @@ def test_unwritable_output(tmp_path, sphere_vdb, heightfield_png):
         [tool("vdb_csg"), "union", str(sphere_vdb), "-o", "/nonexistent/dir/x.vdb"],
         [tool("vdb_mesh"), str(sphere_vdb), "-o", "/nonexistent/dir/x.obj"],
         [tool("vdb_preview"), str(sphere_vdb), "-o", "/nonexistent/dir/x.png"],
+        [tool("vdb_merge"), str(sphere_vdb), "-o", "/nonexistent/dir/x.vdb"],
     ]
     for args in cases:
         one_line_error(run(args), 1, "does not exist")
