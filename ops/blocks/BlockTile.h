@@ -11,6 +11,7 @@
 #pragma once
 
 #include <core/Field.h>
+#include <detail/Relief.h>
 
 #include <nlohmann/json_fwd.hpp>
 
@@ -43,15 +44,7 @@ struct AuthoredBlock
     std::vector<std::array<double, 4>> planes;
 };
 
-/// Relief d of the gradient-based warp (§4.2): procedural turbulence or a tiled image.
-struct ReliefParams
-{
-    double amplitude = 0.05; ///< metres; the surface moves by at most this (0 disables)
-    double scale = 1.5;      ///< metres: noise wavelength, or world size of one image tile
-    int octaves = 4;         ///< turbulence octaves
-    std::string image;       ///< EXR / 16-bit PNG relief (empty: procedural turbulence)
-    double sharpness = 1.0;  ///< exponent p of the projection weights |g·u_i|^p / Σ|g·u_j|^p
-};
+using detail::ReliefParams;
 
 /// Everything that defines a tile; 0 / negative values mean "the type's default".
 struct TileParams

@@ -5,6 +5,7 @@
 #include <core/Image.h>
 #include <core/Noise.h>
 #include <core/Random.h>
+#include <detail/Relief.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -24,110 +25,6 @@ namespace {
 
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
-// ---- relief d: R² → [-A, A] ------------------------------------------------------------
-
-class Relief
-{
-public:
-    // lo, hi: the range of local coordinates the blocks can be evaluated at (any axis).
-    Relief(const TileParams& p, float lo, float hi) : mAmp(float(p.relief.amplitude))
-    {
-        mFbm.frequency = 1.0 / p.relief.scale;
-        mFbm.octaves = p.relief.octaves;
-        mInvSum = float(1.0 / mFbm.amplitudeSum());
-        mSeed = random::hash(p.seed, 0x72656c66 /*relf*/, 0);
-        mScale = float(p.relief.scale);
-        if (mAmp <= 0) return;
-        if (!p.relief.image.empty()) {
-            mImage = readGrayImage(p.relief.image, "relief");
-            if (mImage.width < 2 || mImage.height < 2) {
-                fail<ValueError>("relief: image '", p.relief.image, "' must be at least 2x2 pixels");
-            }
-            float a = kInf, b = -kInf;
-            for (float v : mImage.pixels) {
-                if (!std::isfinite(v)) fail<ValueError>("relief: image '", p.relief.image,
-                                                        "' holds non-finite values");
-                a = std::min(a, v);
-                b = std::max(b, v);
-            }
-            mLo = a;
-            mInvRange = b > a ? 1.0f / (b - a) : 0.0f;
-            return;
-        }
-        // Procedural relief: tabulate the turbulence once (texel = scale/64: 8 texels across
-        // the 4th octave's wavelength at the default scale) over the coordinate range, then
-        // read it bilinearly: the three projections of every point cost three lookups
-        // instead of 3·octaves noise evaluations.
-        const double texel = p.relief.scale / 64.0;
-        const double span = double(hi - lo) + 2.0;
-        const double n = std::ceil(span / texel) + 2;
-        if (n * n <= 16e6) {
-            mTableN = int(n);
-            mTableLo = lo - 1.0f;
-            mTableTexel = float(texel);
-            mTable.resize(size_t(mTableN) * size_t(mTableN));
-            tbb::parallel_for(tbb::blocked_range<int>(0, mTableN), [&](const tbb::blocked_range<int>& r) {
-                for (int j = r.begin(); j != r.end(); ++j)
-                    for (int i = 0; i < mTableN; ++i) {
-                        mTable[size_t(j) * size_t(mTableN) + size_t(i)] =
-                            direct(mTableLo + float(i) * mTableTexel, mTableLo + float(j) * mTableTexel);
-                    }
-            });
-        }
-    }
-
-    float amplitude() const { return mAmp; }
-
-    // d(u, v) in [-A, A].
-    float operator()(float u, float v) const
-    {
-        if (mImage.width > 0) {
-            // Tiled bilinear lookup; one image tile spans `scale` metres; bright = bump.
-            const float x = u / mScale * float(mImage.width), y = v / mScale * float(mImage.height);
-            const float fx = std::floor(x), fy = std::floor(y);
-            const int i0 = wrap(int(fx), mImage.width), j0 = wrap(int(fy), mImage.height);
-            const int i1 = (i0 + 1) % mImage.width, j1 = (j0 + 1) % mImage.height;
-            const float tx = x - fx, ty = y - fy;
-            const float a = mImage.at(i0, j0) + (mImage.at(i1, j0) - mImage.at(i0, j0)) * tx;
-            const float b = mImage.at(i0, j1) + (mImage.at(i1, j1) - mImage.at(i0, j1)) * tx;
-            const float r = ((a + (b - a) * ty) - mLo) * mInvRange;
-            return mInvRange > 0 ? mAmp * (1.0f - 2.0f * r) : 0.0f;
-        }
-        if (mTableN > 0) {
-            const float top = float(mTableN - 1) - 1e-3f;
-            const float x = std::min(std::max((u - mTableLo) / mTableTexel, 0.0f), top);
-            const float y = std::min(std::max((v - mTableLo) / mTableTexel, 0.0f), top);
-            const int i = int(x), j = int(y);
-            const float tx = x - float(i), ty = y - float(j);
-            const float* row = mTable.data() + size_t(j) * size_t(mTableN) + size_t(i);
-            const float a = row[0] + (row[1] - row[0]) * tx;
-            const float b = row[mTableN] + (row[mTableN + 1] - row[mTableN]) * tx;
-            return a + (b - a) * ty;
-        }
-        return direct(u, v);
-    }
-
-private:
-    // Turbulence: creases (turbulence 0) carve grooves (d = +A, the surface moves inwards),
-    // high turbulence raises bumps.
-    float direct(float u, float v) const
-    {
-        const float t = noise::turbulence2(mSeed, mFbm, u, v) * mInvSum;
-        return mAmp * std::min(1.0f, std::max(-1.0f, 1.0f - 2.8f * t));
-    }
-
-    static int wrap(int i, int n) { return ((i % n) + n) % n; }
-
-    float mAmp;
-    noise::Fbm mFbm;
-    float mInvSum = 1, mScale = 1;
-    uint64_t mSeed = 0;
-    GrayImage mImage;
-    float mLo = 0, mInvRange = 0;
-    int mTableN = 0;
-    float mTableLo = 0, mTableTexel = 1;
-    std::vector<float> mTable;
-};
 
 float coordinateLow(const BlockTile& t)
 {
@@ -270,7 +167,7 @@ class Blocks
 {
 public:
     explicit Blocks(const BlockTile& tile)
-        : mRelief(tile.params, coordinateLow(tile), coordinateHigh(tile)),
+        : mRelief(tile.params.relief, tile.params.seed, coordinateLow(tile), coordinateHigh(tile)),
           mR(float(tile.params.smoothRadius)),
           mP(float(tile.params.relief.sharpness))
     {
@@ -358,25 +255,9 @@ public:
                 w.gz[i] *= inv;
                 w.f[i] = std::min(len, 1.0f);
             }
-            // Weights |g_i|^p (p = 1: the paper's |g·u_i|).
-            float* ax = w.qx;
-            float* ay = w.qy;
-            float* az = w.qz;
             for (int i = 0; i < n; ++i) {
-                ax[i] = std::abs(w.gx[i]);
-                ay[i] = std::abs(w.gy[i]);
-                az[i] = std::abs(w.gz[i]);
-            }
-            if (pexp != 1.0f) {
-                for (int i = 0; i < n; ++i) {
-                    ax[i] = std::pow(ax[i], pexp);
-                    ay[i] = std::pow(ay[i], pexp);
-                    az[i] = std::pow(az[i], pexp);
-                }
-            }
-            for (int i = 0; i < n; ++i) {
-                const float sum = std::max(ax[i] + ay[i] + az[i], 1e-12f);
-                const float disp = (az[i] * w.dxy[i] + ay[i] * w.dxz[i] + ax[i] * w.dyz[i]) / sum;
+                const float disp = detail::triplanar(w.gx[i], w.gy[i], w.gz[i], w.dxy[i],
+                                                     w.dxz[i], w.dyz[i], pexp);
                 const float scale = w.f[i] * disp;
                 w.qx[i] = x[i] + w.gx[i] * scale;
                 w.qy[i] = y[i] + w.gy[i] * scale;
@@ -440,7 +321,7 @@ private:
     }
 
     std::vector<BlockShape> mShapes;
-    Relief mRelief;
+    detail::Relief mRelief;
     float mR, mP, mMargin = 0.5f;
 };
 
