@@ -103,6 +103,11 @@ public:
     /// r. The default is lipschitz()·r.
     virtual double modulus(double r) const { return lipschitz() * r; }
 
+    /// @brief Gradient of f at the points of @a b (not normalised). The default takes central
+    /// differences with step @a h (six batch evaluations); fields that know better (a grid's
+    /// precomputed gradient) override it.
+    virtual void gradientBatch(const Batch& b, float h, float* gx, float* gy, float* gz) const;
+
     /// @brief True when f is a Euclidean distance within the narrow band.
     virtual bool exact() const { return true; }
 

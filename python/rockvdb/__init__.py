@@ -18,7 +18,8 @@ from ._rockvdb import (Field, __version__, box, capsule, csg, expression, height
                        plane, polytope, preview, provenance, read, sphere, write,
                        write_heightfield)
 
-__all__ = ["BlockTile", "Field", "amplify", "block_tile", "box", "capsule", "csg", "expression",
+__all__ = ["BlockTile", "Field", "amplify", "block_tile", "box", "capsule", "csg", "detail",
+           "expression",
            "heightfield", "load_tile", "mesh", "plane", "polytope", "preview", "provenance",
            "read", "sphere", "write", "write_heightfield", "__version__"]
 
@@ -142,3 +143,32 @@ def amplify(terrain, tiles, strata=None, max_slope=0.5, distance_range=(-1.0, 0.
     if stats is not None:
         stats.update(st)
     return surface, block_id, material
+
+
+def detail(grid, warp_amplitude=0.0, warp_relief="turbulence", warp_scale=1.5, warp_octaves=4,
+           warp_sharpness=8.0, gabor_amplitude=0.0, gabor_frequency=0.0, gabor_bandwidth=0.0,
+           gabor_orientation=0.0, gabor_impulses=16.0, gabor_falloff=0.0,
+           gabor_isotropic=False, tilt=(0.0, 0.0), direction_axis=None,
+           direction_skeleton=None, direction_curvature=False, singular="auto", seed=0,
+           voxel_size=None, half_width=None):
+    """Surface detail on a level set (vdb_detail from Python): gradient warp (implicit-blocks
+    §4.2) and Gabor details (gabor-details §3-§4). grid: a pyopenvdb.FloatGrid level set;
+    amplitudes in metres (0 disables), frequency in cycles per metre, angles in degrees;
+    direction_skeleton: a dict {"segments": [...]} or a JSON file path. voxel_size and
+    half_width default to the input's. Returns a new pyopenvdb.FloatGrid (input untouched)."""
+    import os
+    if isinstance(direction_skeleton, os.PathLike):
+        direction_skeleton = str(direction_skeleton)
+    options = {"warp_amplitude": float(warp_amplitude), "warp_relief": str(warp_relief),
+               "warp_scale": float(warp_scale), "warp_octaves": int(warp_octaves),
+               "warp_sharpness": float(warp_sharpness), "gabor_amplitude": float(gabor_amplitude),
+               "gabor_frequency": float(gabor_frequency), "gabor_bandwidth": float(gabor_bandwidth),
+               "gabor_orientation": float(gabor_orientation),
+               "gabor_impulses": float(gabor_impulses), "gabor_falloff": float(gabor_falloff),
+               "gabor_isotropic": bool(gabor_isotropic), "tilt": [float(t) for t in tilt],
+               "direction_axis": ([float(a) for a in direction_axis]
+                                  if direction_axis is not None else None),
+               "direction_skeleton": direction_skeleton,
+               "direction_curvature": bool(direction_curvature), "singular": str(singular),
+               "seed": int(seed)}
+    return _rockvdb.detail(grid, _json.dumps(options), voxel_size, half_width)

@@ -16,6 +16,7 @@
 #include <core/Preview.h>
 #include <core/Primitives.h>
 #include <core/VdbIO.h>
+#include <detail/Detail.h>
 
 #include <nlohmann/json.hpp>
 #include <pybind11/numpy.h>
@@ -363,6 +364,33 @@ PYBIND11_MODULE(_rockvdb, m)
         img.pixels.assign(a.data(), a.data() + a.size());
         writeGrayImage(path, img);
     }, py::arg("path"), py::arg("array"), "Write a 2D array as float EXR or 16-bit PNG (row 0 first)");
+
+    m.def("detail", [](Grid grid, const std::string& options, std::optional<double> voxelSize,
+                       std::optional<double> halfWidth) {
+        const json o = json::parse(options);
+        const detail::DetailParams p = detail::DetailParams::fromJson(o);
+        if (!grid) throw ValueError("detail: the input grid is None");
+        requireLevelSet(*grid, "detail input");
+        BakeSettings s;
+        s.voxelSize = voxelSize ? *voxelSize : grid->voxelSize()[0];
+        s.halfWidth = halfWidth ? *halfWidth : double(grid->background()) / grid->voxelSize()[0];
+        s.gridName = grid->getName();
+        BakeResult r;
+        {
+            py::gil_scoped_release release;
+            r = detail::detailLevelSet(grid, p, s);
+        }
+        json params = o;
+        params["voxel_size"] = s.voxelSize;
+        params["half_width"] = s.halfWidth;
+        if (auto prov = provenance(*grid)) {
+            params["source"] = {{"generator", prov->generator},
+                                {"params", json::parse(prov->params, nullptr, false)}};
+        }
+        stampProvenance(*r.surface, "rockvdb.detail", params.dump());
+        return r.surface;
+    }, py::arg("grid"), py::arg("options"), py::arg("voxel_size") = std::nullopt,
+       py::arg("half_width") = std::nullopt);
 
     m.def("read_image", [](const std::string& path, const std::string& op) {
         GrayImage img = readGrayImage(path, op.c_str());

@@ -1,0 +1,579 @@
+#include "Detail.h"
+
+#include "Gabor.h"
+
+#include <core/Error.h>
+#include <core/Expression.h>
+#include <core/GridField.h>
+#include <core/VdbIO.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <limits>
+#include <cmath>
+#include <memory>
+
+namespace rockvdb {
+namespace detail {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+float smoothstep(float a, float b, float x)
+{
+    const float t = std::min(std::max((x - a) / (b - a), 0.0f), 1.0f);
+    return t * t * (3.0f - 2.0f * t);
+}
+
+// f at the points of @a b shifted by (sx, sy, sz).
+void evalShifted(const Field& f, const Batch& b, float sx, float sy, float sz, float* out)
+{
+    BatchBuffer q;
+    for (int i = 0; i < b.n; ++i) {
+        q.x[i] = b.x[i] + sx;
+        q.y[i] = b.y[i] + sy;
+        q.z[i] = b.z[i] + sz;
+    }
+    q.n = b.n;
+    q.center = b.center;
+    q.radius = b.radius + std::abs(sx) + std::abs(sy) + std::abs(sz);
+    q.band = b.band;
+    q.reach = b.reach;
+    f.evalBatch(q.view(), out);
+}
+
+// ---- §4.2 gradient-based warp: f(ω⁻¹(p)), ω⁻¹(p) = p + g(p) Σ α_i d(γ_i(p)) ----------------
+
+class GradientWarp final : public Field
+{
+public:
+    GradientWarp(FieldPtr input, const ReliefParams& r, uint64_t seed, float h, float lo, float hi)
+        : mInput(std::move(input)), mRelief(r, seed, lo, hi), mP(float(r.sharpness)), mH(h),
+          mA(float(r.amplitude)) {}
+
+    void evalBatch(const Batch& b, float* out) const override { eval(b, out, nullptr); }
+    void evalIdBatch(const Batch& b, float* out, float* id) const override { eval(b, out, id); }
+    BBoxd bounds() const override
+    {
+        BBoxd bb = mInput->bounds();
+        if (isBounded(bb)) bb.expand(double(mA));
+        return bb;
+    }
+    double lipschitz() const override { return mInput->lipschitz() * (1.0 + slope()); }
+    // |δ(p) - δ(q)| <= min(L_δ·|p - q|, 2A): the detail adds a constant, not a slope.
+    double modulus(double r) const override
+    {
+        return mInput->modulus(r + std::min(slope() * r, 2.0 * double(mA)));
+    }
+    bool exact() const override { return false; }
+
+private:
+    // |∇δ| <= |∇d| + A·|∇g|·(1 + p), |∇g| bounded by the curvature the gradient step resolves
+    // (1/h): loose, used only for the renormalisation floor.
+    double slope() const
+    {
+        return mRelief.slopeBound() + double(mA) * (1.0 + double(mP)) / double(mH);
+    }
+
+    void eval(const Batch& b, float* out, float* id) const
+    {
+        if (id) mInput->evalIdBatch(b, out, id);
+        else mInput->evalBatch(b, out);
+        // |f(p + δ) - f(p)| <= L·A: points further than band + L·A stay beyond the band
+        // with their sign, so only the others are warped.
+        const float skip = std::isfinite(b.band)
+                               ? b.band + float(mInput->lipschitz()) * mA : std::numeric_limits<float>::infinity();
+        BatchBuffer p;
+        int idx[kMaxBatch];
+        int m = 0;
+        for (int i = 0; i < b.n; ++i) {
+            if (std::abs(out[i]) < skip) {
+                idx[m] = i;
+                p.x[m] = b.x[i];
+                p.y[m] = b.y[i];
+                p.z[m] = b.z[i];
+                ++m;
+            }
+        }
+        if (m == 0) return;
+        p.n = m;
+        p.center = b.center;
+        p.radius = b.radius;
+        p.band = b.band;
+        p.reach = b.reach;
+        alignas(64) float gx[kMaxBatch], gy[kMaxBatch], gz[kMaxBatch];
+        mInput->gradientBatch(p.view(), mH, gx, gy, gz);
+        BatchBuffer q;
+        for (int j = 0; j < m; ++j) {
+            const float len = std::sqrt(gx[j] * gx[j] + gy[j] * gy[j] + gz[j] * gz[j]);
+            const float inv = 1.0f / std::max(len, 1e-6f);
+            const float nx = gx[j] * inv, ny = gy[j] * inv, nz = gz[j] * inv;
+            const float x = p.x[j], y = p.y[j], z = p.z[j];
+            // Where the gradient fades (medial axes of a distance) the warp fades with it.
+            const float s = std::min(len, 1.0f) *
+                            triplanar(nx, ny, nz, mRelief(x, y), mRelief(x, z), mRelief(y, z), mP);
+            q.x[j] = x + nx * s;
+            q.y[j] = y + ny * s;
+            q.z[j] = z + nz * s;
+        }
+        q.n = m;
+        q.center = b.center;
+        q.radius = b.radius + mA;
+        q.band = b.band;
+        q.reach = std::isfinite(b.reach) ? b.reach + 2.0f * mA : b.reach;
+        alignas(64) float v[kMaxBatch], vid[kMaxBatch];
+        if (id) mInput->evalIdBatch(q.view(), v, vid);
+        else mInput->evalBatch(q.view(), v);
+        for (int j = 0; j < m; ++j) {
+            out[idx[j]] = v[j];
+            if (id) id[idx[j]] = vid[j];
+        }
+    }
+
+    FieldPtr mInput;
+    Relief mRelief;
+    float mP, mH, mA;
+};
+
+// ---- gabor §3–§4: f(p) - D(n(p_S))·K(|p p_S|/R) in the band |f| < R ----------------------
+
+class GaborDetail final : public Field
+{
+public:
+    // value: the field to detail (the input, or the warped input); frames: the field whose
+    // gradient gives the normals and projections (the unwarped input: far cheaper, and the
+    // warp moves the surface by a small amount only).
+    GaborDetail(FieldPtr value, FieldPtr frames, const GaborParams& g, const DirectionField& dir,
+                float h)
+        : mInput(std::move(value)), mFrame(std::move(frames)), mG(g), mDir(dir),
+          mNoise(g.frequency, g.bandwidth > 0 ? g.bandwidth : g.frequency / 2, g.impulses, g.seed),
+          mH(h)
+    {
+        mA = float(g.amplitude);
+        mR = float(g.falloff > 0 ? g.falloff : 8.0 * g.amplitude);
+        // Saturated noise moves the surface by exactly A: s = D (1 - s/R)⁶ at s = A.
+        mD = mA / float(std::pow(1.0 - double(mA) / double(mR), 6.0));
+        const double alpha = g.tiltDeg * kPi / 180.0, theta = g.tiltAzimuthDeg * kPi / 180.0;
+        mCosA = float(std::cos(alpha));
+        mSinA = float(std::sin(alpha));
+        mCosT = float(std::cos(theta));
+        mSinT = float(std::sin(theta));
+        const double w = g.orientationDeg * kPi / 180.0;
+        mCosW = float(std::cos(w));
+        mSinW = float(std::sin(w));
+        mSingular = g.singular;
+        if (mSingular == Singular::Auto) {
+            mSingular = dir.kind == DirectionKind::Curvature ? Singular::Isotropic : Singular::Cancel;
+        }
+        mInvSigma = float(1.0 / mNoise.sigma());
+        Vec3d ax = dir.axis;
+        if (ax.length() > 0) ax.normalize();
+        mAxis = Vec3f(float(ax[0]), float(ax[1]), float(ax[2]));
+    }
+
+    void evalBatch(const Batch& b, float* out) const override { eval(b, out, nullptr); }
+    void evalIdBatch(const Batch& b, float* out, float* id) const override { eval(b, out, id); }
+    BBoxd bounds() const override
+    {
+        BBoxd bb = mInput->bounds();
+        if (isBounded(bb)) bb.expand(double(mA));
+        return bb;
+    }
+    // |f_new - f| <= D: the modulus grows by 2D; the slope by D·(6/R + |∇n̂|).
+    double modulus(double r) const override { return mInput->modulus(r) + 2.0 * double(mD); }
+    double lipschitz() const override
+    {
+        const double a = mG.bandwidth > 0 ? mG.bandwidth : mG.frequency / 2;
+        return mInput->lipschitz() + double(mD) * (6.0 / double(mR) + 2.0 * kPi * (mG.frequency + a));
+    }
+    bool exact() const override { return false; }
+
+private:
+    struct Work
+    {
+        alignas(64) float f[kMaxBatch], gx[kMaxBatch], gy[kMaxBatch], gz[kMaxBatch];
+        alignas(64) float ox[kMaxBatch], oy[kMaxBatch], oz[kMaxBatch], iso[kMaxBatch];
+        alignas(64) float k[kMaxBatch], n[kMaxBatch], scale[kMaxBatch];
+        alignas(64) float h[6][kMaxBatch];
+        int idx[kMaxBatch];
+    };
+
+    void eval(const Batch& b, float* out, float* id) const
+    {
+        if (id) mInput->evalIdBatch(b, out, id);
+        else mInput->evalBatch(b, out);
+        // Points in the detail band |f| < R (the field is unchanged beyond it).
+        auto w = std::make_unique<Work>();
+        BatchBuffer p;
+        int m = 0;
+        for (int i = 0; i < b.n; ++i) {
+            if (std::abs(out[i]) < mR) {
+                w->idx[m] = i;
+                p.x[m] = b.x[i];
+                p.y[m] = b.y[i];
+                p.z[m] = b.z[i];
+                w->f[m] = out[i];
+                ++m;
+            }
+        }
+        if (m == 0) return;
+        p.n = m;
+        p.center = b.center;
+        p.radius = b.radius;
+        p.band = std::max(b.band, mR + 2.0f * mH);
+        p.reach = std::max(b.reach, mR + 2.0f * mH);
+        const Batch pv = p.view();
+        const bool curvature = mDir.kind == DirectionKind::Curvature && !mG.isotropic;
+        const float h = curvature ? 2.0f * mH : mH;
+        mFrame->gradientBatch(pv, h, w->gx, w->gy, w->gz);
+        if (curvature) hessian(pv, h, *w);
+        BatchBuffer s; // projected points p_S
+        for (int j = 0; j < m; ++j) {
+            const float len = std::sqrt(w->gx[j] * w->gx[j] + w->gy[j] * w->gy[j] + w->gz[j] * w->gz[j]);
+            const float inv = 1.0f / std::max(len, 1e-6f);
+            const Vec3f n(w->gx[j] * inv, w->gy[j] * inv, w->gz[j] * inv);
+            // Frame (n, t, b) from W (gabor §3): b = n ∧ W, t = b ∧ n.
+            Vec3f W = direction(j, n, pv, *w);
+            Vec3f bb = n.cross(W);
+            const float wl = W.length(), bl = bb.length();
+            // Singularities: W ∥ n (or W = 0); curvature frames at umbilics (set in hessian).
+            float c = curvature ? w->iso[j] : smoothstep(0.05f, 0.25f, wl > 1e-9f ? bl / wl : 0.0f) *
+                                                  smoothstep(0.0f, 0.05f, wl);
+            if (mG.isotropic) c = 0.0f;
+            Vec3f t(0.0f), bn(0.0f);
+            if (bl > 1e-9f) {
+                bn = bb / bl;
+                t = bn.cross(n);
+            }
+            const Vec3f o = t * mCosW + bn * mSinW;
+            w->ox[j] = o[0];
+            w->oy[j] = o[1];
+            w->oz[j] = o[2];
+            // Isotropic share and the noise's scale (independent blends lose variance).
+            float iso = 0.0f, keep = c;
+            if (mG.isotropic) {
+                iso = 1.0f;
+                keep = 1.0f;
+            } else if (mSingular == Singular::Isotropic) {
+                iso = 1.0f - c;
+                keep = 1.0f / std::sqrt(c * c + iso * iso);
+            }
+            w->iso[j] = iso;
+            w->scale[j] = keep;
+            // Projection direction v_{α,θ} = cos α n + sin α (cos θ t + sin θ b) (gabor §4);
+            // without a frame the tilt has no azimuth: project along n.
+            Vec3f v = n;
+            if (mSinA != 0.0f && bl > 1e-9f) v = n * mCosA + (t * mCosT + bn * mSinT) * mSinA;
+            const float cosv = std::max(v.dot(n), 0.1f);
+            const float dist = w->f[j] / cosv; // signed, along v
+            s.x[j] = p.x[j] - dist * v[0];
+            s.y[j] = p.y[j] - dist * v[1];
+            s.z[j] = p.z[j] - dist * v[2];
+            const float r = std::abs(dist) / mR;
+            const float k = r < 1.0f ? (1.0f - r) : 0.0f;
+            const float k2 = k * k;
+            w->k[j] = k2 * k2 * k2 * std::min(len, 1.0f);
+            w->gx[j] = n[0];
+            w->gy[j] = n[1];
+            w->gz[j] = n[2];
+        }
+        Vec3f lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+        for (int j = 0; j < m; ++j) {
+            lo = minComponent(lo, Vec3f(s.x[j], s.y[j], s.z[j]));
+            hi = maxComponent(hi, Vec3f(s.x[j], s.y[j], s.z[j]));
+        }
+        std::vector<GaborImpulse> imp;
+        imp.reserve(256);
+        mNoise.impulses(lo, hi, imp);
+        mNoise.eval(imp, m, s.x, s.y, s.z, w->ox, w->oy, w->oz, w->gx, w->gy, w->gz, w->iso, w->n);
+        for (int j = 0; j < m; ++j) {
+            // D(noise): a bump for positive noise (the field decreases), bounded by D.
+            const float nn = w->n[j] * mInvSigma * w->scale[j];
+            out[w->idx[j]] = w->f[j] - mD * std::tanh(0.5f * nn) * w->k[j];
+        }
+    }
+
+    // W at the points: the axis, the skeleton's weighted direction, or (curvature) the
+    // direction of largest |κ| computed in hessian().
+    Vec3f direction(int j, const Vec3f& n, const Batch& b, const Work& w) const
+    {
+        (void)n;
+        switch (mDir.kind) {
+        case DirectionKind::Axis: return mAxis;
+        case DirectionKind::Skeleton: {
+            const Vec3d q(b.x[j], b.y[j], b.z[j]);
+            Vec3d W(0.0);
+            for (const Segment& sg : mDir.segments) {
+                const Vec3d ab = sg.b - sg.a;
+                const double l2 = ab.lengthSqr();
+                const double t = l2 > 0 ? std::min(std::max((q - sg.a).dot(ab) / l2, 0.0), 1.0) : 0.0;
+                const double d2 = (q - (sg.a + ab * t)).lengthSqr() / (sg.radius * sg.radius);
+                if (d2 >= 1.0 || l2 <= 0) continue;
+                const double k = 1.0 - d2;
+                W += ab * (sg.weight * k * k * k / std::sqrt(l2));
+            }
+            return Vec3f(float(W[0]), float(W[1]), float(W[2]));
+        }
+        case DirectionKind::Curvature:
+            return Vec3f(w.ox[j], w.oy[j], w.oz[j]);
+        }
+        return mAxis;
+    }
+
+    // Principal direction of largest |κ| from the Hessian (second differences at step h):
+    // W into ox/oy/oz and the anisotropy weight into iso (0 at umbilics and flats).
+    void hessian(const Batch& b, float h, Work& w) const
+    {
+        alignas(64) float f0[kMaxBatch], pp[kMaxBatch], pm[kMaxBatch], mp[kMaxBatch], mm[kMaxBatch];
+        alignas(64) float diag[3][kMaxBatch];
+        mFrame->evalBatch(b, f0);
+        const float ih2 = 1.0f / (h * h);
+        for (int a = 0; a < 3; ++a) {
+            const float s[3] = {a == 0 ? h : 0.0f, a == 1 ? h : 0.0f, a == 2 ? h : 0.0f};
+            evalShifted(*mFrame, b, s[0], s[1], s[2], pp);
+            evalShifted(*mFrame, b, -s[0], -s[1], -s[2], mm);
+            for (int i = 0; i < b.n; ++i) diag[a][i] = (pp[i] - 2.0f * f0[i] + mm[i]) * ih2;
+        }
+        float* off[3] = {w.h[0], w.h[1], w.h[2]}; // xy, xz, yz
+        const int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+        for (int q = 0; q < 3; ++q) {
+            float u[3] = {0, 0, 0}, v[3] = {0, 0, 0};
+            u[pairs[q][0]] = h;
+            v[pairs[q][1]] = h;
+            evalShifted(*mFrame, b, u[0] + v[0], u[1] + v[1], u[2] + v[2], pp);
+            evalShifted(*mFrame, b, u[0] - v[0], u[1] - v[1], u[2] - v[2], pm);
+            evalShifted(*mFrame, b, -u[0] + v[0], -u[1] + v[1], -u[2] + v[2], mp);
+            evalShifted(*mFrame, b, -u[0] - v[0], -u[1] - v[1], -u[2] - v[2], mm);
+            for (int i = 0; i < b.n; ++i) off[q][i] = (pp[i] - pm[i] - mp[i] + mm[i]) * 0.25f * ih2;
+        }
+        const float k0 = float(0.05 * mG.frequency); // curvature below this counts as flat
+        for (int i = 0; i < b.n; ++i) {
+            Vec3f n(w.gx[i], w.gy[i], w.gz[i]);
+            const float len = n.length();
+            if (len < 1e-6f) {
+                w.ox[i] = w.oy[i] = w.oz[i] = 0.0f;
+                w.iso[i] = 0.0f;
+                continue;
+            }
+            n /= len;
+            const Vec3f e1 = (std::abs(n[0]) < 0.9f ? Vec3f(1, 0, 0) : Vec3f(0, 1, 0)).cross(n).unitSafe();
+            const Vec3f e2 = n.cross(e1);
+            auto H = [&](const Vec3f& x, const Vec3f& y) {
+                return x[0] * (diag[0][i] * y[0] + off[0][i] * y[1] + off[1][i] * y[2]) +
+                       x[1] * (off[0][i] * y[0] + diag[1][i] * y[1] + off[2][i] * y[2]) +
+                       x[2] * (off[1][i] * y[0] + off[2][i] * y[1] + diag[2][i] * y[2]);
+            };
+            const float a = H(e1, e1) / len, c = H(e1, e2) / len, d = H(e2, e2) / len;
+            const float mean = 0.5f * (a + d), rad = std::sqrt(0.25f * (a - d) * (a - d) + c * c);
+            const float k1 = mean + rad, k2 = mean - rad;
+            float phi = 0.5f * std::atan2(2.0f * c, a - d); // direction of k1
+            if (std::abs(k2) > std::abs(k1)) phi += float(kPi / 2);
+            const Vec3f W = e1 * std::cos(phi) + e2 * std::sin(phi);
+            w.ox[i] = W[0];
+            w.oy[i] = W[1];
+            w.oz[i] = W[2];
+            w.iso[i] = smoothstep(0.1f, 0.3f, (k1 - k2) / (std::abs(k1) + std::abs(k2) + k0));
+        }
+    }
+
+    FieldPtr mInput, mFrame;
+    GaborParams mG;
+    DirectionField mDir;
+    GaborNoise mNoise;
+    float mH;
+    float mA = 0, mR = 1, mD = 0;
+    float mCosA = 1, mSinA = 0, mCosT = 1, mSinT = 0, mCosW = 1, mSinW = 0;
+    float mInvSigma = 1;
+    Singular mSingular = Singular::Cancel;
+    Vec3f mAxis;
+};
+
+} // namespace
+
+DirectionField DirectionField::fromSkeletonJson(const nlohmann::json& j)
+{
+    DirectionField d;
+    d.kind = DirectionKind::Skeleton;
+    try {
+        if (!j.is_object() || !j.contains("segments") || !j.at("segments").is_array()) {
+            fail<ValueError>("skeleton: expected {\"segments\": [{\"a\": [x,y,z], \"b\": [x,y,z], "
+                             "\"radius\": r}, ...]}");
+        }
+        for (const auto& s : j.at("segments")) {
+            Segment g;
+            const auto a = s.at("a").get<std::array<double, 3>>();
+            const auto b = s.at("b").get<std::array<double, 3>>();
+            g.a = Vec3d(a[0], a[1], a[2]);
+            g.b = Vec3d(b[0], b[1], b[2]);
+            g.radius = s.at("radius").get<double>();
+            g.weight = s.value("weight", 1.0);
+            require(std::isfinite(g.radius) && g.radius > 0, "skeleton", "segment radius", "> 0",
+                    g.radius);
+            require(std::isfinite(g.weight) && g.weight > 0, "skeleton", "segment weight", "> 0",
+                    g.weight);
+            require((g.b - g.a).length() > 0, "skeleton", "segment length", "> 0 (a != b)",
+                    (g.b - g.a).length());
+            d.segments.push_back(g);
+        }
+    } catch (const nlohmann::json::exception& e) {
+        fail<ValueError>("skeleton: malformed (", e.what(), ")");
+    }
+    if (d.segments.empty()) fail<ValueError>("skeleton: no segments");
+    return d;
+}
+
+DetailParams DetailParams::fromJson(const nlohmann::json& j)
+{
+    DetailParams p;
+    p.warp.amplitude = 0.0;
+    p.warp.sharpness = 8.0;
+    try {
+        static const char* keys[] = {"warp_amplitude", "warp_relief", "warp_scale", "warp_octaves",
+                                     "warp_sharpness", "gabor_amplitude", "gabor_frequency",
+                                     "gabor_bandwidth", "gabor_orientation", "gabor_impulses",
+                                     "gabor_falloff", "gabor_isotropic", "tilt", "direction_axis",
+                                     "direction_skeleton", "direction_curvature", "singular", "seed"};
+        for (auto it = j.begin(); it != j.end(); ++it) {
+            if (std::find_if(std::begin(keys), std::end(keys),
+                             [&](const char* k) { return it.key() == k; }) == std::end(keys)) {
+                fail<ValueError>("detail: unknown option '", it.key(), "'");
+            }
+        }
+        p.warp.amplitude = j.value("warp_amplitude", p.warp.amplitude);
+        const std::string relief = j.value("warp_relief", std::string("turbulence"));
+        if (relief != "turbulence") p.warp.image = relief;
+        p.warp.scale = j.value("warp_scale", p.warp.scale);
+        p.warp.octaves = j.value("warp_octaves", p.warp.octaves);
+        p.warp.sharpness = j.value("warp_sharpness", p.warp.sharpness);
+        GaborParams& g = p.gabor;
+        g.amplitude = j.value("gabor_amplitude", g.amplitude);
+        g.frequency = j.value("gabor_frequency", g.frequency);
+        g.bandwidth = j.value("gabor_bandwidth", g.bandwidth);
+        g.orientationDeg = j.value("gabor_orientation", g.orientationDeg);
+        g.impulses = j.value("gabor_impulses", g.impulses);
+        g.falloff = j.value("gabor_falloff", g.falloff);
+        g.isotropic = j.value("gabor_isotropic", g.isotropic);
+        if (j.contains("tilt")) {
+            const auto t = j.at("tilt").get<std::array<double, 2>>();
+            g.tiltDeg = t[0];
+            g.tiltAzimuthDeg = t[1];
+        }
+        const std::string singular = j.value("singular", std::string("auto"));
+        if (singular == "cancel") g.singular = Singular::Cancel;
+        else if (singular == "isotropic") g.singular = Singular::Isotropic;
+        else if (singular == "auto") g.singular = Singular::Auto;
+        else fail<ValueError>("detail: singular must be auto, cancel or isotropic (got '", singular, "')");
+        p.seed = g.seed = j.value("seed", uint64_t(0));
+        const bool axis = j.contains("direction_axis") && !j.at("direction_axis").is_null();
+        const bool skel = j.contains("direction_skeleton") && !j.at("direction_skeleton").is_null();
+        const bool curv = j.value("direction_curvature", false);
+        if (int(axis) + int(skel) + int(curv) > 1) {
+            fail<ValueError>("detail: give one of direction_axis, direction_skeleton, "
+                             "direction_curvature");
+        }
+        if (axis) {
+            const auto a = j.at("direction_axis").get<std::array<double, 3>>();
+            p.direction.axis = Vec3d(a[0], a[1], a[2]);
+        } else if (skel) {
+            const auto& s = j.at("direction_skeleton");
+            p.direction = DirectionField::fromSkeletonJson(s.is_string() ? readJsonFile(s.get<std::string>()) : s);
+        } else if (curv) {
+            p.direction.kind = DirectionKind::Curvature;
+        }
+    } catch (const nlohmann::json::exception& e) {
+        fail<ValueError>("detail: malformed option (", e.what(), ")");
+    }
+    return p;
+}
+
+void DetailParams::validate(double voxelSize) const
+{
+    const char* op = "detail";
+    require(std::isfinite(warp.amplitude) && warp.amplitude >= 0, op, "warp amplitude", ">= 0 m",
+            warp.amplitude);
+    if (warp.amplitude > 0) {
+        require(std::isfinite(warp.scale) && warp.scale > 0, op, "warp scale", "> 0 m", warp.scale);
+        require(warp.octaves >= 1 && warp.octaves <= 12, op, "warp octaves", "in [1, 12]",
+                warp.octaves);
+        require(std::isfinite(warp.sharpness) && warp.sharpness >= 1 && warp.sharpness <= 64, op,
+                "warp sharpness", "in [1, 64]", warp.sharpness);
+    }
+    const GaborParams& g = gabor;
+    require(std::isfinite(g.amplitude) && g.amplitude >= 0, op, "gabor amplitude", ">= 0 m",
+            g.amplitude);
+    if (g.amplitude > 0) {
+        const double a = g.bandwidth > 0 ? g.bandwidth : g.frequency / 2;
+        const double nyquist = 1.0 / (2.0 * voxelSize);
+        require(std::isfinite(g.frequency) && g.frequency > 0, op, "gabor frequency",
+                "> 0 cycles/m", g.frequency);
+        require(std::isfinite(g.bandwidth) && g.bandwidth >= 0, op, "gabor bandwidth", ">= 0 (1/m)",
+                g.bandwidth);
+        if (g.frequency + a > nyquist) {
+            fail<ValueError>("detail: gabor frequency ", g.frequency, " + bandwidth ", a,
+                             " cycles/m exceeds the voxel Nyquist limit 1/(2·voxel) = ", nyquist,
+                             " cycles/m (voxel ", voxelSize, " m): lower the frequency or the "
+                             "voxel size");
+        }
+        require(std::isfinite(g.impulses) && g.impulses >= 1 && g.impulses <= 256, op,
+                "gabor impulses", "in [1, 256] per kernel", g.impulses);
+        const double R = g.falloff > 0 ? g.falloff : 8.0 * g.amplitude;
+        require(std::isfinite(g.falloff) && g.falloff >= 0 && R >= 1.5 * g.amplitude, op,
+                "gabor falloff R", ">= 1.5 x amplitude (0 = 8 x amplitude)", g.falloff);
+        require(std::isfinite(g.tiltDeg) && g.tiltDeg >= 0 && g.tiltDeg <= 75, op, "tilt",
+                "in [0, 75] degrees", g.tiltDeg);
+        require(std::isfinite(g.tiltAzimuthDeg) && std::isfinite(g.orientationDeg), op,
+                "angles", "finite", g.orientationDeg);
+        // Kernels several times wider than a voxel, or the table of impulses explodes.
+        require(a >= 1e-3, op, "gabor bandwidth", ">= 0.001 (1/m)", a);
+    }
+    if (direction.kind == DirectionKind::Axis) {
+        require(direction.axis.length() > 0 && std::isfinite(direction.axis.length()), op,
+                "direction axis", "non-zero", direction.axis.length());
+    }
+    if (direction.kind == DirectionKind::Skeleton && direction.segments.empty()) {
+        fail<ValueError>("detail: the skeleton direction field needs segments");
+    }
+}
+
+double DetailParams::reach(double halfWidthMetres) const
+{
+    const double R = gabor.amplitude > 0
+                         ? (gabor.falloff > 0 ? gabor.falloff : 8.0 * gabor.amplitude)
+                         : 0.0;
+    return 2.0 * halfWidthMetres + warp.amplitude + R + gabor.amplitude;
+}
+
+FieldPtr detailField(FieldPtr input, const DetailParams& p, double gradientStep)
+{
+    if (!input) fail<ValueError>("detail: the input is required");
+    FieldPtr f = input;
+    if (p.warp.amplitude > 0) {
+        const BBoxd bb = input->bounds();
+        if (!isBounded(bb)) fail<ValueError>("detail: the input must be bounded");
+        float lo = float(std::min({bb.min()[0], bb.min()[1], bb.min()[2]}));
+        float hi = float(std::max({bb.max()[0], bb.max()[1], bb.max()[2]}));
+        f = std::make_shared<GradientWarp>(input, p.warp, p.seed, float(gradientStep), lo - 1,
+                                           hi + 1);
+    }
+    if (p.gabor.amplitude > 0) {
+        f = std::make_shared<GaborDetail>(f, input, p.gabor, p.direction, float(gradientStep));
+    }
+    return f;
+}
+
+BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams& p,
+                          const BakeSettings& settings, openvdb::util::NullInterrupter* interrupt)
+{
+    if (!grid) fail<ValueError>("detail: the input grid is null");
+    requireLevelSet(*grid, "detail input");
+    const double dx = grid->voxelSize()[0];
+    p.validate(std::max(settings.voxelSize, dx));
+    FieldPtr input = levelSetField(grid, p.reach(settings.halfWidth * settings.voxelSize));
+    FieldPtr f = detailField(input, p, dx);
+    return bake(*f, settings, interrupt);
+}
+
+} // namespace detail
+} // namespace rockvdb

@@ -1,0 +1,107 @@
+#include "Gabor.h"
+
+#include <core/Error.h>
+#include <core/Random.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace rockvdb {
+namespace detail {
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+// exp(-π a² r²) = 5% at the truncation radius.
+const double kTruncation = std::sqrt(-std::log(0.05) / kPi);
+
+// Knuth's Poisson sampler on counter-based uniforms (means here are ~4).
+int poisson(double mean, uint64_t seed, uint64_t cellHash)
+{
+    const double limit = std::exp(-mean);
+    double prod = random::toUnit(random::mix64(cellHash ^ seed));
+    int k = 0;
+    while (prod > limit && k < 64) {
+        ++k;
+        prod *= random::toUnit(random::mix64(cellHash + uint64_t(k) * 0x9e3779b97f4a7c15ULL));
+    }
+    return k;
+}
+} // namespace
+
+GaborNoise::GaborNoise(double frequency, double bandwidth, double impulses, uint64_t seed)
+    : mF(frequency), mA(bandwidth), mSeed(seed)
+{
+    mR = kTruncation / mA;
+    // λ impulses per m³ such that a kernel ball holds `impulses` on average; cells of edge r.
+    const double lambda = impulses / (4.0 / 3.0 * kPi * mR * mR * mR);
+    mMeanPerCell = lambda * mR * mR * mR;
+    // Var n = λ E[w²] ∫ g² = λ/3 · ½ (2a²)^(-3/2) (1 + exp(-2π F0²/a²)) (untruncated kernel).
+    mSigma = std::sqrt(lambda / 6.0 * std::pow(2.0 * mA * mA, -1.5) *
+                       (1.0 + std::exp(-2.0 * kPi * mF * mF / (mA * mA))));
+}
+
+void GaborNoise::impulses(const Vec3f& lo, const Vec3f& hi, std::vector<GaborImpulse>& out) const
+{
+    const double r = mR;
+    int c0[3], c1[3];
+    for (int a = 0; a < 3; ++a) {
+        c0[a] = int(std::floor((double(lo[a]) - r) / r));
+        c1[a] = int(std::floor((double(hi[a]) + r) / r));
+    }
+    for (int i = c0[0]; i <= c1[0]; ++i)
+        for (int j = c0[1]; j <= c1[1]; ++j)
+            for (int k = c0[2]; k <= c1[2]; ++k) {
+                const uint64_t h = random::hashCoord(mSeed, 0x6761626f /*gabo*/, i, j, k);
+                const int count = poisson(mMeanPerCell, mSeed, h);
+                for (int m = 0; m < count; ++m) {
+                    auto u = [&](int s) {
+                        return random::toUnit(random::hash(h, uint64_t(m), uint64_t(s)));
+                    };
+                    GaborImpulse g;
+                    g.x = float((i + u(0)) * r);
+                    g.y = float((j + u(1)) * r);
+                    g.z = float((k + u(2)) * r);
+                    g.w = float(2.0 * u(3) - 1.0);
+                    // Uniform direction on the sphere (isotropic noise).
+                    const double cz = 2.0 * u(4) - 1.0, phi = 2.0 * kPi * u(5);
+                    const double sz = std::sqrt(std::max(0.0, 1.0 - cz * cz));
+                    g.ox = float(sz * std::cos(phi));
+                    g.oy = float(sz * std::sin(phi));
+                    g.oz = float(cz);
+                    out.push_back(g);
+                }
+            }
+}
+
+void GaborNoise::eval(const std::vector<GaborImpulse>& imp, int n, const float* x,
+                      const float* y, const float* z, const float* ox, const float* oy,
+                      const float* oz, const float* nx, const float* ny, const float* nz,
+                      const float* iso, float* out) const
+{
+    const float r2 = float(mR * mR);
+    const float env = float(-kPi * mA * mA);
+    const float w2pi = float(2.0 * kPi * mF);
+    for (int i = 0; i < n; ++i) out[i] = 0.0f;
+    bool anyIso = false;
+    for (int i = 0; i < n; ++i) anyIso |= iso[i] > 0.0f;
+    for (const GaborImpulse& g : imp) {
+        for (int i = 0; i < n; ++i) {
+            const float dx = x[i] - g.x, dy = y[i] - g.y, dz = z[i] - g.z;
+            const float d2 = dx * dx + dy * dy + dz * dz;
+            if (d2 >= r2) continue;
+            const float e = g.w * std::exp(env * d2);
+            float v = std::cos(w2pi * (dx * ox[i] + dy * oy[i] + dz * oz[i]));
+            if (anyIso && iso[i] > 0.0f) {
+                // The impulse's direction projected on the tangent plane at the point.
+                const float on = g.ox * nx[i] + g.oy * ny[i] + g.oz * nz[i];
+                const float px = g.ox - on * nx[i], py = g.oy - on * ny[i], pz = g.oz - on * nz[i];
+                const float vi = std::cos(w2pi * (dx * px + dy * py + dz * pz));
+                v += iso[i] * (vi - v);
+            }
+            out[i] += e * v;
+        }
+    }
+}
+
+} // namespace detail
+} // namespace rockvdb
