@@ -23,7 +23,6 @@ inline auto trilinear(AccT& acc, const Vec3d& xyz)
 {
     using ValueT = typename AccT::ValueType;
     const openvdb::Coord ijk = openvdb::Coord::floor(xyz);
-    const ValueT u = ValueT(float(xyz[0] - ijk.x())), v = ValueT(float(xyz[1] - ijk.y()));
     const float w = float(xyz[2] - ijk.z());
     ValueT c[8];
     const int lx = ijk.x() & 7, ly = ijk.y() & 7, lz = ijk.z() & 7;
@@ -39,8 +38,6 @@ inline auto trilinear(AccT& acc, const Vec3d& xyz)
     }
     // c[n]: n = 4·dx + 2·dy + dz.
     const float fu = float(xyz[0] - ijk.x()), fv = float(xyz[1] - ijk.y());
-    (void)u;
-    (void)v;
     const ValueT z00 = c[0] + (c[1] - c[0]) * w, z01 = c[2] + (c[3] - c[2]) * w;
     const ValueT z10 = c[4] + (c[5] - c[4]) * w, z11 = c[6] + (c[7] - c[6]) * w;
     const ValueT y0 = z00 + (z01 - z00) * fv, y1 = z10 + (z11 - z10) * fv;
@@ -88,10 +85,17 @@ public:
     BBoxd bounds() const override { return mBounds; }
 
 private:
+    // Index-space position; within 1e-5 of a voxel centre it snaps to it, so samples at the
+    // grid's own voxels return their stored values exactly (float positions are i·dx ± ulp).
     Vec3d index(float x, float y, float z) const
     {
         const Vec3d p(x, y, z);
-        return mFast ? (p - mOrigin) * mInvDx : mGrid->transform().worldToIndex(p);
+        Vec3d q = mFast ? (p - mOrigin) * mInvDx : mGrid->transform().worldToIndex(p);
+        for (int a = 0; a < 3; ++a) {
+            const double r = std::round(q[a]);
+            if (std::abs(q[a] - r) < 1e-5) q[a] = r;
+        }
+        return q;
     }
 
     openvdb::FloatGrid::Ptr mGrid;

@@ -570,7 +570,9 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
     requireLevelSet(*grid, "detail input");
     const double dx = grid->voxelSize()[0];
     p.validate(std::max(settings.voxelSize, dx));
-    FieldPtr input = levelSetField(grid, p.reach(settings.halfWidth * settings.voxelSize));
+    // Without detail the input's own band is all the bake reads (a plain resample).
+    const bool none = p.warp.amplitude <= 0 && p.gabor.amplitude <= 0;
+    FieldPtr input = levelSetField(grid, none ? 0.0 : p.reach(settings.halfWidth * settings.voxelSize));
     FieldPtr f = detailField(input, p, dx);
     return bake(*f, settings, interrupt);
 }

@@ -1,0 +1,252 @@
+"""vdb_detail / rockvdb.detail (issue 5): gradient warp and Gabor details on level sets.
+
+Properties: zero amplitude is the identity, the surface moves by at most the amplitude (+1
+voxel), topology is unchanged (components and Euler characteristic of the mesh), Gabor
+anisotropy follows the requested orientation (power spectrum of a flat patch), tilt makes the
+profile asymmetric, bitwise determinism across thread counts, bad input."""
+import json
+import math
+
+import numpy as np
+import pyopenvdb as vdb
+import pytest
+
+import rockvdb
+from conftest import dense, one_line_error, run, tool
+
+
+@pytest.fixture(scope="module")
+def sphere(tmp_path_factory):
+    d = tmp_path_factory.mktemp("detail")
+    path = d / "sphere.vdb"
+    run([tool("vdb_primitive"), "-q", "sphere", "--radius", "1", "--voxel-size", "0.02",
+         "-o", str(path)], check=True)
+    return path
+
+
+@pytest.fixture(scope="module")
+def patch(tmp_path_factory):
+    """A 4 m x 4 m x 1 m slab at 2 cm voxels: its top face is the flat patch."""
+    d = tmp_path_factory.mktemp("patch")
+    path = d / "slab.vdb"
+    run([tool("vdb_primitive"), "-q", "box", "--size", "4,4,1", "--voxel-size", "0.02",
+         "-o", str(path)], check=True)
+    return path
+
+
+def detail(inp, out, *args):
+    p = run([tool("vdb_detail"), "-q", str(inp), "-o", str(out), *args])
+    assert p.returncode == 0, p.stderr
+    return vdb.read(str(out), "surface")
+
+
+def mesh_topology(grid):
+    """(connected components, Euler characteristic) of the grid's zero isosurface mesh."""
+    pts, tris, quads = grid.convertToPolygons(0.0, 0.0)
+    faces = [f for f in (tris, quads) if len(f)]
+    edges = set()
+    parent = list(range(len(pts)))
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    nfaces = 0
+    for fs in faces:
+        nfaces += len(fs)
+        for f in fs.tolist():
+            for k in range(len(f)):
+                a, b = f[k], f[(k + 1) % len(f)]
+                edges.add((min(a, b), max(a, b)))
+                ra, rb = find(a), find(b)
+                if ra != rb:
+                    parent[ra] = rb
+    used = {find(i) for fs in faces for f in fs.tolist() for i in f}
+    return len(used), len(pts) - len(edges) + nfaces, pts
+
+
+def radial_error(grid):
+    pts, _, _ = grid.convertToPolygons(0.0, 0.0)
+    return np.abs(np.linalg.norm(pts, axis=1) - 1.0)
+
+
+def test_zero_amplitude_returns_the_input(sphere, tmp_path):
+    g = detail(sphere, tmp_path / "o.vdb", "--warp-amplitude", "0", "--gabor-amplitude", "0")
+    ref = vdb.read(str(sphere), "surface")
+    assert g.activeVoxelCount() == ref.activeVoxelCount()
+    (lo, a), (lo2, b) = dense(ref), dense(g)
+    assert lo == lo2
+    assert np.max(np.abs(a - b)) < 1e-4 * 0.02
+
+
+@pytest.mark.parametrize("args,amp", [
+    (["--warp-amplitude", "0.05", "--warp-scale", "0.8"], 0.05),
+    (["--gabor-amplitude", "0.04", "--gabor-frequency", "5", "--direction-axis", "0,0,1"], 0.04),
+    (["--warp-amplitude", "0.03", "--gabor-amplitude", "0.03", "--gabor-frequency", "6",
+      "--direction-curvature"], 0.06),
+])
+def test_displacement_bound_and_topology_on_a_sphere(sphere, tmp_path, args, amp):
+    g = detail(sphere, tmp_path / "o.vdb", *args)
+    err = radial_error(g)
+    assert err.max() <= amp + 0.02, err.max()
+    # The detail is real: the surface moves by a good part of the amplitude somewhere.
+    assert err.max() > 0.4 * amp
+    # One component, Euler characteristic 2 (a sphere): no holes, no floating bits.
+    comps, chi, _ = mesh_topology(g)
+    assert (comps, chi) == (1, 2)
+    # A valid narrow-band level set.
+    assert g.gridClass == vdb.GridClass.LEVEL_SET
+    assert abs(g.background - 3 * 0.02) < 1e-6
+    _, a = dense(g)
+    assert np.all(np.abs(a) <= g.background + 1e-6)
+
+
+def test_topology_of_a_block_tile_is_unchanged(tmp_path):
+    tile = tmp_path / "tile.vdb"
+    run([tool("vdb_blocks"), "-q", "--type", "equidimensional", "--tile-size", "4",
+         "--point-radius", "0.25", "--voxel-size", "0.03", "--warp-amplitude", "0",
+         "--seed", "5", "-o", str(tile)], check=True)
+    before = mesh_topology(vdb.read(str(tile), "surface"))[:2]
+    assert before[0] > 3
+    for args in (["--warp-amplitude", "0.02", "--warp-scale", "0.5"],
+                 ["--gabor-amplitude", "0.02", "--gabor-frequency", "6",
+                  "--direction-curvature"]):
+        after = mesh_topology(detail(tile, tmp_path / "o.vdb", *args))[:2]
+        assert after == before, (args, before, after)
+
+
+def heightmap(grid, z0=0.5, margin=0.6):
+    """Top surface height over the slab's face (linear zero crossing per column)."""
+    dx = grid.transform.voxelSize()[0]
+    n = int(round((4.0 - 2 * margin) / dx))
+    i0 = int(round((-2.0 + margin) / dx))
+    k0, k1 = int(round((z0 - 0.3) / dx)), int(round((z0 + 0.3) / dx))
+    a = np.zeros((n, n, k1 - k0 + 1), np.float32)
+    grid.copyToArray(a, ijk=(i0, i0, k0))
+    h = np.full((n, n), np.nan)
+    for k in range(a.shape[2] - 1, 0, -1):
+        lo, hi = a[:, :, k - 1], a[:, :, k]
+        hit = np.isnan(h) & (lo <= 0) & (hi > 0)
+        h[hit] = (k0 + k - 1 + lo[hit] / (lo[hit] - hi[hit])) * dx
+    assert not np.isnan(h).any()
+    return h - z0
+
+
+def dominant_angle(h, dx, f0):
+    """Power-weighted orientation (degrees mod 180) of the spectrum near |k| = f0."""
+    spec = np.abs(np.fft.fftshift(np.fft.fft2(h - h.mean()))) ** 2
+    k = np.fft.fftshift(np.fft.fftfreq(h.shape[0], dx))
+    kx, ky = np.meshgrid(k, k, indexing="ij")
+    r = np.hypot(kx, ky)
+    sel = (r > 0.5 * f0) & (r < 1.5 * f0)
+    ang = np.arctan2(ky[sel], kx[sel])
+    w = spec[sel]
+    c, s = (w * np.cos(2 * ang)).sum(), (w * np.sin(2 * ang)).sum()
+    return (math.degrees(math.atan2(s, c)) / 2) % 180, math.hypot(c, s) / w.sum()
+
+
+@pytest.mark.parametrize("orientation", [30.0, 100.0])
+def test_anisotropy_follows_the_orientation(patch, tmp_path, orientation):
+    # W = x on the top face: b = n ^ W = y, t = b ^ n = x; ω is measured from t (x) to b (y).
+    g = detail(patch, tmp_path / "o.vdb", "--gabor-amplitude", "0.02", "--gabor-frequency", "4",
+               "--gabor-bandwidth", "1", "--gabor-orientation", str(orientation),
+               "--direction-axis", "1,0,0")
+    h = heightmap(g)
+    assert np.abs(h).max() <= 0.02 + 0.02
+    angle, strength = dominant_angle(h, 0.02, 4.0)
+    diff = abs((angle - orientation + 90) % 180 - 90)
+    assert diff < 10, (angle, orientation)
+    assert strength > 0.5  # clearly anisotropic
+    # Isotropic noise has no preferred direction.
+    # (A wider band, so the patch holds many independent kernels.)
+    gi = detail(patch, tmp_path / "i.vdb", "--gabor-amplitude", "0.02", "--gabor-frequency", "4",
+                "--gabor-bandwidth", "2", "--gabor-isotropic")
+    assert dominant_angle(heightmap(gi), 0.02, 4.0)[1] < 0.25
+
+
+def slope_skew(h, dx):
+    s = np.diff(h, axis=0).ravel() / dx
+    s = s - s.mean()
+    return float((s ** 3).mean() / (s ** 2).mean() ** 1.5)
+
+
+def test_tilt_makes_the_profile_asymmetric(patch, tmp_path):
+    common = ["--gabor-amplitude", "0.03", "--gabor-frequency", "3", "--gabor-bandwidth", "1",
+              "--gabor-orientation", "0", "--direction-axis", "1,0,0"]
+    flat = slope_skew(heightmap(detail(patch, tmp_path / "a.vdb", *common)), 0.02)
+    tilted = slope_skew(heightmap(detail(patch, tmp_path / "b.vdb", *common, "--tilt", "50,0")),
+                        0.02)
+    back = slope_skew(heightmap(detail(patch, tmp_path / "c.vdb", *common, "--tilt", "50,180")),
+                      0.02)
+    assert abs(flat) < 0.15, flat
+    assert abs(tilted) > 3 * max(abs(flat), 0.05), (flat, tilted)
+    # Tilting the other way mirrors the asymmetry.
+    assert tilted * back < 0, (tilted, back)
+
+
+def test_threads_give_identical_grids(sphere, tmp_path):
+    args = ["--warp-amplitude", "0.03", "--gabor-amplitude", "0.03", "--gabor-frequency", "6",
+            "--direction-axis", "0,1,1"]
+    g1 = detail(sphere, tmp_path / "1.vdb", "--threads", "1", *args)
+    g2 = detail(sphere, tmp_path / "2.vdb", "--threads", "2", *args)
+    assert g1.activeVoxelCount() == g2.activeVoxelCount()
+    (l1, a1), (l2, a2) = dense(g1), dense(g2)
+    assert l1 == l2 and np.array_equal(a1, a2)
+    # Another seed gives another surface.
+    g3 = detail(sphere, tmp_path / "3.vdb", "--seed", "9", *args)
+    assert not np.array_equal(dense(g3)[1], a1) if dense(g3)[1].shape == a1.shape else True
+
+
+def test_python_matches_the_cli_and_skeleton_frames(sphere, tmp_path):
+    args = dict(gabor_amplitude=0.03, gabor_frequency=6.0, direction_axis=(0, 0, 1), seed=3)
+    g = rockvdb.detail(vdb.read(str(sphere), "surface"), **args)
+    c = detail(sphere, tmp_path / "c.vdb", "--gabor-amplitude", "0.03", "--gabor-frequency", "6",
+               "--direction-axis", "0,0,1", "--seed", "3")
+    assert np.array_equal(dense(g)[1], dense(c)[1])
+    assert json.loads(g.metadata["rockvdb:params"])["gabor_frequency"] == 6.0
+    # A skeleton along z gives the same frames as the z axis near it (W = f·S, same direction).
+    skel = {"segments": [{"a": [0, 0, -2], "b": [0, 0, 2], "radius": 10}]}
+    gs = rockvdb.detail(vdb.read(str(sphere), "surface"), gabor_amplitude=0.03,
+                        gabor_frequency=6.0, direction_skeleton=skel, seed=3)
+    (la, a), (lb, b) = dense(gs), dense(g)
+    assert la == lb and np.max(np.abs(a - b)) < 0.02 * 0.02
+    with pytest.raises(ValueError, match="Nyquist"):
+        rockvdb.detail(vdb.read(str(sphere), "surface"), gabor_amplitude=0.03,
+                       gabor_frequency=40.0)
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--warp-amplitude", "-0.1"], "warp amplitude"),
+    (["--gabor-amplitude", "-1"], "gabor amplitude"),
+    (["--gabor-amplitude", "0.02", "--gabor-frequency", "30"], "Nyquist limit"),
+    (["--gabor-amplitude", "0.02", "--gabor-frequency", "5", "--tilt", "80,0"], "tilt"),
+    (["--gabor-amplitude", "0.02", "--gabor-frequency", "5", "--gabor-falloff", "0.01"],
+     "falloff"),
+    (["--warp-amplitude", "0.02", "--warp-relief", "missing.png"], "missing.png"),
+])
+def test_bad_parameters(sphere, tmp_path, args, needle):
+    out = tmp_path / "o.vdb"
+    p = run([tool("vdb_detail"), str(sphere), "-o", str(out), *args])
+    assert p.returncode in (1, 2)
+    one_line_error(p, p.returncode, needle)
+    assert not out.exists()
+
+
+def test_bad_inputs(tmp_path, sphere):
+    fog = tmp_path / "fog.vdb"
+    g = vdb.read(str(sphere), "surface")
+    g.gridClass = vdb.GridClass.FOG_VOLUME
+    vdb.write(str(fog), grids=[g])
+    out = tmp_path / "o.vdb"
+    one_line_error(run([tool("vdb_detail"), str(fog), "-o", str(out), "--warp-amplitude",
+                        "0.02"]), 2, "fog volume")
+    skel = tmp_path / "skel.json"
+    skel.write_text('{"segments": [{"a": [0, 0, 0], "b": [0, 0, 0], "radius": 1}]}')
+    one_line_error(run([tool("vdb_detail"), str(sphere), "-o", str(out), "--gabor-amplitude",
+                        "0.02", "--gabor-frequency", "5", "--direction-skeleton", str(skel)]),
+                   2, "segment length")
+    assert not out.exists()
+    with pytest.raises(ValueError, match="level set"):
+        rockvdb.detail(g, warp_amplitude=0.02)
