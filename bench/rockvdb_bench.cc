@@ -1,5 +1,5 @@
 // rockvdb_bench — each issue's numbers beside a reference run in the same process.
-// usage: rockvdb_bench [--quick] [foundation] [blocks] [amplify]   (no group: all of them)
+// usage: rockvdb_bench [--quick] [foundation] [blocks] [amplify] [detail]   (no group: all of them)
 #include <amplify/Amplify.h>
 #include <blocks/BlockTile.h>
 #include <core/Heightfield.h>
@@ -8,6 +8,9 @@
 #include <core/Combinators.h>
 #include <core/Primitives.h>
 #include <core/VdbIO.h>
+#include <detail/Detail.h>
+
+#include <nlohmann/json.hpp>
 
 #include <openvdb/tools/LevelSetSphere.h>
 #include <openvdb/tools/MeshToVolume.h>
@@ -197,6 +200,40 @@ void amplifyGroup(bool quick)
 
 } // namespace
 
+void detailGroup(bool quick)
+{
+    std::printf("\n## detail: a level-set sphere of ~1.5 M active voxels (2 threads), beside the gabor paper's 88-102 s per model (1 core)\n\n");
+    std::printf("| operator | time | active voxels | voxels/s | vs plain re-bake (same grid) |\n");
+    std::printf("|---|---|---|---|---|\n");
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+    const float dx = quick ? 0.02f : 0.01f;
+    auto sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.41f, openvdb::Vec3f(0), dx);
+    BakeSettings s;
+    s.voxelSize = dx;
+    auto run = [&](const detail::DetailParams& p) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const BakeResult r = detail::detailLevelSet(sphere, p, s);
+        return std::make_pair(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                              size_t(r.surface->activeVoxelCount()));
+    };
+    detail::DetailParams none = detail::DetailParams::fromJson(nlohmann::json::object());
+    const auto ref = run(none);
+    std::printf("| plain re-bake (reference) | %.2f s | %zu | %.2f M | 1.0x |\n", ref.first, ref.second,
+                double(ref.second) / ref.first / 1e6);
+    struct Case { const char* name; nlohmann::json j; };
+    const Case cases[] = {
+        {"gradient warp, A = 3 cm, p = 8", {{"warp_amplitude", 0.03}, {"warp_scale", 0.6}}},
+        {"Gabor, A = 3 cm, F0 = 6/m, axis frames", {{"gabor_amplitude", 0.03}, {"gabor_frequency", 6.0}, {"direction_axis", {0, 0, 1}}}},
+        {"Gabor, curvature frames", {{"gabor_amplitude", 0.03}, {"gabor_frequency", 6.0}, {"direction_curvature", true}}},
+        {"warp + Gabor", {{"warp_amplitude", 0.03}, {"warp_scale", 0.6}, {"gabor_amplitude", 0.03}, {"gabor_frequency", 6.0}, {"direction_axis", {0, 0, 1}}}},
+    };
+    for (const Case& k : cases) {
+        const auto m = run(detail::DetailParams::fromJson(k.j));
+        std::printf("| %s | %.2f s | %zu | %.2f M | %.1fx |\n", k.name, m.first, m.second,
+                    double(m.second) / m.first / 1e6, m.first / ref.first);
+    }
+}
+
 int main(int argc, char** argv)
 {
     initialize();
@@ -204,14 +241,17 @@ int main(int argc, char** argv)
     for (int i = 1; i < argc; ++i) quick = quick || std::strcmp(argv[i], "--quick") == 0;
     std::printf("allocator: %s (both sides of every ratio run in this process with it)\n\n",
                 ROCKVDB_ALLOCATOR);
-    bool all = true, wantFoundation = false, wantBlocks = false, wantAmplify = false;
+    bool all = true, wantFoundation = false, wantBlocks = false, wantAmplify = false,
+         wantDetail = false;
     for (int i = 1; i < argc; ++i) {
         if (std::strcmp(argv[i], "foundation") == 0) { wantFoundation = true; all = false; }
         if (std::strcmp(argv[i], "blocks") == 0) { wantBlocks = true; all = false; }
         if (std::strcmp(argv[i], "amplify") == 0) { wantAmplify = true; all = false; }
+        if (std::strcmp(argv[i], "detail") == 0) { wantDetail = true; all = false; }
     }
     if (all || wantFoundation) foundation(quick);
     if (all || wantBlocks) blocksGroup(quick);
     if (all || wantAmplify) amplifyGroup(quick);
+    if (all || wantDetail) detailGroup(quick);
     return 0;
 }
