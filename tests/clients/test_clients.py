@@ -51,8 +51,18 @@ def amplified(tmp_path_factory, blocks):
     return out
 
 
-def every_output(tmp_path, scene, heightfield_png, blocks, amplified=None):
-    files = [scene, blocks] + ([amplified] if amplified else [])
+@pytest.fixture(scope="module")
+def detailed(tmp_path_factory, blocks):
+    """vdb_detail on the block tile: warp and Gabor details with curvature frames."""
+    out = tmp_path_factory.mktemp("detailed") / "detail.vdb"
+    run([tool("vdb_detail"), "-q", str(blocks), "--warp-amplitude", "0.03",
+         "--gabor-amplitude", "0.03", "--gabor-frequency", "4", "--direction-curvature",
+         "-o", str(out)], check=True)
+    return out
+
+
+def every_output(tmp_path, scene, heightfield_png, blocks, amplified=None, detailed=None):
+    files = [scene, blocks] + ([amplified] if amplified else []) + ([detailed] if detailed else [])
     h = tmp_path / "hf.vdb"
     run([tool("vdb_heightfield"), "-q", str(heightfield_png), "--cell-size", "0.1",
          "--voxel-size", "0.05", "-o", str(h)], check=True)
@@ -61,9 +71,10 @@ def every_output(tmp_path, scene, heightfield_png, blocks, amplified=None):
     return files + [h, c]
 
 
-def test_pyopenvdb_reads_every_file(tmp_path, scene, heightfield_png, blocks, amplified):
+def test_pyopenvdb_reads_every_file(tmp_path, scene, heightfield_png, blocks, amplified,
+                                    detailed):
     import pyopenvdb as vdb
-    for f in every_output(tmp_path, scene, heightfield_png, blocks, amplified):
+    for f in every_output(tmp_path, scene, heightfield_png, blocks, amplified, detailed):
         grids, meta = vdb.readAll(str(f))
         names = [g.name for g in grids]
         assert "surface" in names
@@ -107,10 +118,10 @@ def test_vdb_render_renders(scene, tmp_path):
 
 
 @pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
-@pytest.mark.parametrize("which", ["scene", "blocks", "amplified"])
-def test_blender_imports_and_meshes_surface(which, scene, blocks, amplified, tmp_path):
+@pytest.mark.parametrize("which", ["scene", "blocks", "amplified", "detailed"])
+def test_blender_imports_and_meshes_surface(which, scene, blocks, amplified, detailed, tmp_path):
     import pyopenvdb as vdb
-    scene = {"scene": scene, "blocks": blocks, "amplified": amplified}[which]
+    scene = {"scene": scene, "blocks": blocks, "amplified": amplified, "detailed": detailed}[which]
     report = tmp_path / "blender.json"
     p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
                         os.path.join(HERE, "blender_mesh.py"), "--", str(scene), str(report)],
