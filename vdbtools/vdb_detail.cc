@@ -54,7 +54,7 @@ int main(int argc, char** argv)
                    "Gabor: frequency direction in the frame, degrees from t towards b")
         ->capture_default_str();
     app.add_option("--gabor-impulses", g.impulses, "Gabor: impulses per kernel")->capture_default_str();
-    app.add_option("--gabor-falloff", g.falloff, "Gabor: R of K(r) = (1 - r/R)^6 (m); 0 = 8 x amplitude")
+    app.add_option("--gabor-falloff", g.falloff, "Gabor: R of K(r) = (1 - r/R)^6 (m); 0 = 12 x amplitude, the smallest R that keeps the field monotone along normals")
         ->capture_default_str();
     app.add_flag("--gabor-isotropic", g.isotropic, "Gabor: isotropic noise (no frames)");
     std::vector<double> tilt{0.0, 0.0};
@@ -105,8 +105,10 @@ int main(int argc, char** argv)
         BakeResult r = detail::detailLevelSet(grid, params, settings, bar.get());
         bar->end();
         char line[200];
-        std::snprintf(line, sizeof line, "bake: %zu active voxels, cull %.3f s, fill %.3f s, "
-                      "finish %.3f s", r.stats.activeVoxels, r.stats.cullSeconds,
+        std::snprintf(line, sizeof line, "bake: %zu active voxels in %zu leaves (%zu candidates, "
+                      "%.1f M evaluations), cull %.3f s, fill %.3f s, finish %.3f s",
+                      r.stats.activeVoxels, r.stats.leaves, r.stats.candidateLeaves,
+                      double(r.stats.fieldEvaluations) / 1e6, r.stats.cullSeconds,
                       r.stats.fillSeconds, r.stats.finishSeconds);
         tool.info(line);
         nlohmann::json prov = nlohmann::json::parse(tool.paramsJson());

@@ -204,6 +204,8 @@ public:
             openvdb::tools::LevelSetTracker<FloatGrid> tracker(*surface);
             tracker.setNormCount(mS.trackerSteps);
             tracker.normalize();
+            // Normalisation moves values across ±background: those voxels leave the band.
+            tracker.prune();
             if (attribute) {
                 // The tracker keeps the active topology; refresh ids only where both agree.
                 attribute->tree().topologyIntersection(tree);
@@ -338,6 +340,10 @@ private:
     void descend(const Node& n, std::vector<Coord>& out, size_t& evals)
     {
         if (n.size == kLeafDim) {
+            if (mCandidates && !mCandidates->probeConstLeaf(n.origin) &&
+                !mCandidates->isValueOn(n.origin)) {
+                return;
+            }
             out.push_back(n.origin);
             return;
         }
@@ -634,6 +640,8 @@ private:
     std::atomic<bool> mOverflow{false};
     std::atomic<bool> mNaN{false};
     Coord mNaNLeaf;
+    const openvdb::MaskTree* mCandidates =
+        mS.candidates ? &mS.candidates->tree() : nullptr;
     std::atomic<size_t> mEvals{0};
     std::atomic<size_t> mActive{0};
 };

@@ -46,6 +46,10 @@ struct BakeSettings
     std::string gridName = "surface";
     std::string attributeName = "block_id";
     double maxMemoryBytes = 0;    ///< refuse bakes estimated above this; 0 = 75% of RAM
+    /// Optional candidate topology (index space of this bake): leaves are baked only where it
+    /// holds an active voxel or tile. Operators that know where their surface can be (detail
+    /// within A of its input) pass it to skip leaves whose values only bound the distance.
+    openvdb::MaskGrid::ConstPtr candidates;
 
     /// @brief ValueError("bake: ...") unless every setting is usable.
     void validate() const;

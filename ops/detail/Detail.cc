@@ -8,6 +8,7 @@
 #include <core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
+#include <openvdb/tools/Morphology.h>
 
 #include <algorithm>
 #include <limits>
@@ -20,6 +21,7 @@ namespace detail {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr int kGaborTrackerSteps = 3;
 
 float smoothstep(float a, float b, float x)
 {
@@ -152,7 +154,7 @@ public:
           mH(h)
     {
         mA = float(g.amplitude);
-        mR = float(g.falloff > 0 ? g.falloff : 8.0 * g.amplitude);
+        mR = float(g.falloff > 0 ? g.falloff : 12.0 * g.amplitude);
         // Saturated noise moves the surface by exactly A: s = D (1 - s/R)⁶ at s = A.
         mD = mA / float(std::pow(1.0 - double(mA) / double(mR), 6.0));
         const double alpha = g.tiltDeg * kPi / 180.0, theta = g.tiltAzimuthDeg * kPi / 180.0;
@@ -518,9 +520,9 @@ void DetailParams::validate(double voxelSize) const
         }
         require(std::isfinite(g.impulses) && g.impulses >= 1 && g.impulses <= 256, op,
                 "gabor impulses", "in [1, 256] per kernel", g.impulses);
-        const double R = g.falloff > 0 ? g.falloff : 8.0 * g.amplitude;
+        const double R = g.falloff > 0 ? g.falloff : 12.0 * g.amplitude;
         require(std::isfinite(g.falloff) && g.falloff >= 0 && R >= 1.5 * g.amplitude, op,
-                "gabor falloff R", ">= 1.5 x amplitude (0 = 8 x amplitude)", g.falloff);
+                "gabor falloff R", ">= 1.5 x amplitude (0 = 12 x amplitude)", g.falloff);
         require(std::isfinite(g.tiltDeg) && g.tiltDeg >= 0 && g.tiltDeg <= 75, op, "tilt",
                 "in [0, 75] degrees", g.tiltDeg);
         require(std::isfinite(g.tiltAzimuthDeg) && std::isfinite(g.orientationDeg), op,
@@ -539,10 +541,10 @@ void DetailParams::validate(double voxelSize) const
 
 double DetailParams::reach(double halfWidthMetres) const
 {
-    const double R = gabor.amplitude > 0
-                         ? (gabor.falloff > 0 ? gabor.falloff : 8.0 * gabor.amplitude)
-                         : 0.0;
-    return 2.0 * halfWidthMetres + warp.amplitude + R + gabor.amplitude;
+    // Band voxels of the result lie within the band + the displacement of the input surface
+    // (the surface moves by at most A_warp + A_gabor), plus the renormalisation's one-voxel
+    // stencil (taken as half the band: the step is not known here).
+    return 1.5 * halfWidthMetres + warp.amplitude + gabor.amplitude;
 }
 
 FieldPtr detailField(FieldPtr input, const DetailParams& p, double gradientStep)
@@ -574,7 +576,28 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
     const bool none = p.warp.amplitude <= 0 && p.gabor.amplitude <= 0;
     FieldPtr input = levelSetField(grid, none ? 0.0 : p.reach(settings.halfWidth * settings.voxelSize));
     FieldPtr f = detailField(input, p, dx);
-    return bake(*f, settings, interrupt);
+    if (none) return bake(*f, settings, interrupt);
+    BakeSettings s = settings;
+    const openvdb::math::Transform& xf = grid->transform();
+    const bool sameVoxels = std::abs(settings.voxelSize - dx) < 1e-9 * dx &&
+                            xf.indexToWorld(openvdb::Vec3d(0.0)).length() < 1e-9 * dx &&
+                            xf.isLinear() && xf.hasUniformScale();
+    if (sameVoxels) {
+        // Candidate leaves: the input's band dilated by the band plus the displacement (the
+        // surface moves by at most A): the rest of space only holds bounds of the distance.
+        auto mask = openvdb::MaskGrid::create();
+        mask->tree().topologyUnion(grid->tree());
+        const double grow = settings.halfWidth * dx + p.warp.amplitude + p.gabor.amplitude;
+        const int have = int(std::floor(double(grid->background()) / dx));
+        openvdb::tools::dilateActiveValues(mask->tree(), std::max(1, int(std::ceil(grow / dx)) + 2 - have),
+                                           openvdb::tools::NN_FACE_EDGE_VERTEX,
+                                           openvdb::tools::IGNORE_TILES);
+        s.candidates = mask;
+    }
+    // The Gabor blob term bends the field along the normal (its slope there ranges over
+    // 1 ± 6D/R): OpenVDB's LevelSetTracker restores |∇φ| = 1 across the band.
+    if (p.gabor.amplitude > 0) s.trackerSteps = std::max(s.trackerSteps, kGaborTrackerSteps);
+    return bake(*f, s, interrupt);
 }
 
 } // namespace detail

@@ -57,7 +57,7 @@ struct GaborParams
     double orientationDeg = 0.0; ///< ω: angle of the frequency direction from t towards b
     double impulses = 16.0;      ///< expected impulses per kernel ball
     bool isotropic = false;      ///< isotropic noise everywhere (no frames needed)
-    double falloff = 0.0;        ///< R (m): the blob reach K(|p p_S|/R); 0 = 8·A
+    double falloff = 0.0;        ///< R (m): the blob reach K(|p p_S|/R); 0 = 12·A (monotone)
     double tiltDeg = 0.0;        ///< α: projection direction tilted from the normal
     double tiltAzimuthDeg = 0.0; ///< θ: azimuth of the tilt in the frame, from t towards b
     Singular singular = Singular::Auto;
@@ -79,8 +79,8 @@ struct DetailParams
     /// gabor_isotropic, tilt [α, θ], direction_axis [x,y,z], direction_skeleton (a JSON
     /// object or file path), direction_curvature, singular, seed (all optional).
     static DetailParams fromJson(const nlohmann::json& j);
-    /// Distance from the input surface within which the input must be exact (band of the
-    /// detail field, for levelSetField's widening).
+    /// Distance from the input surface within which the input must be exact: where the
+    /// result's band can be (for levelSetField's widening).
     double reach(double halfWidthMetres) const;
 };
 

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace rockvdb {
 namespace detail {
@@ -73,6 +74,51 @@ void GaborNoise::impulses(const Vec3f& lo, const Vec3f& hi, std::vector<GaborImp
             }
 }
 
+namespace {
+
+// exp(x) for x in [-8, 0] (the truncated Gaussian reaches -3): 2^(x·log2 e) with a degree-5
+// polynomial for 2^f on [0, 1) and the integer part in the exponent bits; rel. error < 2e-7.
+inline float fastExp(float x)
+{
+    x = std::max(x, -80.0f);
+    const float t = x * 1.44269504f;
+    // floor(t) without a libm call (SSE2 has no floor): round to nearest, step down if above.
+    float fi = (t + 12582912.0f) - 12582912.0f;
+    fi = fi > t ? fi - 1.0f : fi;
+    const float f = t - fi;
+    float p = 1.8775767e-3f;
+    p = p * f + 8.9893397e-3f;
+    p = p * f + 5.5826318e-2f;
+    p = p * f + 2.4015361e-1f;
+    p = p * f + 6.9315308e-1f;
+    p = p * f + 9.9999994e-1f;
+    int32_t bits;
+    std::memcpy(&bits, &p, 4);
+    bits += int32_t(fi) << 23;
+    std::memcpy(&p, &bits, 4);
+    return p;
+}
+
+// cos(2π·u) for any u: reduce to r in [-1/2, 1/2], then an even polynomial in (2πr)²
+// (Taylor to x^14 on [-π, π]); abs. error < 1e-6.
+inline float cosTurns(float u)
+{
+    // u - round(u) with the 1.5·2^23 trick (exact for |u| < 2^22; SSE2 has no round).
+    const float r = u - ((u + 12582912.0f) - 12582912.0f);
+    const float x = r * 6.28318531f;
+    const float z = x * x;
+    float p = -1.1470745e-11f;
+    p = p * z + 2.0876757e-9f;
+    p = p * z - 2.7557319e-7f;
+    p = p * z + 2.4801587e-5f;
+    p = p * z - 1.3888889e-3f;
+    p = p * z + 4.1666667e-2f;
+    p = p * z - 0.5f;
+    return p * z + 1.0f;
+}
+
+} // namespace
+
 void GaborNoise::eval(const std::vector<GaborImpulse>& imp, int n, const float* x,
                       const float* y, const float* z, const float* ox, const float* oy,
                       const float* oz, const float* nx, const float* ny, const float* nz,
@@ -80,25 +126,36 @@ void GaborNoise::eval(const std::vector<GaborImpulse>& imp, int n, const float* 
 {
     const float r2 = float(mR * mR);
     const float env = float(-kPi * mA * mA);
-    const float w2pi = float(2.0 * kPi * mF);
+    const float f0 = float(mF); // cycles per metre: cos(2π f0 d·o) = cosTurns(f0 d·o)
     for (int i = 0; i < n; ++i) out[i] = 0.0f;
-    bool anyIso = false;
-    for (int i = 0; i < n; ++i) anyIso |= iso[i] > 0.0f;
+    bool anyIso = false, anyAniso = false;
+    for (int i = 0; i < n; ++i) {
+        anyIso |= iso[i] > 0.0f;
+        anyAniso |= iso[i] < 1.0f;
+    }
+    // Branch-free loops over the points of one impulse (they vectorise); kernels beyond the
+    // truncation radius contribute exactly 0.
     for (const GaborImpulse& g : imp) {
+        if (anyAniso && !anyIso) {
+            for (int i = 0; i < n; ++i) {
+                const float dx = x[i] - g.x, dy = y[i] - g.y, dz = z[i] - g.z;
+                const float d2 = dx * dx + dy * dy + dz * dz;
+                if (d2 >= r2) continue;
+                const float e = g.w * fastExp(env * d2);
+                out[i] += e * cosTurns(f0 * (dx * ox[i] + dy * oy[i] + dz * oz[i]));
+            }
+            continue;
+        }
         for (int i = 0; i < n; ++i) {
             const float dx = x[i] - g.x, dy = y[i] - g.y, dz = z[i] - g.z;
             const float d2 = dx * dx + dy * dy + dz * dz;
-            if (d2 >= r2) continue;
-            const float e = g.w * std::exp(env * d2);
-            float v = std::cos(w2pi * (dx * ox[i] + dy * oy[i] + dz * oz[i]));
-            if (anyIso && iso[i] > 0.0f) {
-                // The impulse's direction projected on the tangent plane at the point.
-                const float on = g.ox * nx[i] + g.oy * ny[i] + g.oz * nz[i];
-                const float px = g.ox - on * nx[i], py = g.oy - on * ny[i], pz = g.oz - on * nz[i];
-                const float vi = std::cos(w2pi * (dx * px + dy * py + dz * pz));
-                v += iso[i] * (vi - v);
-            }
-            out[i] += e * v;
+            const float e = d2 < r2 ? g.w * fastExp(env * d2) : 0.0f;
+            const float va = cosTurns(f0 * (dx * ox[i] + dy * oy[i] + dz * oz[i]));
+            // The impulse's direction projected on the tangent plane at the point.
+            const float on = g.ox * nx[i] + g.oy * ny[i] + g.oz * nz[i];
+            const float px = g.ox - on * nx[i], py = g.oy - on * ny[i], pz = g.oz - on * nz[i];
+            const float vi = cosTurns(f0 * (dx * px + dy * py + dz * pz));
+            out[i] += e * (va + iso[i] * (vi - va));
         }
     }
 }
