@@ -128,34 +128,31 @@ void GaborNoise::eval(const std::vector<GaborImpulse>& imp, int n, const float* 
     const float env = float(-kPi * mA * mA);
     const float f0 = float(mF); // cycles per metre: cos(2π f0 d·o) = cosTurns(f0 d·o)
     for (int i = 0; i < n; ++i) out[i] = 0.0f;
-    bool anyIso = false, anyAniso = false;
-    for (int i = 0; i < n; ++i) {
-        anyIso |= iso[i] > 0.0f;
-        anyAniso |= iso[i] < 1.0f;
-    }
-    // Branch-free loops over the points of one impulse (they vectorise); kernels beyond the
-    // truncation radius contribute exactly 0.
+    bool anyIso = false;
+    for (int i = 0; i < n; ++i) anyIso |= iso[i] > 0.0f;
+    // Kernels beyond the truncation radius contribute exactly 0 and are skipped.
     for (const GaborImpulse& g : imp) {
-        if (anyAniso && !anyIso) {
+        if (!anyIso) {
             for (int i = 0; i < n; ++i) {
                 const float dx = x[i] - g.x, dy = y[i] - g.y, dz = z[i] - g.z;
                 const float d2 = dx * dx + dy * dy + dz * dz;
                 if (d2 >= r2) continue;
-                const float e = g.w * fastExp(env * d2);
-                out[i] += e * cosTurns(f0 * (dx * ox[i] + dy * oy[i] + dz * oz[i]));
+                out[i] += g.w * fastExp(env * d2) *
+                          cosTurns(f0 * (dx * ox[i] + dy * oy[i] + dz * oz[i]));
             }
             continue;
         }
         for (int i = 0; i < n; ++i) {
             const float dx = x[i] - g.x, dy = y[i] - g.y, dz = z[i] - g.z;
             const float d2 = dx * dx + dy * dy + dz * dz;
-            const float e = d2 < r2 ? g.w * fastExp(env * d2) : 0.0f;
-            const float va = cosTurns(f0 * (dx * ox[i] + dy * oy[i] + dz * oz[i]));
+            if (d2 >= r2) continue;
             // The impulse's direction projected on the tangent plane at the point.
             const float on = g.ox * nx[i] + g.oy * ny[i] + g.oz * nz[i];
             const float px = g.ox - on * nx[i], py = g.oy - on * ny[i], pz = g.oz - on * nz[i];
             const float vi = cosTurns(f0 * (dx * px + dy * py + dz * pz));
-            out[i] += e * (va + iso[i] * (vi - va));
+            const float va = iso[i] < 1.0f
+                                 ? cosTurns(f0 * (dx * ox[i] + dy * oy[i] + dz * oz[i])) : vi;
+            out[i] += g.w * fastExp(env * d2) * (va + iso[i] * (vi - va));
         }
     }
 }
