@@ -3,6 +3,7 @@
 #include "Cli.h"
 
 #include <core/Error.h>
+#include <core/Expression.h>
 #include <core/VdbIO.h>
 #include <detail/Detail.h>
 
@@ -77,6 +78,15 @@ int main(int argc, char** argv)
                    "Near frame singularities: cancel the noise, or fade to isotropic noise; auto = "
                    "isotropic for curvature frames, cancel otherwise")
         ->check(CLI::IsMember({"auto", "cancel", "isotropic"}))->capture_default_str();
+    std::string blendFile, blendMask, blendGrid;
+    app.add_option("--blend", blendFile,
+                   "Blend towards a second parameter set (JSON file with warp_amplitude, "
+                   "gabor_amplitude, gabor_frequency, gabor_orientation, gabor_falloff, tilt) "
+                   "where --blend-mask reads 1; parameters are interpolated, not the results");
+    app.add_option("--blend-mask", blendMask,
+                   "Scalar .vdb grid of blend weights in [0, 1] (world space)");
+    app.add_option("--blend-mask-grid", blendGrid,
+                   "Grid name in --blend-mask (default: its only or first float grid)");
     tool.addSeed(app);
     tool.addBakeOptions(app);
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
@@ -100,7 +110,26 @@ int main(int argc, char** argv)
             {"singular", singular}, {"seed", tool.seed()}, {"direction_curvature", curvature}};
         if (!axis.empty()) o["direction_axis"] = axis;
         if (!skeleton.empty()) o["direction_skeleton"] = skeleton;
-        const detail::DetailParams params = detail::DetailParams::fromJson(o);
+        if (!blendFile.empty()) o["blend"] = readJsonFile(blendFile);
+        if (!blendFile.empty() && blendMask.empty()) {
+            fail<ValueError>("detail: --blend needs --blend-mask (the weights)");
+        }
+        detail::DetailParams params = detail::DetailParams::fromJson(o);
+        if (!blendMask.empty()) {
+            auto grids = readGrids(blendMask);
+            for (const auto& gb : *grids) {
+                auto f = openvdb::gridPtrCast<openvdb::FloatGrid>(gb);
+                if (f && (blendGrid.empty() || f->getName() == blendGrid)) {
+                    params.blendMask = f;
+                    break;
+                }
+            }
+            if (!params.blendMask) {
+                fail<ValueError>("detail: no float grid", blendGrid.empty() ? "" : " '" + blendGrid + "'",
+                                 " in ", blendMask);
+            }
+            if (blendFile.empty()) fail<ValueError>("detail: --blend-mask needs --blend (the parameters)");
+        }
         auto bar = tool.progress("detailing");
         BakeResult r = detail::detailLevelSet(grid, params, settings, bar.get());
         bar->end();

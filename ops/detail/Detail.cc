@@ -8,6 +8,7 @@
 #include <core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
+#include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/Morphology.h>
 
 #include <algorithm>
@@ -17,6 +18,8 @@
 
 namespace rockvdb {
 namespace detail {
+
+using json = nlohmann::json;
 
 namespace {
 
@@ -29,14 +32,39 @@ float smoothstep(float a, float b, float x)
     return t * t * (3.0f - 2.0f * t);
 }
 
+// World-space trilinear samples of a blend mask, clamped to [0, 1].
+class MaskSampler
+{
+public:
+    explicit MaskSampler(openvdb::FloatGrid::ConstPtr g) : mGrid(std::move(g)) {}
+    float operator()(float x, float y, float z) const
+    {
+        const Vec3d ijk = mGrid->transform().worldToIndex(Vec3d(x, y, z));
+        const float v = openvdb::tools::BoxSampler::sample(mGrid->tree(), ijk);
+        return std::min(std::max(v, 0.0f), 1.0f);
+    }
+
+private:
+    openvdb::FloatGrid::ConstPtr mGrid;
+};
+
+float lerp(float a, float b, float w) { return a + (b - a) * w; }
+
 // ---- §4.2 gradient-based warp: f(ω⁻¹(p)), ω⁻¹(p) = p + g(p) Σ α_i d(γ_i(p)) ----------------
 
 class GradientWarp final : public Field
 {
 public:
-    GradientWarp(FieldPtr input, const ReliefParams& r, uint64_t seed, float h, float lo, float hi)
+    // The relief is built at amplitude A = max(A_base, A_blend); with a blend the warp at p is
+    // scaled by lerp(A_base, A_blend, w(p)) / A.
+    GradientWarp(FieldPtr input, const ReliefParams& r, uint64_t seed, float h, float lo, float hi,
+                 float baseAmplitude, float blendAmplitude, openvdb::FloatGrid::ConstPtr mask)
         : mInput(std::move(input)), mRelief(r, seed, lo, hi), mP(float(r.sharpness)), mH(h),
-          mA(float(r.amplitude)) {}
+          mA(float(r.amplitude)), mBase(baseAmplitude / float(r.amplitude)),
+          mBlend(blendAmplitude / float(r.amplitude))
+    {
+        if (mask) mMask = std::make_unique<MaskSampler>(std::move(mask));
+    }
 
     void evalBatch(const Batch& b, float* out) const override { eval(b, out, nullptr); }
     void evalIdBatch(const Batch& b, float* out, float* id) const override { eval(b, out, id); }
@@ -97,8 +125,9 @@ private:
             const float nx = gx[j] * inv, ny = gy[j] * inv, nz = gz[j] * inv;
             const float x = p.x[j], y = p.y[j], z = p.z[j];
             // Where the gradient fades (medial axes of a distance) the warp fades with it.
-            const float s = std::min(len, 1.0f) *
-                            triplanar(nx, ny, nz, mRelief(x, y), mRelief(x, z), mRelief(y, z), mP);
+            float s = std::min(len, 1.0f) *
+                      triplanar(nx, ny, nz, mRelief(x, y), mRelief(x, z), mRelief(y, z), mP);
+            s *= mMask ? lerp(mBase, mBlend, (*mMask)(x, y, z)) : mBase;
             q.x[j] = x + nx * s;
             q.y[j] = y + ny * s;
             q.z[j] = z + nz * s;
@@ -120,6 +149,8 @@ private:
     FieldPtr mInput;
     Relief mRelief;
     float mP, mH, mA;
+    float mBase = 1, mBlend = 1;
+    std::unique_ptr<MaskSampler> mMask;
 };
 
 // ---- gabor §3–§4: f(p) - D(n(p_S))·K(|p p_S|/R) in the band |f| < R ----------------------
@@ -131,15 +162,26 @@ public:
     // gradient gives the normals and projections (the unwarped input: far cheaper, and the
     // warp moves the surface by a small amount only).
     GaborDetail(FieldPtr value, FieldPtr frames, const GaborParams& g, const DirectionField& dir,
-                float h)
+                float h, const BlendParams* blend = nullptr,
+                openvdb::FloatGrid::ConstPtr mask = nullptr)
         : mInput(std::move(value)), mFrame(std::move(frames)), mG(g), mDir(dir),
           mNoise(g.frequency, g.bandwidth > 0 ? g.bandwidth : g.frequency / 2, g.impulses, g.seed),
           mH(h)
     {
         mA = float(g.amplitude);
-        mR = float(g.falloff > 0 ? g.falloff : 12.0 * g.amplitude);
-        // Saturated noise moves the surface by exactly A: s = D (1 - s/R)⁶ at s = A.
-        mD = mA / float(std::pow(1.0 - double(mA) / double(mR), 6.0));
+        mR = falloff(g.falloff, g.amplitude);
+        mD = intensity(mA, mR);
+        mRmax = mR;
+        mDmax = mD;
+        mAmax = mA;
+        if (blend && mask) {
+            mBlend = *blend;
+            mMask = std::make_unique<MaskSampler>(std::move(mask));
+            const float a = float(blend->gaborAmplitude), r = falloff(blend->falloff, a);
+            mRmax = std::max(mR, r);
+            mDmax = std::max(mD, intensity(a, r));
+            mAmax = std::max(mA, a);
+        }
         const double alpha = g.tiltDeg * kPi / 180.0, theta = g.tiltAzimuthDeg * kPi / 180.0;
         mCosA = float(std::cos(alpha));
         mSinA = float(std::sin(alpha));
@@ -163,15 +205,24 @@ public:
     BBoxd bounds() const override
     {
         BBoxd bb = mInput->bounds();
-        if (isBounded(bb)) bb.expand(double(mA));
+        if (isBounded(bb)) bb.expand(double(mAmax));
         return bb;
     }
     // |f_new - f| <= D: the modulus grows by 2D; the slope by D·(6/R + |∇n̂|).
-    double modulus(double r) const override { return mInput->modulus(r) + 2.0 * double(mD); }
+    double modulus(double r) const override { return mInput->modulus(r) + 2.0 * double(mDmax); }
     double lipschitz() const override
     {
         const double a = mG.bandwidth > 0 ? mG.bandwidth : mG.frequency / 2;
-        return mInput->lipschitz() + double(mD) * (6.0 / double(mR) + 2.0 * kPi * (mG.frequency + a));
+        const double f = std::max(mG.frequency, mBlend.frequency);
+        return mInput->lipschitz() +
+               double(mDmax) * (6.0 / double(std::min(mR, mRmax)) + 2.0 * kPi * (f + a));
+    }
+
+    static float falloff(double R, double A) { return float(R > 0 ? R : 12.0 * A); }
+    // Saturated noise moves the surface by exactly A: s = D (1 - s/R)⁶ at s = A.
+    static float intensity(float A, float R)
+    {
+        return A > 0 ? A / float(std::pow(1.0 - double(A) / double(R), 6.0)) : 0.0f;
     }
     bool exact() const override { return false; }
 
@@ -180,7 +231,7 @@ private:
     {
         alignas(64) float f[kMaxBatch], gx[kMaxBatch], gy[kMaxBatch], gz[kMaxBatch];
         alignas(64) float ox[kMaxBatch], oy[kMaxBatch], oz[kMaxBatch], iso[kMaxBatch];
-        alignas(64) float k[kMaxBatch], n[kMaxBatch], scale[kMaxBatch];
+        alignas(64) float k[kMaxBatch], n[kMaxBatch], scale[kMaxBatch], d[kMaxBatch];
         alignas(64) float h[3][kMaxBatch];
         alignas(64) float hc[3][3][kMaxBatch]; // Hessian columns (curvature frames)
         int idx[kMaxBatch];
@@ -195,7 +246,7 @@ private:
         BatchBuffer p;
         int m = 0;
         for (int i = 0; i < b.n; ++i) {
-            if (std::abs(out[i]) < mR) {
+            if (std::abs(out[i]) < mRmax) {
                 w->idx[m] = i;
                 p.x[m] = b.x[i];
                 p.y[m] = b.y[i];
@@ -208,8 +259,8 @@ private:
         p.n = m;
         p.center = b.center;
         p.radius = b.radius;
-        p.band = std::max(b.band, mR + 2.0f * mH);
-        p.reach = std::max(b.reach, mR + 2.0f * mH);
+        p.band = std::max(b.band, mRmax + 2.0f * mH);
+        p.reach = std::max(b.reach, mRmax + 2.0f * mH);
         const Batch pv = p.view();
         const bool curvature = mDir.kind == DirectionKind::Curvature && !mG.isotropic;
         const float h = curvature ? 2.0f * mH : mH;
@@ -233,10 +284,21 @@ private:
                 bn = bb / bl;
                 t = bn.cross(n);
             }
-            const Vec3f o = t * mCosW + bn * mSinW;
-            w->ox[j] = o[0];
-            w->oy[j] = o[1];
-            w->oz[j] = o[2];
+            // Shape parameters at p (blended by the mask's weight there).
+            float A = mA, R = mR, D = mD, cosA = mCosA, sinA = mSinA, cosT = mCosT, sinT = mSinT;
+            const float wp = mMask ? (*mMask)(p.x[j], p.y[j], p.z[j]) : 0.0f;
+            if (mMask) {
+                A = lerp(mA, float(mBlend.gaborAmplitude), wp);
+                R = lerp(mR, falloff(mBlend.falloff, mBlend.gaborAmplitude), wp);
+                D = intensity(A, R);
+                const float al = float(lerp(float(mG.tiltDeg), float(mBlend.tiltDeg), wp) * kPi / 180);
+                const float th = float(lerp(float(mG.tiltAzimuthDeg), float(mBlend.tiltAzimuthDeg), wp) * kPi / 180);
+                cosA = std::cos(al);
+                sinA = std::sin(al);
+                cosT = std::cos(th);
+                sinT = std::sin(th);
+            }
+            w->d[j] = D;
             // Isotropic share and the noise's scale (independent blends lose variance).
             float iso = 0.0f, keep = c;
             if (mG.isotropic) {
@@ -251,16 +313,33 @@ private:
             // Projection direction v_{α,θ} = cos α n + sin α (cos θ t + sin θ b) (gabor §4);
             // without a frame the tilt has no azimuth: project along n.
             Vec3f v = n;
-            if (mSinA != 0.0f && bl > 1e-9f) v = n * mCosA + (t * mCosT + bn * mSinT) * mSinA;
+            if (sinA != 0.0f && bl > 1e-9f) v = n * cosA + (t * cosT + bn * sinT) * sinA;
             const float cosv = std::max(v.dot(n), 0.1f);
             const float dist = w->f[j] / cosv; // signed, along v
             s.x[j] = p.x[j] - dist * v[0];
             s.y[j] = p.y[j] - dist * v[1];
             s.z[j] = p.z[j] - dist * v[2];
-            const float r = std::abs(dist) / mR;
+            const float r = std::abs(dist) / R;
             const float k = r < 1.0f ? (1.0f - r) : 0.0f;
             const float k2 = k * k;
             w->k[j] = k2 * k2 * k2 * std::min(len, 1.0f);
+            // Noise parameters at p_S: orientation (doubled angles: ω and ω + 180° are the
+            // same noise) and frequency (the direction's length scales the base frequency).
+            float cw = mCosW, sw = mSinW, fscale = 1.0f;
+            if (mMask) {
+                const float ws = (*mMask)(s.x[j], s.y[j], s.z[j]);
+                const double w0 = mG.orientationDeg * kPi / 90.0, w1 = mBlend.orientationDeg * kPi / 90.0;
+                const float c2 = lerp(float(std::cos(w0)), float(std::cos(w1)), ws);
+                const float s2 = lerp(float(std::sin(w0)), float(std::sin(w1)), ws);
+                const float half = 0.5f * std::atan2(s2, c2);
+                cw = std::cos(half);
+                sw = std::sin(half);
+                if (mBlend.frequency > 0) fscale = lerp(1.0f, float(mBlend.frequency / mG.frequency), ws);
+            }
+            const Vec3f o = (t * cw + bn * sw) * fscale;
+            w->ox[j] = o[0];
+            w->oy[j] = o[1];
+            w->oz[j] = o[2];
             w->gx[j] = n[0];
             w->gy[j] = n[1];
             w->gz[j] = n[2];
@@ -277,7 +356,7 @@ private:
         for (int j = 0; j < m; ++j) {
             // D(noise): a bump for positive noise (the field decreases), bounded by D.
             const float nn = w->n[j] * mInvSigma * w->scale[j];
-            out[w->idx[j]] = w->f[j] - mD * std::tanh(0.5f * nn) * w->k[j];
+            out[w->idx[j]] = w->f[j] - w->d[j] * std::tanh(0.5f * nn) * w->k[j];
         }
     }
 
@@ -383,7 +462,9 @@ private:
     DirectionField mDir;
     GaborNoise mNoise;
     float mH;
-    float mA = 0, mR = 1, mD = 0;
+    float mA = 0, mR = 1, mD = 0, mRmax = 1, mDmax = 0, mAmax = 0;
+    BlendParams mBlend;
+    std::unique_ptr<MaskSampler> mMask;
     float mCosA = 1, mSinA = 0, mCosT = 1, mSinT = 0, mCosW = 1, mSinW = 0;
     float mInvSigma = 1;
     Singular mSingular = Singular::Cancel;
@@ -434,7 +515,8 @@ DetailParams DetailParams::fromJson(const nlohmann::json& j)
                                      "warp_sharpness", "gabor_amplitude", "gabor_frequency",
                                      "gabor_bandwidth", "gabor_orientation", "gabor_impulses",
                                      "gabor_falloff", "gabor_isotropic", "tilt", "direction_axis",
-                                     "direction_skeleton", "direction_curvature", "singular", "seed"};
+                                     "direction_skeleton", "direction_curvature", "singular", "seed",
+                                     "blend"};
         for (auto it = j.begin(); it != j.end(); ++it) {
             if (std::find_if(std::begin(keys), std::end(keys),
                              [&](const char* k) { return it.key() == k; }) == std::end(keys)) {
@@ -482,6 +564,33 @@ DetailParams DetailParams::fromJson(const nlohmann::json& j)
         } else if (curv) {
             p.direction.kind = DirectionKind::Curvature;
         }
+        if (j.contains("blend") && !j.at("blend").is_null()) {
+            const json& b = j.at("blend");
+            for (auto it = b.begin(); it != b.end(); ++it) {
+                static const char* bk[] = {"warp_amplitude", "gabor_amplitude", "gabor_frequency",
+                                           "gabor_orientation", "gabor_falloff", "tilt"};
+                if (std::find_if(std::begin(bk), std::end(bk),
+                                 [&](const char* k) { return it.key() == k; }) == std::end(bk)) {
+                    fail<ValueError>("detail: blend: '", it.key(), "' cannot vary in space (it "
+                                     "can: warp_amplitude, gabor_amplitude, gabor_frequency, "
+                                     "gabor_orientation, gabor_falloff, tilt)");
+                }
+            }
+            auto bp = std::make_shared<BlendParams>();
+            bp->warpAmplitude = b.value("warp_amplitude", p.warp.amplitude);
+            bp->gaborAmplitude = b.value("gabor_amplitude", g.amplitude);
+            bp->frequency = b.value("gabor_frequency", g.frequency);
+            bp->orientationDeg = b.value("gabor_orientation", g.orientationDeg);
+            bp->falloff = b.value("gabor_falloff", g.falloff);
+            bp->tiltDeg = g.tiltDeg;
+            bp->tiltAzimuthDeg = g.tiltAzimuthDeg;
+            if (b.contains("tilt")) {
+                const auto t = b.at("tilt").get<std::array<double, 2>>();
+                bp->tiltDeg = t[0];
+                bp->tiltAzimuthDeg = t[1];
+            }
+            p.blend = bp;
+        }
     } catch (const nlohmann::json::exception& e) {
         fail<ValueError>("detail: malformed option (", e.what(), ")");
     }
@@ -503,7 +612,35 @@ void DetailParams::validate(double voxelSize) const
     const GaborParams& g = gabor;
     require(std::isfinite(g.amplitude) && g.amplitude >= 0, op, "gabor amplitude", ">= 0 m",
             g.amplitude);
-    if (g.amplitude > 0) {
+    if (blend) {
+        const BlendParams& b = *blend;
+        require(std::isfinite(b.warpAmplitude) && b.warpAmplitude >= 0, op, "blend warp amplitude",
+                ">= 0 m", b.warpAmplitude);
+        require(std::isfinite(b.gaborAmplitude) && b.gaborAmplitude >= 0, op,
+                "blend gabor amplitude", ">= 0 m", b.gaborAmplitude);
+        require(std::isfinite(b.frequency) && b.frequency >= 0, op, "blend gabor frequency",
+                ">= 0 cycles/m", b.frequency);
+        const double a = g.bandwidth > 0 ? g.bandwidth : g.frequency / 2;
+        const double nyquist = 1.0 / (2.0 * voxelSize);
+        if (b.gaborAmplitude > 0 && b.frequency + a > nyquist) {
+            fail<ValueError>("detail: blend gabor frequency ", b.frequency, " + bandwidth ", a,
+                             " cycles/m exceeds the voxel Nyquist limit 1/(2·voxel) = ", nyquist,
+                             " cycles/m (voxel ", voxelSize, " m)");
+        }
+        const double R = b.falloff > 0 ? b.falloff : 12.0 * b.gaborAmplitude;
+        require(std::isfinite(b.falloff) && b.falloff >= 0 && R >= 1.5 * b.gaborAmplitude, op,
+                "blend gabor falloff R", ">= 1.5 x amplitude (0 = 12 x amplitude)", b.falloff);
+        require(std::isfinite(b.tiltDeg) && b.tiltDeg >= 0 && b.tiltDeg <= 75, op, "blend tilt",
+                "in [0, 75] degrees", b.tiltDeg);
+        require(std::isfinite(b.orientationDeg) && std::isfinite(b.tiltAzimuthDeg), op,
+                "blend angles", "finite", b.orientationDeg);
+        if (b.warpAmplitude > 0 && warp.amplitude <= 0) {
+            // The relief's scale and octaves come from the base set.
+            require(std::isfinite(warp.scale) && warp.scale > 0, op, "warp scale", "> 0 m",
+                    warp.scale);
+        }
+    }
+    if (g.amplitude > 0 || (blend && blend->gaborAmplitude > 0)) {
         const double a = g.bandwidth > 0 ? g.bandwidth : g.frequency / 2;
         const double nyquist = 1.0 / (2.0 * voxelSize);
         require(std::isfinite(g.frequency) && g.frequency > 0, op, "gabor frequency",
@@ -537,28 +674,45 @@ void DetailParams::validate(double voxelSize) const
     }
 }
 
+double DetailParams::maxWarp() const
+{
+    return std::max(warp.amplitude, blend ? blend->warpAmplitude : 0.0);
+}
+
+double DetailParams::maxGabor() const
+{
+    return std::max(gabor.amplitude, blend ? blend->gaborAmplitude : 0.0);
+}
+
 double DetailParams::reach(double halfWidthMetres) const
 {
     // Band voxels of the result lie within the band + the displacement of the input surface
     // (the surface moves by at most A_warp + A_gabor), plus the renormalisation's one-voxel
     // stencil (taken as half the band: the step is not known here).
-    return 1.5 * halfWidthMetres + warp.amplitude + gabor.amplitude;
+    return 1.5 * halfWidthMetres + maxWarp() + maxGabor();
 }
 
 FieldPtr detailField(FieldPtr input, const DetailParams& p, double gradientStep)
 {
     if (!input) fail<ValueError>("detail: the input is required");
     FieldPtr f = input;
-    if (p.warp.amplitude > 0) {
+    const BlendParams* blend = p.blend && p.blendMask ? p.blend.get() : nullptr;
+    const double warpMax = std::max(p.warp.amplitude, blend ? blend->warpAmplitude : 0.0);
+    if (warpMax > 0) {
         const BBoxd bb = input->bounds();
         if (!isBounded(bb)) fail<ValueError>("detail: the input must be bounded");
         float lo = float(std::min({bb.min()[0], bb.min()[1], bb.min()[2]}));
         float hi = float(std::max({bb.max()[0], bb.max()[1], bb.max()[2]}));
-        f = std::make_shared<GradientWarp>(input, p.warp, p.seed, float(gradientStep), lo - 1,
-                                           hi + 1);
+        ReliefParams r = p.warp;
+        r.amplitude = warpMax;
+        f = std::make_shared<GradientWarp>(input, r, p.seed, float(gradientStep), lo - 1, hi + 1,
+                                           float(p.warp.amplitude),
+                                           float(blend ? blend->warpAmplitude : p.warp.amplitude),
+                                           blend ? p.blendMask : nullptr);
     }
-    if (p.gabor.amplitude > 0) {
-        f = std::make_shared<GaborDetail>(f, input, p.gabor, p.direction, float(gradientStep));
+    if (p.gabor.amplitude > 0 || (blend && blend->gaborAmplitude > 0)) {
+        f = std::make_shared<GaborDetail>(f, input, p.gabor, p.direction, float(gradientStep),
+                                          blend, blend ? p.blendMask : nullptr);
     }
     return f;
 }
@@ -570,8 +724,11 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
     requireLevelSet(*grid, "detail input");
     const double dx = grid->voxelSize()[0];
     p.validate(std::max(settings.voxelSize, dx));
+    if (p.blend && !p.blendMask) {
+        fail<ValueError>("detail: blend parameters need a blend mask grid (weights in [0, 1])");
+    }
     // Without detail the input's own band is all the bake reads (a plain resample).
-    const bool none = p.warp.amplitude <= 0 && p.gabor.amplitude <= 0;
+    const bool none = p.maxWarp() <= 0 && p.maxGabor() <= 0;
     FieldPtr input = levelSetField(grid, none ? 0.0 : p.reach(settings.halfWidth * settings.voxelSize));
     FieldPtr f = detailField(input, p, dx);
     if (none) return bake(*f, settings, interrupt);
@@ -585,7 +742,7 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
         // surface moves by at most A): the rest of space only holds bounds of the distance.
         auto mask = openvdb::MaskGrid::create();
         mask->tree().topologyUnion(grid->tree());
-        const double grow = settings.halfWidth * dx + p.warp.amplitude + p.gabor.amplitude;
+        const double grow = settings.halfWidth * dx + p.maxWarp() + p.maxGabor();
         const int have = int(std::floor(double(grid->background()) / dx));
         openvdb::tools::dilateActiveValues(mask->tree(), std::max(1, int(std::ceil(grow / dx)) + 2 - have),
                                            openvdb::tools::NN_FACE_EDGE_VERTEX,
@@ -594,7 +751,7 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
     }
     // The Gabor blob term bends the field along the normal (its slope there ranges over
     // 1 ± 6D/R): OpenVDB's LevelSetTracker restores |∇φ| = 1 across the band.
-    if (p.gabor.amplitude > 0) s.trackerSteps = std::max(s.trackerSteps, kGaborTrackerSteps);
+    if (p.maxGabor() > 0) s.trackerSteps = std::max(s.trackerSteps, kGaborTrackerSteps);
     return bake(*f, s, interrupt);
 }
 

@@ -18,6 +18,7 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace rockvdb {
@@ -64,12 +65,32 @@ struct GaborParams
     uint64_t seed = 1;
 };
 
+/// The parameters that may vary in space (gabor §4, "Blending implicit surfaces carrying
+/// details"): where the blend mask reads w ∈ [0, 1] each is (1 − w)·base + w·this, the field
+/// contributions of the two parameter sets. Shape parameters (amplitudes, falloff, tilt) are
+/// weighted at the evaluation point, noise parameters (frequency, orientation) at the
+/// projected point p_S. One Gabor noise with interpolated parameters, not two noises mixed:
+/// blends do not blur the details.
+struct BlendParams
+{
+    double warpAmplitude = 0.0;
+    double gaborAmplitude = 0.0;
+    double frequency = 0.0;      ///< 0 = the base frequency
+    double orientationDeg = 0.0;
+    double falloff = 0.0;        ///< 0 = 12 × the blended amplitude
+    double tiltDeg = 0.0, tiltAzimuthDeg = 0.0;
+};
+
 struct DetailParams
 {
     ReliefParams warp;           ///< gradient warp (amplitude 0 disables)
     GaborParams gabor;           ///< Gabor details (amplitude 0 disables)
     DirectionField direction;
     uint64_t seed = 1;           ///< warp relief seed
+    /// Optional spatial blend towards a second parameter set, weighted by a scalar grid
+    /// (world-space trilinear samples clamped to [0, 1]; background = outside).
+    std::shared_ptr<const BlendParams> blend;
+    openvdb::FloatGrid::ConstPtr blendMask;
     /// @brief ValueError for unusable settings; frequencies above the Nyquist limit of
     /// @a voxelSize (F0 + 2a > 1/(2·voxel)) are refused with the limit in the message.
     void validate(double voxelSize) const;
@@ -77,8 +98,13 @@ struct DetailParams
     /// an image path), warp_scale, warp_octaves, warp_sharpness, gabor_amplitude,
     /// gabor_frequency, gabor_bandwidth, gabor_orientation, gabor_impulses, gabor_falloff,
     /// gabor_isotropic, tilt [α, θ], direction_axis [x,y,z], direction_skeleton (a JSON
-    /// object or file path), direction_curvature, singular, seed (all optional).
+    /// object or file path), direction_curvature, singular, seed, and "blend": {the same
+    /// names for warp_amplitude, gabor_amplitude, gabor_frequency, gabor_orientation,
+    /// gabor_falloff, tilt} (all optional; the blend mask grid is set separately).
     static DetailParams fromJson(const nlohmann::json& j);
+    /// Largest warp / Gabor amplitude over the base and blend sets.
+    double maxWarp() const;
+    double maxGabor() const;
     /// Distance from the input surface within which the input must be exact: where the
     /// result's band can be (for levelSetField's widening).
     double reach(double halfWidthMetres) const;

@@ -150,12 +150,16 @@ def detail(grid, warp_amplitude=0.0, warp_relief="turbulence", warp_scale=1.5, w
            gabor_orientation=0.0, gabor_impulses=16.0, gabor_falloff=0.0,
            gabor_isotropic=False, tilt=(0.0, 0.0), direction_axis=None,
            direction_skeleton=None, direction_curvature=False, singular="auto", seed=0,
-           voxel_size=None, half_width=None):
+           voxel_size=None, half_width=None, blend=None, blend_mask=None):
     """Surface detail on a level set (vdb_detail from Python): gradient warp (implicit-blocks
     §4.2) and Gabor details (gabor-details §3-§4). grid: a pyopenvdb.FloatGrid level set;
     amplitudes in metres (0 disables), frequency in cycles per metre, angles in degrees;
     direction_skeleton: a dict {"segments": [...]} or a JSON file path. voxel_size and
-    half_width default to the input's. Returns a new pyopenvdb.FloatGrid (input untouched)."""
+    half_width default to the input's. blend: a dict of the parameters that may vary in space
+    (warp_amplitude, gabor_amplitude, gabor_frequency, gabor_orientation, gabor_falloff, tilt)
+    reached where blend_mask (a pyopenvdb.FloatGrid of weights in [0, 1]) reads 1; the
+    parameters are interpolated (gabor §4), so blends do not blur the details.
+    Returns a new pyopenvdb.FloatGrid (input untouched)."""
     import os
     if isinstance(direction_skeleton, os.PathLike):
         direction_skeleton = str(direction_skeleton)
@@ -171,4 +175,8 @@ def detail(grid, warp_amplitude=0.0, warp_relief="turbulence", warp_scale=1.5, w
                "direction_skeleton": direction_skeleton,
                "direction_curvature": bool(direction_curvature), "singular": str(singular),
                "seed": int(seed)}
-    return _rockvdb.detail(grid, _json.dumps(options), voxel_size, half_width)
+    if blend is not None:
+        options["blend"] = blend
+    if blend is not None and blend_mask is None:
+        raise ValueError("detail: blend needs blend_mask (the weights)")
+    return _rockvdb.detail(grid, _json.dumps(options), voxel_size, half_width, blend_mask)

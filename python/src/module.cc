@@ -366,9 +366,10 @@ PYBIND11_MODULE(_rockvdb, m)
     }, py::arg("path"), py::arg("array"), "Write a 2D array as float EXR or 16-bit PNG (row 0 first)");
 
     m.def("detail", [](Grid grid, const std::string& options, std::optional<double> voxelSize,
-                       std::optional<double> halfWidth) {
+                       std::optional<double> halfWidth, std::optional<Grid> blendMask) {
         const json o = json::parse(options);
-        const detail::DetailParams p = detail::DetailParams::fromJson(o);
+        detail::DetailParams p = detail::DetailParams::fromJson(o);
+        if (blendMask) p.blendMask = *blendMask;
         if (!grid) throw ValueError("detail: the input grid is None");
         requireLevelSet(*grid, "detail input");
         BakeSettings s;
@@ -390,7 +391,7 @@ PYBIND11_MODULE(_rockvdb, m)
         stampProvenance(*r.surface, "rockvdb.detail", params.dump());
         return r.surface;
     }, py::arg("grid"), py::arg("options"), py::arg("voxel_size") = std::nullopt,
-       py::arg("half_width") = std::nullopt);
+       py::arg("half_width") = std::nullopt, py::arg("blend_mask") = std::nullopt);
 
     m.def("read_image", [](const std::string& path, const std::string& op) {
         GrayImage img = readGrayImage(path, op.c_str());
