@@ -16,7 +16,8 @@ using namespace rockvdb;
 int main(int argc, char** argv)
 {
     cli::Tool tool("vdb_detail",
-        "Add small-scale rock detail to a level set and re-bake it (renormalised). Gradient "
+        "Add small-scale rock detail to a level set and re-bake it (renormalised); the file's "
+        "id grids (block_id, material, ...) are carried onto the result. Gradient "
         "warp (Paris et al. sec. 4.2): the surface moves along its normal by a relief d seen "
         "through three axis projections blended by |g.u_i|^p (p = --warp-sharpness; 8, the "
         "arches paper's texture blend, keeps one projection's detail sharp instead of "
@@ -92,7 +93,14 @@ int main(int argc, char** argv)
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
 
     return tool.run(argc, argv, [&] {
-        auto grid = readLevelSet(input, gridName);
+        // The level set, and the file's other float grids (ids) to carry onto the result.
+        auto all = readGrids(input);
+        auto grid = findLevelSet(*all, gridName, input);
+        std::vector<openvdb::FloatGrid::Ptr> idGrids;
+        for (const auto& gb : *all) {
+            auto f = openvdb::gridPtrCast<openvdb::FloatGrid>(gb);
+            if (f && f != grid && f->getGridClass() != openvdb::GRID_LEVEL_SET) idGrids.push_back(f);
+        }
         BakeSettings settings = tool.bake().settings();
         // Voxel size and band default to the input's.
         if (app.count("--voxel-size") == 0) settings.voxelSize = grid->voxelSize()[0];
@@ -145,7 +153,13 @@ int main(int argc, char** argv)
             prov["source"] = {{"generator", src->generator},
                                 {"params", nlohmann::json::parse(src->params, nullptr, false)}};
         }
+        openvdb::GridCPtrVec out{r.surface};
+        for (const auto& ids : idGrids) {
+            auto carried = detail::carryAttribute(*grid, *r.surface, *ids);
+            stampProvenance(*carried, tool.name(), prov.dump());
+            out.push_back(carried);
+        }
         stampProvenance(*r.surface, tool.name(), prov.dump());
-        writeGrids(tool.output(), {r.surface});
+        writeGrids(tool.output(), out);
     });
 }

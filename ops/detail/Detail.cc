@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/Morphology.h>
+#include <openvdb/tree/LeafManager.h>
 
 #include <algorithm>
 #include <limits>
@@ -753,6 +754,70 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
     // 1 ± 6D/R): OpenVDB's LevelSetTracker restores |∇φ| = 1 across the band.
     if (p.maxGabor() > 0) s.trackerSteps = std::max(s.trackerSteps, kGaborTrackerSteps);
     return bake(*f, s, interrupt);
+}
+
+openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
+                                       const openvdb::FloatGrid& detailed,
+                                       const openvdb::FloatGrid& ids)
+{
+    auto out = openvdb::FloatGrid::create(ids.background());
+    out->setName(ids.getName());
+    out->setTransform(detailed.transform().copy());
+    out->setGridClass(ids.getGridClass());
+    out->insertMeta(ids);
+    out->tree().topologyUnion(detailed.tree());
+    openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
+    const double dx = input.voxelSize()[0];
+    leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+        auto in = input.getConstAccessor();
+        auto id = ids.getConstAccessor();
+        auto det = detailed.getConstAccessor();
+        for (auto it = leaf.beginValueOn(); it; ++it) {
+            // First onto the detailed surface (within the displacement of the input's), along
+            // the detailed level set's own gradient.
+            const openvdb::Coord ijk = it.getCoord();
+            const Vec3d gd(det.getValue(ijk.offsetBy(1, 0, 0)) - det.getValue(ijk.offsetBy(-1, 0, 0)),
+                           det.getValue(ijk.offsetBy(0, 1, 0)) - det.getValue(ijk.offsetBy(0, -1, 0)),
+                           det.getValue(ijk.offsetBy(0, 0, 1)) - det.getValue(ijk.offsetBy(0, 0, -1)));
+            Vec3d q = detailed.indexToWorld(ijk);
+            if (gd.length() > 1e-9) q -= gd * (double(det.getValue(ijk)) / gd.length());
+            // Walk to the input surface along its gradient (values beyond the input's band
+            // are clamped: a few steps bring the point into it).
+            for (int step = 0; step < 6; ++step) {
+                const Vec3d i = input.worldToIndex(q);
+                const float f = openvdb::tools::BoxSampler::sample(in, i);
+                const Vec3d g((openvdb::tools::BoxSampler::sample(in, i + Vec3d(1, 0, 0)) -
+                               openvdb::tools::BoxSampler::sample(in, i - Vec3d(1, 0, 0))),
+                              (openvdb::tools::BoxSampler::sample(in, i + Vec3d(0, 1, 0)) -
+                               openvdb::tools::BoxSampler::sample(in, i - Vec3d(0, 1, 0))),
+                              (openvdb::tools::BoxSampler::sample(in, i + Vec3d(0, 0, 1)) -
+                               openvdb::tools::BoxSampler::sample(in, i - Vec3d(0, 0, 1))));
+                const double len = g.length();
+                if (len < 1e-9 || std::abs(f) < 0.5 * dx) break;
+                q -= g * (double(f) / len);
+            }
+            // The nearest id voxel holding an id (the surface point lies in the id band).
+            const openvdb::Coord c = openvdb::Coord::round(ids.worldToIndex(q));
+            float v = ids.background();
+            float best = std::numeric_limits<float>::max();
+            // Nearest first: the 3³ neighbourhood, then 5³ where the walk stopped short.
+            for (int r = 1; r <= 2 && best == std::numeric_limits<float>::max(); ++r) {
+                for (int a = -r; a <= r; ++a)
+                    for (int b = -r; b <= r; ++b)
+                        for (int k = -r; k <= r; ++k) {
+                            float w;
+                            if (!id.probeValue(c.offsetBy(a, b, k), w) || w < 0) continue;
+                            const float d2 = float(a * a + b * b + k * k);
+                            if (d2 < best) {
+                                best = d2;
+                                v = w;
+                            }
+                        }
+            }
+            it.setValue(v);
+        }
+    });
+    return out;
 }
 
 } // namespace detail

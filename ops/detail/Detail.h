@@ -124,5 +124,13 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
                           const BakeSettings& settings,
                           openvdb::util::NullInterrupter* interrupt = nullptr);
 
+/// @brief Attribute grids (block_id, material, ...) of the input carried onto a detailed
+/// level set: each active voxel of @a detailed takes the value of @a ids at the nearest voxel
+/// of the input surface point it projects to (p - f(p)·∇f, iterated into the input's band).
+/// Integer ids stay ids (no interpolation); the result has @a detailed's active topology.
+openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
+                                       const openvdb::FloatGrid& detailed,
+                                       const openvdb::FloatGrid& ids);
+
 } // namespace detail
 } // namespace rockvdb

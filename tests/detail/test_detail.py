@@ -314,3 +314,35 @@ def test_blending_interpolates_parameters_without_blurring(patch, tmp_path):
     one_line_error(run([tool("vdb_detail"), str(patch), "-o", str(tmp_path / "x.vdb"), *common,
                         "--blend", str(bad), "--blend-mask", str(mask_file)]), 2,
                    "cannot vary in space")
+
+
+def test_block_ids_are_carried(tmp_path):
+    """A vdb_blocks tile keeps its block_id grid through vdb_detail: same topology as the new
+    surface, the same set of blocks, and ids agreeing with the input near the surface."""
+    tile = tmp_path / "tile.vdb"
+    # (Equidimensional blocks are thick enough for the detail: none is cut or lost.)
+    run([tool("vdb_blocks"), "-q", "--type", "equidimensional", "--tile-size", "4",
+         "--point-radius", "0.25", "--voxel-size", "0.03", "--warp-amplitude", "0", "--seed", "5",
+         "-o", str(tile)], check=True)
+    out = tmp_path / "o.vdb"
+    detail(tile, out, "--warp-amplitude", "0.02", "--gabor-amplitude", "0.02",
+           "--gabor-frequency", "5", "--direction-curvature")
+    grids = {g.name: g for g in vdb.readAll(str(out))[0]}
+    assert set(grids) == {"surface", "block_id"}
+    s, ids = grids["surface"], grids["block_id"]
+    assert ids.activeVoxelCount() == s.activeVoxelCount()
+    src = {g.name: g for g in vdb.readAll(str(tile))[0]}
+    before = {it.value for it in src["block_id"].citerOnValues()}
+    after = {it.value for it in ids.citerOnValues()}
+    assert after == before
+    sacc, iacc = src["surface"].getConstAccessor(), src["block_id"].getConstAccessor()
+    agree = total = 0
+    oacc = s.getConstAccessor()
+    for it in ids.citerOnValues():
+        if it.count != 1:
+            continue
+        v, _ = sacc.probeValue(it.min)
+        if abs(v) < 0.015 and abs(oacc.getValue(it.min)) < 0.015:
+            total += 1
+            agree += iacc.getValue(it.min) == it.value
+    assert total > 1000 and agree / total > 0.95, (agree, total)
