@@ -22,7 +22,12 @@ template <typename AccT>
 inline auto trilinear(AccT& acc, const Vec3d& xyz)
 {
     using ValueT = typename AccT::ValueType;
-    const openvdb::Coord ijk = openvdb::Coord::floor(xyz);
+    // floor without libm calls (SSE2 has no floor instruction).
+    auto ifloor = [](double v) {
+        const int i = int(v);
+        return i - (double(i) > v ? 1 : 0);
+    };
+    const openvdb::Coord ijk(ifloor(xyz[0]), ifloor(xyz[1]), ifloor(xyz[2]));
     const float w = float(xyz[2] - ijk.z());
     ValueT c[8];
     const int lx = ijk.x() & 7, ly = ijk.y() & 7, lz = ijk.z() & 7;
@@ -92,7 +97,8 @@ private:
         const Vec3d p(x, y, z);
         Vec3d q = mFast ? (p - mOrigin) * mInvDx : mGrid->transform().worldToIndex(p);
         for (int a = 0; a < 3; ++a) {
-            const double r = std::round(q[a]);
+            // Nearest integer by the 1.5·2^52 trick (exact for |q| < 2^51, no libm call).
+            const double r = (q[a] + 6755399441055744.0) - 6755399441055744.0;
             if (std::abs(q[a] - r) < 1e-5) q[a] = r;
         }
         return q;

@@ -62,6 +62,11 @@ void GaborNoise::impulses(const Vec3f& lo, const Vec3f& hi, std::vector<GaborImp
                     g.x = float((i + u(0)) * r);
                     g.y = float((j + u(1)) * r);
                     g.z = float((k + u(2)) * r);
+                    // Impulses farther than r from the box reach none of its points.
+                    const float ex = std::max({lo[0] - g.x, g.x - hi[0], 0.0f});
+                    const float ey = std::max({lo[1] - g.y, g.y - hi[1], 0.0f});
+                    const float ez = std::max({lo[2] - g.z, g.z - hi[2], 0.0f});
+                    if (double(ex * ex + ey * ey + ez * ez) >= r * r) continue;
                     g.w = float(2.0 * u(3) - 1.0);
                     // Uniform direction on the sphere (isotropic noise).
                     const double cz = 2.0 * u(4) - 1.0, phi = 2.0 * kPi * u(5);
