@@ -91,41 +91,20 @@ private:
         return mRelief.slopeBound() + double(mA) * (1.0 + double(mP)) / double(mH);
     }
 
+    // Every point is warped: the leaves the bake visits all lie near the input surface (its
+    // candidate mask), so testing f(p) first would cost a lookup and spare nothing.
     void eval(const Batch& b, float* out, float* id) const
     {
-        if (id) mInput->evalIdBatch(b, out, id);
-        else mInput->evalBatch(b, out);
-        // |f(p + δ) - f(p)| <= L·A: points further than band + L·A stay beyond the band
-        // with their sign, so only the others are warped.
-        const float skip = std::isfinite(b.band)
-                               ? b.band + float(mInput->lipschitz()) * mA : std::numeric_limits<float>::infinity();
-        BatchBuffer p;
-        int idx[kMaxBatch];
-        int m = 0;
-        for (int i = 0; i < b.n; ++i) {
-            if (std::abs(out[i]) < skip) {
-                idx[m] = i;
-                p.x[m] = b.x[i];
-                p.y[m] = b.y[i];
-                p.z[m] = b.z[i];
-                ++m;
-            }
-        }
-        if (m == 0) return;
-        p.n = m;
-        p.center = b.center;
-        p.radius = b.radius;
-        p.band = b.band;
-        p.reach = b.reach;
         alignas(64) float gx[kMaxBatch], gy[kMaxBatch], gz[kMaxBatch];
-        mInput->gradientBatch(p.view(), mH, gx, gy, gz);
+        mInput->gradientBatch(b, mH, gx, gy, gz);
         BatchBuffer q;
-        for (int j = 0; j < m; ++j) {
+        for (int j = 0; j < b.n; ++j) {
             const float len = std::sqrt(gx[j] * gx[j] + gy[j] * gy[j] + gz[j] * gz[j]);
             const float inv = 1.0f / std::max(len, 1e-6f);
             const float nx = gx[j] * inv, ny = gy[j] * inv, nz = gz[j] * inv;
-            const float x = p.x[j], y = p.y[j], z = p.z[j];
-            // Where the gradient fades (medial axes of a distance) the warp fades with it.
+            const float x = b.x[j], y = b.y[j], z = b.z[j];
+            // Where the gradient fades (medial axes of a distance, beyond the band) the warp
+            // fades with it.
             float s = std::min(len, 1.0f) *
                       triplanar(nx, ny, nz, mRelief(x, y), mRelief(x, z), mRelief(y, z), mP);
             s *= mMask ? lerp(mBase, mBlend, (*mMask)(x, y, z)) : mBase;
@@ -133,18 +112,13 @@ private:
             q.y[j] = y + ny * s;
             q.z[j] = z + nz * s;
         }
-        q.n = m;
+        q.n = b.n;
         q.center = b.center;
         q.radius = b.radius + mA;
         q.band = b.band;
         q.reach = std::isfinite(b.reach) ? b.reach + 2.0f * mA : b.reach;
-        alignas(64) float v[kMaxBatch], vid[kMaxBatch];
-        if (id) mInput->evalIdBatch(q.view(), v, vid);
-        else mInput->evalBatch(q.view(), v);
-        for (int j = 0; j < m; ++j) {
-            out[idx[j]] = v[j];
-            if (id) id[idx[j]] = vid[j];
-        }
+        if (id) mInput->evalIdBatch(q.view(), out, id);
+        else mInput->evalBatch(q.view(), out);
     }
 
     FieldPtr mInput;
