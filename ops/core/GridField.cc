@@ -8,6 +8,8 @@
 #include <openvdb/tools/GridOperators.h>
 #include <openvdb/tools/Interpolation.h>
 
+#include <tbb/task_arena.h>
+
 #include <cmath>
 #include <mutex>
 
@@ -77,7 +79,11 @@ public:
     // widened band, computed once on first use): 8 lookups instead of 6 trilinear samples.
     void gradientBatch(const Batch& b, float, float* gx, float* gy, float* gz) const override
     {
-        std::call_once(mGradientOnce, [this] { mGradient = openvdb::tools::gradient(*mGrid); });
+        // Isolated: while this thread runs the (parallel) gradient operator it must not pick
+        // up another bake task that would wait on this same once-flag (a deadlock).
+        std::call_once(mGradientOnce, [this] {
+            tbb::this_task_arena::isolate([this] { mGradient = openvdb::tools::gradient(*mGrid); });
+        });
         auto acc = mGradient->getConstAccessor();
         for (int i = 0; i < b.n; ++i) {
             const openvdb::Vec3f g = trilinear(acc, index(b.x[i], b.y[i], b.z[i]));

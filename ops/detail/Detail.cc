@@ -26,6 +26,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kGaborTrackerSteps = 3;
+constexpr int kMaxWidenVoxels = 64;
 
 float smoothstep(float a, float b, float x)
 {
@@ -217,7 +218,7 @@ private:
         if (id) mInput->evalIdBatch(b, out, id);
         else mInput->evalBatch(b, out);
         // Points in the detail band |f| < R (the field is unchanged beyond it).
-        auto w = std::make_unique<Work>();
+        auto w = std::make_unique<Work>(); // ~80 KB: too big for a worker's stack
         BatchBuffer p;
         int m = 0;
         for (int i = 0; i < b.n; ++i) {
@@ -247,7 +248,7 @@ private:
             const float inv = 1.0f / std::max(len, 1e-6f);
             const Vec3f n(w->gx[j] * inv, w->gy[j] * inv, w->gz[j] * inv);
             // Frame (n, t, b) from W (gabor §3): b = n ∧ W, t = b ∧ n.
-            Vec3f W = direction(j, n, pv, *w);
+            Vec3f W = direction(j, pv, *w);
             Vec3f bb = n.cross(W);
             const float wl = W.length(), bl = bb.length();
             // Singularities: W ∥ n (or W = 0); curvature frames at umbilics (set in hessian).
@@ -337,9 +338,8 @@ private:
 
     // W at the points: the axis, the skeleton's weighted direction, or (curvature) the
     // direction of largest |κ| computed in hessian().
-    Vec3f direction(int j, const Vec3f& n, const Batch& b, const Work& w) const
+    Vec3f direction(int j, const Batch& b, const Work& w) const
     {
-        (void)n;
         switch (mDir.kind) {
         case DirectionKind::Axis: return mAxis;
         case DirectionKind::Skeleton: {
@@ -704,6 +704,16 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
     }
     // Without detail the input's own band is all the bake reads (a plain resample).
     const bool none = p.maxWarp() <= 0 && p.maxGabor() <= 0;
+    // The input's band is widened by fast sweeping to reach(): refuse amplitudes that would
+    // sweep hundreds of voxel layers (minutes and gigabytes) before the bake's own estimate.
+    const double widen = (p.reach(settings.halfWidth * settings.voxelSize) -
+                          double(grid->background())) / dx;
+    if (!none && widen > kMaxWidenVoxels) {
+        fail<ValueError>("detail: amplitudes (warp ", p.maxWarp(), " m, gabor ", p.maxGabor(),
+                         " m) need the input's band widened by ", int(std::ceil(widen)),
+                         " voxels, at most ", kMaxWidenVoxels, " at voxel size ", dx,
+                         " m: use smaller amplitudes or a coarser input");
+    }
     FieldPtr input = levelSetField(grid, none ? 0.0 : p.reach(settings.halfWidth * settings.voxelSize));
     FieldPtr f = detailField(input, p, dx);
     if (none) return bake(*f, settings, interrupt);

@@ -15,13 +15,14 @@ constexpr double kPi = 3.14159265358979323846;
 // exp(-π a² r²) = 5% at the truncation radius.
 const double kTruncation = std::sqrt(-std::log(0.05) / kPi);
 
-// Knuth's Poisson sampler on counter-based uniforms (means here are ~4).
+// Knuth's Poisson sampler on counter-based uniforms (means up to ~61 for 256 impulses per
+// kernel; the cap is far beyond any count with a real probability, it only bounds the loop).
 int poisson(double mean, uint64_t seed, uint64_t cellHash)
 {
     const double limit = std::exp(-mean);
     double prod = random::toUnit(random::mix64(cellHash ^ seed));
     int k = 0;
-    while (prod > limit && k < 64) {
+    while (prod > limit && k < 1024) {
         ++k;
         prod *= random::toUnit(random::mix64(cellHash + uint64_t(k) * 0x9e3779b97f4a7c15ULL));
     }

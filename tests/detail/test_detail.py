@@ -226,6 +226,8 @@ def test_python_matches_the_cli_and_skeleton_frames(sphere, tmp_path):
     (["--gabor-amplitude", "0.02", "--gabor-frequency", "5", "--gabor-falloff", "0.01"],
      "falloff"),
     (["--warp-amplitude", "0.02", "--warp-relief", "missing.png"], "missing.png"),
+    (["--warp-amplitude", "5"], "widened by"),
+    (["--gabor-amplitude", "3", "--gabor-frequency", "1"], "widened by"),
 ])
 def test_bad_parameters(sphere, tmp_path, args, needle):
     out = tmp_path / "o.vdb"
