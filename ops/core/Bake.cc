@@ -244,6 +244,7 @@ private:
     {
         const CoordBBox& box = mD.box;
         if (box.empty()) return {};
+        if (mCandidates) return candidateLeaves();
         // Top nodes: the smallest power of two >= 8 giving at most ~512 of them (enough tasks
         // for the threads; fewer would cost more evaluations, more would cost task overhead).
         int top = kLeafDim;
@@ -302,6 +303,51 @@ private:
         return out;
     }
 
+    // The candidate mask's leaves (and the leaves of its active tiles) in the domain: the
+    // caller's bound replaces the field's culling, which would only test the same leaves
+    // again (a leaf without band voxels comes out empty and is dropped either way).
+    std::vector<Coord> candidateLeaves()
+    {
+        const CoordBBox& box = mD.box;
+        std::vector<Coord> out;
+        for (auto it = mCandidates->cbeginLeaf(); it; ++it) {
+            const CoordBBox lb(it->origin(), it->origin().offsetBy(kLeafDim - 1));
+            if (lb.hasOverlap(box)) out.push_back(it->origin());
+        }
+        auto tiles = mCandidates->cbeginValueOn();
+        tiles.setMaxDepth(openvdb::MaskTree::ValueOnCIter::LEAF_DEPTH - 1);
+        for (; tiles; ++tiles) {
+            CoordBBox tb;
+            tiles.getBoundingBox(tb);
+            tb.intersect(box);
+            if (tb.empty()) continue;
+            const Coord lo = tb.min() & ~(kLeafDim - 1);
+            for (int i = lo[0]; i <= tb.max()[0]; i += kLeafDim)
+                for (int j = lo[1]; j <= tb.max()[1]; j += kLeafDim)
+                    for (int k = lo[2]; k <= tb.max()[2]; k += kLeafDim) out.emplace_back(i, j, k);
+        }
+        // Grouped by their level-1 node, as assemble() wants, and in Morton order inside it
+        // (the culling's depth-first order: neighbouring leaves read neighbouring inputs).
+        auto morton = [](const Coord& c) {
+            unsigned m = 0;
+            for (int b = 0; b < 4; ++b) {
+                for (int a = 0; a < 3; ++a) m |= unsigned((c[a] >> (3 + b)) & 1) << (3 * b + 2 - a);
+            }
+            return m;
+        };
+        std::sort(out.begin(), out.end(), [&](const Coord& a, const Coord& b) {
+            const Coord na = node1Origin(a), nb = node1Origin(b);
+            return na != nb ? na < nb : morton(a) < morton(b);
+        });
+        const double limit = memoryLimit();
+        if (double(out.size()) * (kBytesPerLeaf + kLeafVoxels * 4.0) > limit) {
+            fail<ValueError>("bake: the narrow band needs more than ", formatBytes(limit),
+                             " (over ", out.size(), " leaves); use a larger voxel size or a "
+                             "smaller region");
+        }
+        return out;
+    }
+
     static int floorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 
     bool overlaps(const Node& n) const
@@ -340,10 +386,6 @@ private:
     void descend(const Node& n, std::vector<Coord>& out, size_t& evals)
     {
         if (n.size == kLeafDim) {
-            if (mCandidates && !mCandidates->probeConstLeaf(n.origin) &&
-                !mCandidates->isValueOn(n.origin)) {
-                return;
-            }
             out.push_back(n.origin);
             return;
         }

@@ -46,9 +46,10 @@ struct BakeSettings
     std::string gridName = "surface";
     std::string attributeName = "block_id";
     double maxMemoryBytes = 0;    ///< refuse bakes estimated above this; 0 = 75% of RAM
-    /// Optional candidate topology (index space of this bake): leaves are baked only where it
-    /// holds an active voxel or tile. Operators that know where their surface can be (detail
-    /// within A of its input) pass it to skip leaves whose values only bound the distance.
+    /// Optional candidate topology (index space of this bake): exactly the leaves where it
+    /// holds an active voxel or tile are filled, and the field is not culled. Operators that
+    /// know where their surface can be (detail within A of its input) pass it to skip leaves
+    /// whose values only bound the distance; it must cover the whole band.
     openvdb::MaskGrid::ConstPtr candidates;
 
     /// @brief ValueError("bake: ...") unless every setting is usable.

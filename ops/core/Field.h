@@ -108,6 +108,10 @@ public:
     /// precomputed gradient) override it.
     virtual void gradientBatch(const Batch& b, float h, float* gx, float* gy, float* gz) const;
 
+    /// @brief Build whatever gradientBatch() reads (a grid's gradient grid), with all
+    /// threads, before a bake evaluates the field; without it the first call builds it.
+    virtual void prepareGradient() const {}
+
     /// @brief True when f is a Euclidean distance within the narrow band.
     virtual bool exact() const { return true; }
 

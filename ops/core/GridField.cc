@@ -31,6 +31,9 @@ inline auto trilinear(AccT& acc, const Vec3d& xyz)
     };
     const openvdb::Coord ijk(ifloor(xyz[0]), ifloor(xyz[1]), ifloor(xyz[2]));
     const float w = float(xyz[2] - ijk.z());
+    const float fu = float(xyz[0] - ijk.x()), fv = float(xyz[1] - ijk.y());
+    // At a voxel centre (bakes on the grid's own voxels): the stored value.
+    if (fu == 0.0f && fv == 0.0f && w == 0.0f) return ValueT(acc.getValue(ijk));
     ValueT c[8];
     const int lx = ijk.x() & 7, ly = ijk.y() & 7, lz = ijk.z() & 7;
     const auto* leaf = (lx < 7 && ly < 7 && lz < 7) ? acc.probeConstLeaf(ijk) : nullptr;
@@ -44,7 +47,6 @@ inline auto trilinear(AccT& acc, const Vec3d& xyz)
         }
     }
     // c[n]: n = 4·dx + 2·dy + dz.
-    const float fu = float(xyz[0] - ijk.x()), fv = float(xyz[1] - ijk.y());
     const ValueT z00 = c[0] + (c[1] - c[0]) * w, z01 = c[2] + (c[3] - c[2]) * w;
     const ValueT z10 = c[4] + (c[5] - c[4]) * w, z11 = c[6] + (c[7] - c[6]) * w;
     const ValueT y0 = z00 + (z01 - z00) * fv, y1 = z10 + (z11 - z10) * fv;
@@ -54,7 +56,7 @@ inline auto trilinear(AccT& acc, const Vec3d& xyz)
 class LevelSetField final : public Field
 {
 public:
-    explicit LevelSetField(openvdb::FloatGrid::Ptr g) : mGrid(std::move(g))
+    explicit LevelSetField(openvdb::FloatGrid::ConstPtr g) : mGrid(std::move(g))
     {
         const openvdb::CoordBBox bb = mGrid->evalActiveVoxelBoundingBox();
         mBounds = BBoxd(mGrid->indexToWorld(bb.min()), mGrid->indexToWorld(bb.max()));
@@ -79,11 +81,7 @@ public:
     // widened band, computed once on first use): 8 lookups instead of 6 trilinear samples.
     void gradientBatch(const Batch& b, float, float* gx, float* gy, float* gz) const override
     {
-        // Isolated: while this thread runs the (parallel) gradient operator it must not pick
-        // up another bake task that would wait on this same once-flag (a deadlock).
-        std::call_once(mGradientOnce, [this] {
-            tbb::this_task_arena::isolate([this] { mGradient = openvdb::tools::gradient(*mGrid); });
-        });
+        prepareGradient();
         auto acc = mGradient->getConstAccessor();
         for (int i = 0; i < b.n; ++i) {
             const openvdb::Vec3f g = trilinear(acc, index(b.x[i], b.y[i], b.z[i]));
@@ -91,6 +89,15 @@ public:
             gy[i] = g[1];
             gz[i] = g[2];
         }
+    }
+
+    void prepareGradient() const override
+    {
+        // Isolated: while this thread runs the (parallel) gradient operator it must not pick
+        // up another bake task that would wait on this same once-flag (a deadlock).
+        std::call_once(mGradientOnce, [this] {
+            tbb::this_task_arena::isolate([this] { mGradient = openvdb::tools::gradient(*mGrid); });
+        });
     }
 
     BBoxd bounds() const override { return mBounds; }
@@ -110,7 +117,7 @@ private:
         return q;
     }
 
-    openvdb::FloatGrid::Ptr mGrid;
+    openvdb::FloatGrid::ConstPtr mGrid;
     BBoxd mBounds;
     bool mFast = false;
     Vec3d mOrigin;
@@ -121,24 +128,27 @@ private:
 
 } // namespace
 
-FieldPtr levelSetField(openvdb::FloatGrid::ConstPtr grid, double exactWidth)
+openvdb::FloatGrid::ConstPtr widenBand(openvdb::FloatGrid::ConstPtr grid, double exactWidth)
 {
     if (!grid) fail<ValueError>("level set field: grid is null");
     requireLevelSet(*grid, "terrain");
     const double dx = grid->voxelSize()[0];
     const double width = double(grid->background());
-    openvdb::FloatGrid::Ptr g = grid->deepCopy();
-    if (exactWidth > width) {
-        const int iterations = int(std::ceil((exactWidth - width) / dx)) + 1;
-        g = openvdb::tools::dilateSdf(*grid, iterations);
-        // Beyond the widened band the field must keep growing: background = the new width.
-        const float bg = float(width + iterations * dx);
-        for (auto it = g->beginValueOn(); it; ++it) {
-            it.setValue(std::min(std::max(*it, -bg), bg));
-        }
-        openvdb::tools::changeLevelSetBackground(g->tree(), bg);
+    if (!(exactWidth > width)) return grid;
+    const int iterations = int(std::ceil((exactWidth - width) / dx - 1e-4)) + 1;
+    openvdb::FloatGrid::Ptr g = openvdb::tools::dilateSdf(*grid, iterations);
+    // Beyond the widened band the field must keep growing: background = the new width.
+    const float bg = float(width + iterations * dx);
+    for (auto it = g->beginValueOn(); it; ++it) {
+        it.setValue(std::min(std::max(*it, -bg), bg));
     }
-    return std::make_shared<LevelSetField>(g);
+    openvdb::tools::changeLevelSetBackground(g->tree(), bg);
+    return g;
+}
+
+FieldPtr levelSetField(openvdb::FloatGrid::ConstPtr grid, double exactWidth)
+{
+    return std::make_shared<LevelSetField>(widenBand(std::move(grid), exactWidth));
 }
 
 } // namespace rockvdb

@@ -9,7 +9,7 @@
 
 #include <nlohmann/json.hpp>
 #include <openvdb/tools/Interpolation.h>
-#include <openvdb/tools/Morphology.h>
+#include <openvdb/tools/Prune.h>
 #include <openvdb/tree/LeafManager.h>
 
 #include <algorithm>
@@ -685,7 +685,10 @@ FieldPtr detailField(FieldPtr input, const DetailParams& p, double gradientStep)
                                            float(blend ? blend->warpAmplitude : p.warp.amplitude),
                                            blend ? p.blendMask : nullptr);
     }
-    if (p.gabor.amplitude > 0 || (blend && blend->gaborAmplitude > 0)) {
+    const bool gabor = p.gabor.amplitude > 0 || (blend && blend->gaborAmplitude > 0);
+    // Both read the input's gradient at every point: build it now, with every thread.
+    if (warpMax > 0 || gabor) input->prepareGradient();
+    if (gabor) {
         f = std::make_shared<GaborDetail>(f, input, p.gabor, p.direction, float(gradientStep),
                                           blend, blend ? p.blendMask : nullptr);
     }
@@ -714,8 +717,9 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
                          " voxels, at most ", kMaxWidenVoxels, " at voxel size ", dx,
                          " m: use smaller amplitudes or a coarser input");
     }
-    FieldPtr input = levelSetField(grid, none ? 0.0 : p.reach(settings.halfWidth * settings.voxelSize));
-    FieldPtr f = detailField(input, p, dx);
+    const openvdb::FloatGrid::ConstPtr wide =
+        widenBand(grid, none ? 0.0 : p.reach(settings.halfWidth * settings.voxelSize));
+    FieldPtr f = detailField(levelSetField(wide), p, dx);
     if (none) return bake(*f, settings, interrupt);
     BakeSettings s = settings;
     const openvdb::math::Transform& xf = grid->transform();
@@ -723,15 +727,24 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
                             xf.indexToWorld(openvdb::Vec3d(0.0)).length() < 1e-9 * dx &&
                             xf.isLinear() && xf.hasUniformScale();
     if (sameVoxels) {
-        // Candidate leaves: the input's band dilated by the band plus the displacement (the
-        // surface moves by at most A): the rest of space only holds bounds of the distance.
+        // Candidate leaves: those with a voxel within the band plus the displacement of the
+        // input surface (the surface moves by at most A) plus three voxels (renormalisation
+        // pulls compressed values, |∇f| up to 2, into the band), read off the widened input's
+        // distances; the rest of space only holds bounds of the distance. Voxels beyond the
+        // widened band are left out too: the input's distance and gradient are unknown there.
+        const float limit = float(settings.halfWidth * dx + p.maxWarp() + p.maxGabor() + 3 * dx);
         auto mask = openvdb::MaskGrid::create();
-        mask->tree().topologyUnion(grid->tree());
-        const double grow = settings.halfWidth * dx + p.maxWarp() + p.maxGabor();
-        const int have = int(std::floor(double(grid->background()) / dx));
-        openvdb::tools::dilateActiveValues(mask->tree(), std::max(1, int(std::ceil(grow / dx)) + 2 - have),
-                                           openvdb::tools::NN_FACE_EDGE_VERTEX,
-                                           openvdb::tools::IGNORE_TILES);
+        mask->tree().topologyUnion(wide->tree());
+        openvdb::tree::LeafManager<openvdb::MaskTree> leaves(mask->tree());
+        leaves.foreach([&](openvdb::MaskTree::LeafNodeType& leaf, size_t) {
+            const auto* in = wide->tree().probeConstLeaf(leaf.origin());
+            openvdb::MaskTree::LeafNodeType::NodeMaskType keep;
+            for (auto it = leaf.getValueMask().beginOn(); in && it; ++it) {
+                if (std::abs(in->getValue(it.pos())) < limit) keep.setOn(it.pos());
+            }
+            leaf.setValueMask(keep);
+        });
+        openvdb::tools::pruneInactive(mask->tree());
         s.candidates = mask;
     }
     // The Gabor blob term bends the field along the normal (its slope there ranges over
