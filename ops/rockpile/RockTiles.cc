@@ -1,0 +1,817 @@
+#include "RockTiles.h"
+
+#include <core/Error.h>
+#include <core/Random.h>
+#include <core/Sampling.h>
+
+#include <nlohmann/json.hpp>
+#include <openvdb/tools/SignedFloodFill.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <mutex>
+
+namespace rockvdb {
+namespace rockpile {
+
+using openvdb::Coord;
+
+namespace {
+
+// Random streams (Random.h): one per kind of quantity.
+enum Stream : uint64_t {
+    kCount = 0x5eed5c0, kPosition, kFrame, kScale, kG, kKey, kPeriodic
+};
+
+int floorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+Coord mul(const Coord& c, int s) { return Coord(c[0] * s, c[1] * s, c[2] * s); }
+
+// The feature owning a cell (§3: the vertex, edge, face or cube whose region's
+// 1-neighbourhood holds it, in that order). Per axis the cell is near the lattice plane
+// below (local index 0, 1), near the one above (n − 2, n − 1), or in between (mid).
+struct Feature
+{
+    std::array<int, 3> plane;  // near axes: lattice coordinate of the plane; mid: cube
+    std::array<bool, 3> near;
+    std::array<int, 3> rel;    // near: cell − n·plane ∈ {−2..1}; mid: local index
+};
+
+Feature featureOf(const Coord& cell, int n)
+{
+    Feature f;
+    for (int a = 0; a < 3; ++a) {
+        const int cube = floorDiv(cell[a], n), l = cell[a] - n * cube;
+        if (l <= 1) {
+            f.near[a] = true; f.plane[a] = cube; f.rel[a] = l;
+        } else if (l >= n - 2) {
+            f.near[a] = true; f.plane[a] = cube + 1; f.rel[a] = l - n;
+        } else {
+            f.near[a] = false; f.plane[a] = cube; f.rel[a] = l;
+        }
+    }
+    return f;
+}
+
+// A hash of what the cell's seeds may depend on: the owner's type, its vertices' colours (in
+// canonical order: bits over the mid axes) and the cell's place relative to it.
+uint64_t featureKey(const Feature& f, const Colouring& colouring, uint64_t seed)
+{
+    uint64_t h = random::hash(seed, kKey, uint64_t(f.near[0]) | uint64_t(f.near[1]) << 1 |
+                                              uint64_t(f.near[2]) << 2);
+    std::array<int, 3> mid;
+    int nm = 0;
+    for (int a = 0; a < 3; ++a) if (!f.near[a]) mid[nm++] = a;
+    for (int b = 0; b < (1 << nm); ++b) {
+        std::array<int, 3> v = f.plane;
+        for (int q = 0; q < nm; ++q) v[mid[q]] += (b >> q) & 1;
+        h = random::mix64(h + uint64_t(colouring(v[0], v[1], v[2])) + 1);
+    }
+    for (int a = 0; a < 3; ++a) h = random::mix64(h + uint64_t(uint32_t(f.rel[a] + 1000)));
+    return h;
+}
+
+// A uniformly random rotation (Shoemake's quaternion from three uniforms).
+std::array<Vec3d, 3> randomFrame(uint64_t h)
+{
+    const double u1 = random::uniform(h, kFrame, 0), u2 = random::uniform(h, kFrame, 1),
+                 u3 = random::uniform(h, kFrame, 2);
+    const double s1 = std::sqrt(1 - u1), s2 = std::sqrt(u1), t1 = 2 * M_PI * u2, t2 = 2 * M_PI * u3;
+    const double x = s1 * std::sin(t1), y = s1 * std::cos(t1), z = s2 * std::sin(t2),
+                 w = s2 * std::cos(t2);
+    return {{Vec3d(1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)),
+             Vec3d(2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)),
+             Vec3d(2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y))}};
+}
+
+Seed makeSeed(const TileParams& p, uint64_t h, const Vec3d& position)
+{
+    Seed s;
+    s.p = position;
+    s.key = h;
+    s.frame = randomFrame(h);
+    for (int a = 0; a < 3; ++a) {
+        const double v = p.anisotropy[a];
+        s.scale[a] = random::uniform(h, kScale, uint64_t(a), v * (1.0 - p.anisotropyJitter), v);
+    }
+    s.g = random::uniform(h, kG, 0, 1.0, p.gMax);
+    return s;
+}
+
+// The periodic tile's Poisson-sphere seeds, binned by cell (cached per parameter set).
+const std::vector<std::vector<Vec3d>>& periodicSeeds(const TileParams& p)
+{
+    static std::mutex mutex;
+    static std::map<std::string, std::vector<std::vector<Vec3d>>> cache;
+    const std::string key = p.toJson().dump();
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = cache.find(key);
+    if (it != cache.end()) return it->second;
+    const double r = p.poissonRadius > 0 ? p.poissonRadius : 0.8;
+    const auto points = poissonPeriodic(double(p.n), r, p.seed, kPeriodic);
+    std::vector<std::vector<Vec3d>> cells(size_t(p.n * p.n * p.n));
+    for (const Vec3d& q : points) {
+        const int i = std::min(p.n - 1, int(q[0])), j = std::min(p.n - 1, int(q[1])),
+                  k = std::min(p.n - 1, int(q[2]));
+        cells[size_t((i * p.n + j) * p.n + k)].push_back(q);
+    }
+    if (cache.size() > 16) cache.clear();
+    return cache.emplace(key, std::move(cells)).first->second;
+}
+
+// R3 low-discrepancy sequence (Roberts 2018): frac(offset + i·(1/φ₃, 1/φ₃², 1/φ₃³)).
+Vec3d r3(const Vec3d& offset, int i)
+{
+    constexpr double g = 1.2207440845557199;
+    const Vec3d a(1.0 / g, 1.0 / (g * g), 1.0 / (g * g * g));
+    Vec3d q = offset + a * double(i);
+    for (int c = 0; c < 3; ++c) q[c] -= std::floor(q[c]);
+    return q;
+}
+
+} // namespace
+
+// ---- parameters ---------------------------------------------------------------------------
+
+TileParams TileParams::fromJson(const nlohmann::json& j)
+{
+    TileParams p;
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        const std::string& k = it.key();
+        const auto& v = it.value();
+        if (k == "tiling") {
+            const std::string t = v.get<std::string>();
+            if (t == "aperiodic") p.tiling = Tiling::Aperiodic;
+            else if (t == "periodic") p.tiling = Tiling::Periodic;
+            else fail<ValueError>("rockpile: tiling must be aperiodic or periodic (got '", t, "')");
+        } else if (k == "n") p.n = v.get<int>();
+        else if (k == "seeds_per_cell") {
+            p.seedsMin = v.at(0).get<int>();
+            p.seedsMax = v.at(1).get<int>();
+        } else if (k == "anisotropy") {
+            for (int a = 0; a < 3; ++a) p.anisotropy[a] = v.at(a).get<double>();
+        } else if (k == "anisotropy_jitter") p.anisotropyJitter = v.get<double>();
+        else if (k == "g_max") p.gMax = v.get<double>();
+        else if (k == "voxels_per_cell") p.voxelsPerCell = v.get<int>();
+        else if (k == "cube_size") p.cubeSize = v.get<double>();
+        else if (k == "contact_radii") {
+            p.contactInner = v.at(0).get<double>();
+            p.contactOuter = v.at(1).get<double>();
+        } else if (k == "erosion_steps") p.erosionSteps = v.get<int>();
+        else if (k == "erosion_rate") p.erosionRate = v.get<double>();
+        else if (k == "poisson_radius") p.poissonRadius = v.get<double>();
+        else if (k == "seed") p.seed = v.get<uint64_t>();
+        else fail<ValueError>("rockpile: unknown tile parameter '", k, "'");
+    }
+    return p;
+}
+
+nlohmann::json TileParams::toJson() const
+{
+    return {{"tiling", tiling == Tiling::Periodic ? "periodic" : "aperiodic"},
+            {"n", n},
+            {"seeds_per_cell", {seedsMin, seedsMax}},
+            {"anisotropy", {anisotropy[0], anisotropy[1], anisotropy[2]}},
+            {"anisotropy_jitter", anisotropyJitter},
+            {"g_max", gMax},
+            {"voxels_per_cell", voxelsPerCell},
+            {"cube_size", cubeSize},
+            {"contact_radii", {contactInner, contactOuter}},
+            {"erosion_steps", erosionSteps},
+            {"erosion_rate", erosionRate},
+            {"poisson_radius", poissonRadius},
+            {"seed", seed}};
+}
+
+void TileParams::validate() const
+{
+    if (tiling == Tiling::Aperiodic) {
+        require(n >= 4, "rockpile", "n (cells per cube edge)",
+                ">= 4 for aperiodic corner cubes (a cell's owner must be unambiguous)", n);
+    } else {
+        require(n >= 3, "rockpile", "n (cells per cube edge)", ">= 3 for a periodic tile", n);
+    }
+    require(n <= 64, "rockpile", "n (cells per cube edge)", "<= 64", n);
+    require(seedsMin >= 1, "rockpile", "seeds per cell (minimum)", ">= 1", seedsMin);
+    require(seedsMax >= seedsMin && seedsMax <= 64, "rockpile", "seeds per cell (maximum)",
+            "in [minimum, 64]", seedsMax);
+    for (int a = 0; a < 3; ++a) {
+        require(std::isfinite(anisotropy[a]) && anisotropy[a] > 0 && anisotropy[a] <= 100,
+                "rockpile", "anisotropy coefficients", "in (0, 100]", anisotropy[a]);
+    }
+    require(anisotropyJitter >= 0 && anisotropyJitter < 1, "rockpile", "anisotropy jitter",
+            "in [0, 1)", anisotropyJitter);
+    require(std::isfinite(gMax) && gMax >= 1 && gMax <= 16, "rockpile", "g_max", "in [1, 16]",
+            gMax);
+    require(voxelsPerCell >= 4 && voxelsPerCell <= 64, "rockpile", "voxels per cell",
+            "in [4, 64]", voxelsPerCell);
+    require(std::isfinite(cubeSize) && cubeSize > 0, "rockpile", "cube size (m)", "> 0",
+            cubeSize);
+    require(contactInner >= 0, "rockpile", "contact radius a", ">= 0", contactInner);
+    if (!(contactOuter > contactInner)) {
+        fail<ValueError>("rockpile: contact radii need a < b (got a = ", contactInner,
+                         ", b = ", contactOuter, ")");
+    }
+    require(contactOuter <= 1.5, "rockpile", "contact radius b (cells)", "<= 1.5",
+            contactOuter);
+    require(erosionSteps >= 0 && erosionSteps <= 100, "rockpile", "erosion steps",
+            "in [0, 100]", erosionSteps);
+    require(erosionRate > 0 && erosionRate <= 1, "rockpile", "erosion rate", "in (0, 1]",
+            erosionRate);
+    if (tiling == Tiling::Periodic) {
+        const double r = poissonRadius > 0 ? poissonRadius : 0.8;
+        require(r >= 0.3 && r < 1.0, "rockpile", "Poisson radius (cells)", "in [0.3, 1)", r);
+    }
+}
+
+// ---- seeds --------------------------------------------------------------------------------
+
+std::vector<Seed> cellSeeds(const TileParams& p, const Coord& cell, const Colouring& colouring)
+{
+    std::vector<Seed> out;
+    if (p.tiling == Tiling::Periodic) {
+        const Coord cube(floorDiv(cell[0], p.n), floorDiv(cell[1], p.n), floorDiv(cell[2], p.n));
+        const Coord l = cell - mul(cube, p.n);
+        const auto& bins = periodicSeeds(p)[size_t((l[0] * p.n + l[1]) * p.n + l[2])];
+        for (size_t i = 0; i < bins.size(); ++i) {
+            // The key names the seed, whichever image: images never meet in one 27-cell
+            // neighbourhood (n >= 3).
+            const uint64_t h = random::hashCoord(p.seed, kKey, l[0], l[1], l[2] * 64 + int(i));
+            const Vec3d shift(cube[0] * p.n, cube[1] * p.n, cube[2] * p.n);
+            Seed s = makeSeed(p, h, bins[i] + shift);
+            s.g = 1.0; // arches §5: the Euclidean Voronoi cells of the Poisson spheres
+            out.push_back(s);
+        }
+        return out;
+    }
+    const Feature f = featureOf(cell, p.n);
+    const uint64_t h = featureKey(f, colouring, p.seed);
+    const int span = p.seedsMax - p.seedsMin + 1;
+    const int count = p.seedsMin + std::min(span - 1, int(random::uniform(h, kCount, 0) * span));
+    const Vec3d offset(random::uniform(h, kPosition, 0), random::uniform(h, kPosition, 1),
+                       random::uniform(h, kPosition, 2));
+    for (int i = 0; i < count; ++i) {
+        // Low-discrepancy positions within the cell (§3), kept off its faces by 5%.
+        const Vec3d u = r3(offset, i);
+        const Vec3d q = Vec3d(cell[0], cell[1], cell[2]) + u * 0.9 + Vec3d(0.05);
+        out.push_back(makeSeed(p, random::hash(h, kKey, uint64_t(i)), q));
+    }
+    return out;
+}
+
+// ---- rocks --------------------------------------------------------------------------------
+
+float Rock::at(const Coord& v) const
+{
+    const Coord l = v - origin;
+    if (l[0] < 0 || l[1] < 0 || l[2] < 0 || l[0] >= dims[0] || l[1] >= dims[1] ||
+        l[2] >= dims[2]) {
+        return 0.0f;
+    }
+    return rho[size_t((l[0] * dims[1] + l[1]) * dims[2] + l[2])];
+}
+
+size_t Rock::solidVoxels() const
+{
+    return size_t(std::count_if(rho.begin(), rho.end(), [](float r) { return r > 0.5f; }));
+}
+
+namespace {
+
+// A dense box of values indexed by global voxel coordinates.
+template <typename T>
+struct Box
+{
+    Coord origin, dims;
+    std::vector<T> v;
+    Box(const Coord& o, const Coord& d, T fill) : origin(o), dims(d), v(size_t(d[0]) * d[1] * d[2], fill) {}
+    bool inside(const Coord& c) const
+    {
+        const Coord l = c - origin;
+        return l[0] >= 0 && l[1] >= 0 && l[2] >= 0 && l[0] < dims[0] && l[1] < dims[1] && l[2] < dims[2];
+    }
+    size_t index(const Coord& c) const
+    {
+        const Coord l = c - origin;
+        return size_t((l[0] * dims[1] + l[1]) * dims[2] + l[2]);
+    }
+    T& operator[](const Coord& c) { return v[index(c)]; }
+    const T& operator[](const Coord& c) const { return v[index(c)]; }
+};
+
+constexpr int16_t kUnknown = -1;
+
+} // namespace
+
+Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring& colouring)
+{
+    const int m = p.voxelsPerCell;
+    // The competitors: every seed of the 27 cells around the rock's cell (§3).
+    std::vector<Seed> seeds;
+    int self = -1;
+    for (int i = -1; i <= 1; ++i)
+        for (int j = -1; j <= 1; ++j)
+            for (int k = -1; k <= 1; ++k) {
+                const auto s = cellSeeds(p, cell.offsetBy(i, j, k), colouring);
+                if (i == 0 && j == 0 && k == 0) self = int(seeds.size()) + index;
+                seeds.insert(seeds.end(), s.begin(), s.end());
+            }
+    if (self < 0 || index >= int(cellSeeds(p, cell, colouring).size())) {
+        fail<ValueError>("rockpile: cell has no seed ", index);
+    }
+    Rock rock;
+    rock.seed = seeds[size_t(self)];
+    const double invM = 1.0 / double(m);
+    // The nearest seed of voxel v (centre (v + ½)/m cells); ties go to the smaller key.
+    auto owner = [&](const Coord& v) {
+        const Vec3d q((v[0] + 0.5) * invM, (v[1] + 0.5) * invM, (v[2] + 0.5) * invM);
+        int best = 0;
+        double bd = std::numeric_limits<double>::max();
+        for (size_t s = 0; s < seeds.size(); ++s) {
+            const double d = seeds[s].distance(q);
+            if (d < bd || (d == bd && seeds[s].key < seeds[size_t(best)].key)) {
+                bd = d;
+                best = int(s);
+            }
+        }
+        return int16_t(best);
+    };
+
+    // §4 discrete Voronoi cell: flood from the seed's voxel through voxels it owns, within
+    // the 27 cells.
+    Box<int16_t> label(mul(cell.offsetBy(-1, -1, -1), m), Coord(3 * m), kUnknown);
+    const Vec3d& ps = rock.seed.p;
+    const Coord start(int(std::floor(ps[0] * m)), int(std::floor(ps[1] * m)),
+                      int(std::floor(ps[2] * m)));
+    std::vector<Coord> queue;
+    for (int i = -1; i <= 1 && queue.empty(); ++i)
+        for (int j = -1; j <= 1 && queue.empty(); ++j)
+            for (int k = -1; k <= 1 && queue.empty(); ++k) {
+                const Coord c = start.offsetBy(i, j, k);
+                label[c] = owner(c);
+                if (label[c] == self) queue.push_back(c);
+            }
+    Coord lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
+    std::vector<int16_t> touching;
+    for (size_t q = 0; q < queue.size(); ++q) {
+        const Coord c = queue[q];
+        lo = Coord::minComponent(lo, c);
+        hi = Coord::maxComponent(hi, c);
+        static const int kFace[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+        for (const auto& d : kFace) {
+            const Coord u = c.offsetBy(d[0], d[1], d[2]);
+            if (!label.inside(u)) continue;
+            if (label[u] == kUnknown) {
+                label[u] = owner(u);
+                if (label[u] == self) queue.push_back(u);
+            }
+            if (label[u] != self) touching.push_back(label[u]);
+        }
+    }
+    rock.voronoiVoxels = queue.size();
+    if (queue.empty()) {
+        rock.origin = start;
+        rock.dims = Coord(0);
+        return rock;
+    }
+
+    // §5 contact points: c_kj on [p_k p_j] with d_k(c) = d_j(c) (bisection), kept where the
+    // face between the two cells really passes (no third seed nearer).
+    // Every competitor is tried, not only those whose voxels touch the cell: the pair's
+    // contact must not hinge on how each side's voxels happened to sample the face.
+    (void)touching;
+    for (int16_t j = 0; j < int16_t(seeds.size()); ++j) {
+        if (j == self) continue;
+        const Seed& a = rock.seed;
+        const Seed& b = seeds[size_t(j)];
+        double t0 = 0, t1 = 1;
+        for (int it = 0; it < 48; ++it) {
+            const double t = 0.5 * (t0 + t1);
+            const Vec3d c = a.p + (b.p - a.p) * t;
+            (a.distance(c) < b.distance(c) ? t0 : t1) = t;
+        }
+        const Vec3d c = a.p + (b.p - a.p) * (0.5 * (t0 + t1));
+        const double dc = a.distance(c);
+        bool kept = true;
+        for (size_t s = 0; s < seeds.size() && kept; ++s) {
+            if (int(s) != self && int(s) != j && seeds[s].distance(c) < dc * (1 - 1e-9)) kept = false;
+        }
+        if (kept) rock.contacts.push_back({c * double(m) - Vec3d(0.5), b.key, b.p});
+    }
+
+    // §5 erosion over the cell's box grown by one voxel: ρ = 1 in the cell, damped near
+    // contacts by ω = min ω_kj (corner cubes) or by the Gaussian resistance (periodic).
+    rock.origin = lo.offsetBy(-1, -1, -1);
+    rock.dims = (hi - lo).offsetBy(3, 3, 3);
+    Box<float> rho(rock.origin, rock.dims, 0.0f);
+    Box<float> omega(rock.origin, rock.dims, 1.0f);
+    for (const Coord& c : queue) rho[c] = 1.0f;
+    // (At least a voxel of no erosion, so every contact survives the discretisation.)
+    const double a = std::max(p.contactInner * m, 1.0), b = std::max(p.contactOuter * m, a + 1.0);
+    const double r2 = std::pow((p.poissonRadius > 0 ? p.poissonRadius : 0.8) * m, 2);
+    for (const Coord& c : queue) {
+        double w = 1.0;
+        for (const Contact& ct : rock.contacts) {
+            const double d = (Vec3d(c[0], c[1], c[2]) - ct.point).length();
+            if (p.tiling == Tiling::Periodic) {
+                w = std::min(w, 1.0 - std::exp(-d * d / r2));
+            } else {
+                w = std::min(w, d < a ? 0.0 : d < b ? (d - a) / (b - a) : 1.0);
+            }
+        }
+        omega[c] = float(w);
+    }
+    std::vector<float> next;
+    for (int step = 0; step < p.erosionSteps; ++step) {
+        next = rho.v;
+        for (const Coord& c : queue) {
+            const float r = rho[c];
+            if (r <= 0.0f) continue;
+            // Surface voxels only (a face neighbour empty or of another rock); the amount
+            // grows with the exposure over the 26 neighbours: corners round first
+            // (spheroidal weathering).
+            bool surface = false;
+            float missing = 0.0f;
+            for (int i = -1; i <= 1; ++i)
+                for (int j = -1; j <= 1; ++j)
+                    for (int k = -1; k <= 1; ++k) {
+                        if (i == 0 && j == 0 && k == 0) continue;
+                        const float u = rho[c.offsetBy(i, j, k)];
+                        missing += 1.0f - u;
+                        if (std::abs(i) + std::abs(j) + std::abs(k) == 1 && u <= 0.0f) surface = true;
+                    }
+            if (!surface) continue;
+            const float e = float(p.erosionRate) * missing / 26.0f * omega[c];
+            next[rho.index(c)] = std::max(0.0f, r - e);
+        }
+        rho.v.swap(next);
+    }
+    rock.rho = std::move(rho.v);
+    return rock;
+}
+
+// ---- tile sets ----------------------------------------------------------------------------
+
+namespace {
+
+struct Job
+{
+    size_t region;
+    Coord cell;
+    int index;
+    Colouring colouring;
+};
+
+} // namespace
+
+TileSet generateTiles(const TileParams& p)
+{
+    p.validate();
+    using Clock = std::chrono::steady_clock;
+    const auto t0 = Clock::now();
+    TileSet set;
+    set.params = p;
+    std::vector<Job> jobs;
+    auto addRegion = [&](Region r, const std::vector<Coord>& cells, Colouring col) {
+        const size_t id = set.regions.size();
+        set.regions.push_back(std::move(r));
+        for (const Coord& c : cells) {
+            const int count = int(cellSeeds(p, c, col).size());
+            for (int i = 0; i < count; ++i) jobs.push_back({id, c, i, col});
+        }
+    };
+    const int n = p.n;
+    if (p.tiling == Tiling::Periodic) {
+        std::vector<Coord> cells;
+        for (int i = 0; i < n; ++i)
+            for (int j = 0; j < n; ++j)
+                for (int k = 0; k < n; ++k) cells.emplace_back(i, j, k);
+        Region r;
+        r.colours = {0};
+        addRegion(r, cells, [](int, int, int) { return 0; });
+    } else {
+        // A context colouring: the feature's vertices as given, every other vertex 0 (the
+        // region's rocks do not depend on them).
+        auto context = [](std::vector<std::pair<Coord, int>> fixed) -> Colouring {
+            return [fixed](int i, int j, int k) {
+                for (const auto& f : fixed) if (f.first == Coord(i, j, k)) return f.second;
+                return 0;
+            };
+        };
+        // Vertex regions: the 2×2×2 cells around lattice vertex 0.
+        for (int c = 0; c < 2; ++c) {
+            std::vector<Coord> cells;
+            for (int i = -1; i <= 0; ++i)
+                for (int j = -1; j <= 0; ++j)
+                    for (int k = -1; k <= 0; ++k) cells.emplace_back(i, j, k);
+            Region r;
+            r.type = 3;
+            r.axes = {{1, 1, 1}};
+            r.colours = {c};
+            addRegion(r, cells, context({{Coord(0), c}}));
+        }
+        // Edge regions along axis e from vertex 0: 2×2 cells across, n − 2 along.
+        for (int e = 0; e < 3; ++e)
+            for (int c = 0; c < 4; ++c) {
+                const int c0 = c & 1, c1 = (c >> 1) & 1;
+                Coord end(0);
+                end[e] = 1;
+                std::vector<Coord> cells;
+                const int u = (e + 1) % 3, v = (e + 2) % 3;
+                for (int l = 1; l <= n - 2; ++l)
+                    for (int a = -1; a <= 0; ++a)
+                        for (int b = -1; b <= 0; ++b) {
+                            Coord cc(0);
+                            cc[e] = l; cc[u] = a; cc[v] = b;
+                            cells.push_back(cc);
+                        }
+                Region r;
+                r.type = 2;
+                r.axes = {{1, 1, 1}};
+                r.axes[e] = 0;
+                r.colours = {c0, c1};
+                addRegion(r, cells, context({{Coord(0), c0}, {end, c1}}));
+            }
+        // Face regions normal to axis a: 2 cells across, (n − 2)² along; colours of the
+        // vertices 0, u, v, u + v.
+        for (int a = 0; a < 3; ++a)
+            for (int c = 0; c < 16; ++c) {
+                const int u = a == 0 ? 1 : 0, v = a == 2 ? 1 : 2;
+                Coord cu(0), cv(0);
+                cu[u] = 1;
+                cv[v] = 1;
+                const int cols[4] = {c & 1, (c >> 1) & 1, (c >> 2) & 1, (c >> 3) & 1};
+                std::vector<Coord> cells;
+                for (int i = 1; i <= n - 2; ++i)
+                    for (int j = 1; j <= n - 2; ++j)
+                        for (int s = -1; s <= 0; ++s) {
+                            Coord cc(0);
+                            cc[a] = s; cc[u] = i; cc[v] = j;
+                            cells.push_back(cc);
+                        }
+                Region r;
+                r.type = 1;
+                r.axes = {{0, 0, 0}};
+                r.axes[a] = 1;
+                r.colours = {cols[0], cols[1], cols[2], cols[3]};
+                addRegion(r, cells, context({{Coord(0), cols[0]}, {cu, cols[1]}, {cv, cols[2]},
+                                             {cu + cv, cols[3]}}));
+            }
+        // Centre regions: the (n − 2)³ inner cells of each of the 256 cubes.
+        for (int c = 0; c < 256; ++c) {
+            std::vector<std::pair<Coord, int>> fixed;
+            Region r;
+            for (int b = 0; b < 8; ++b) {
+                fixed.push_back({Coord((b >> 2) & 1, (b >> 1) & 1, b & 1), (c >> b) & 1});
+                r.colours.push_back((c >> b) & 1);
+            }
+            std::vector<Coord> cells;
+            for (int i = 1; i <= n - 2; ++i)
+                for (int j = 1; j <= n - 2; ++j)
+                    for (int k = 1; k <= n - 2; ++k) cells.emplace_back(i, j, k);
+            addRegion(r, cells, context(fixed));
+        }
+    }
+    set.stats.seeds = jobs.size();
+    set.stats.regions = set.regions.size();
+    set.stats.seedSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+
+    const auto t1 = Clock::now();
+    set.rocks.resize(jobs.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, jobs.size(), 8),
+        [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                set.rocks[i] = makeRock(p, jobs[i].cell, jobs[i].index, jobs[i].colouring);
+            }
+        });
+    set.stats.voronoiSeconds = std::chrono::duration<double>(Clock::now() - t1).count();
+    for (size_t i = 0; i < jobs.size(); ++i) {
+        set.regions[jobs[i].region].rocks.push_back(i);
+        if (set.rocks[i].solidVoxels() > 0) ++set.stats.stones;
+        set.stats.contacts += set.rocks[i].contacts.size();
+    }
+    return set;
+}
+
+std::vector<Rock> cubeRocks(const TileParams& p, const Coord& cube, const Colouring& colouring)
+{
+    p.validate();
+    std::vector<std::pair<Coord, int>> jobs;
+    for (int i = 0; i < p.n; ++i)
+        for (int j = 0; j < p.n; ++j)
+            for (int k = 0; k < p.n; ++k) {
+                const Coord c = mul(cube, p.n) + Coord(i, j, k);
+                const int count = int(cellSeeds(p, c, colouring).size());
+                for (int s = 0; s < count; ++s) jobs.push_back({c, s});
+            }
+    std::vector<Rock> rocks(jobs.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, jobs.size(), 8),
+        [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                rocks[i] = makeRock(p, jobs[i].first, jobs[i].second, colouring);
+            }
+        });
+    return rocks;
+}
+
+// ---- level sets ---------------------------------------------------------------------------
+
+openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize, const Coord& offset,
+                                     double halfWidth)
+{
+    const float bg = float(halfWidth * voxelSize);
+    auto grid = openvdb::FloatGrid::create(bg);
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    grid->setName("surface");
+    if (rock.rho.empty()) return grid;
+    // The trilinear surface r = 2ρ − 1 = 0 is sampled where it crosses the grid's edges, and
+    // each voxel's nearest crossing is carried outward layer by layer over the band (each new
+    // voxel takes the nearest of its 26 neighbours' crossings): distances to the sampled
+    // surface. Dense arrays over the rock's box padded by the band.
+    const int pad = int(std::ceil(halfWidth)) + 1;
+    const int nx = rock.dims[0] + 2 * pad, ny = rock.dims[1] + 2 * pad, nz = rock.dims[2] + 2 * pad;
+    const size_t total = size_t(nx) * ny * nz;
+    const int sx = ny * nz, sy = nz;
+    std::vector<float> r(total, -0.5f);
+    for (int x = 0; x < rock.dims[0]; ++x)
+        for (int y = 0; y < rock.dims[1]; ++y)
+            for (int z = 0; z < rock.dims[2]; ++z) {
+                r[size_t((x + pad) * sx + (y + pad) * sy + z + pad)] =
+                    rock.rho[size_t((x * rock.dims[1] + y) * rock.dims[2] + z)] - 0.5f;
+            }
+    constexpr float kFar = std::numeric_limits<float>::max();
+    std::vector<Vec3f> cp(total);
+    std::vector<float> d2(total, kFar);
+    auto pos = [&](size_t i) {
+        return Vec3f(float(int(i / size_t(sx))), float(int((i / size_t(sy)) % size_t(ny))),
+                     float(int(i % size_t(nz))));
+    };
+    auto offer = [&](size_t i, const Vec3f& q) {
+        const float dd = (q - pos(i)).lengthSqr();
+        if (dd < d2[i]) {
+            d2[i] = dd;
+            cp[i] = q;
+        }
+    };
+    // Crossings lie within the rock's box grown by one voxel.
+    const int stride[3] = {sx, sy, 1};
+    for (int x = pad - 1; x < pad + rock.dims[0]; ++x)
+        for (int y = pad - 1; y < pad + rock.dims[1]; ++y)
+            for (int z = pad - 1; z < pad + rock.dims[2]; ++z) {
+                const size_t i = size_t(x * sx + y * sy + z);
+                const float rc = r[i];
+                for (int a = 0; a < 3; ++a) {
+                    const size_t j = i + size_t(stride[a]);
+                    const float rj = r[j];
+                    if ((rc > 0) == (rj > 0)) continue;
+                    Vec3f q{float(x), float(y), float(z)};
+                    q[a] += rc / (rc - rj);
+                    offer(i, q);
+                    offer(j, q);
+                }
+            }
+    std::vector<uint8_t> done(total, 0);
+    std::vector<size_t> front, next;
+    for (size_t i = 0; i < total; ++i) {
+        if (d2[i] < kFar) {
+            front.push_back(i);
+            done[i] = 1;
+        }
+    }
+    int nb[26];
+    {
+        int q = 0;
+        for (int i = -1; i <= 1; ++i)
+            for (int j = -1; j <= 1; ++j)
+                for (int k = -1; k <= 1; ++k) {
+                    if (i || j || k) nb[q++] = i * sx + j * sy + k;
+                }
+    }
+    // The padding keeps every neighbour index of the first pad − 1 layers inside the box.
+    for (int layer = 0; layer < pad - 1 && !front.empty(); ++layer) {
+        next.clear();
+        for (size_t c : front)
+            for (int q = 0; q < 26; ++q) {
+                const size_t u = size_t(ptrdiff_t(c) + nb[q]);
+                if (done[u]) continue;
+                done[u] = 2;
+                next.push_back(u);
+            }
+        for (size_t u : next) {
+            const Vec3f pu = pos(u);
+            float best = d2[u];
+            for (int q = 0; q < 26; ++q) {
+                const size_t w = size_t(ptrdiff_t(u) + nb[q]);
+                if (done[w] != 1) continue;
+                const float dd = (cp[w] - pu).lengthSqr();
+                if (dd < best) {
+                    best = dd;
+                    cp[u] = cp[w];
+                }
+            }
+            d2[u] = best;
+        }
+        for (size_t u : next) done[u] = 1;
+        front.swap(next);
+    }
+    // Straight into the leaves (one look-up per leaf, not per voxel).
+    auto acc = grid->getAccessor();
+    const float band2 = float(halfWidth * halfWidth);
+    const Coord base = rock.origin.offsetBy(-pad, -pad, -pad) + offset;
+    const Coord last = base.offsetBy(nx - 1, ny - 1, nz - 1);
+    const Coord first = base & ~7;
+    for (int lx = first[0]; lx <= last[0]; lx += 8)
+        for (int ly = first[1]; ly <= last[1]; ly += 8)
+            for (int lz = first[2]; lz <= last[2]; lz += 8) {
+                openvdb::FloatTree::LeafNodeType* leaf = nullptr;
+                for (int x = std::max(lx, base[0]); x < std::min(lx + 8, last[0] + 1); ++x)
+                    for (int y = std::max(ly, base[1]); y < std::min(ly + 8, last[1] + 1); ++y)
+                        for (int z = std::max(lz, base[2]); z < std::min(lz + 8, last[2] + 1); ++z) {
+                            const size_t i = size_t((x - base[0]) * sx + (y - base[1]) * sy + (z - base[2]));
+                            if (!(d2[i] < band2)) continue;
+                            if (!leaf) leaf = acc.touchLeaf(Coord(lx, ly, lz));
+                            const float d = std::sqrt(d2[i]) * float(voxelSize);
+                            leaf->setValueOn(openvdb::FloatTree::LeafNodeType::coordToOffset(Coord(x, y, z)),
+                                             r[i] > 0 ? -d : d);
+                        }
+            }
+    openvdb::tools::signedFloodFill(grid->tree());
+    return grid;
+}
+
+openvdb::GridCPtrVec tileGrids(TileSet& set, double halfWidth)
+{
+    using Clock = std::chrono::steady_clock;
+    const auto t0 = Clock::now();
+    const TileParams& p = set.params;
+    const double dx = p.voxelSize();
+    const int pad = int(std::ceil(halfWidth)) + 1;
+    // Slots: 8-aligned boxes large enough for any rock (3 cells) and its band, so no two
+    // rocks share a leaf.
+    const int slot = ((3 * p.voxelsPerCell + 2 * pad + 2) + 7) / 8 * 8;
+    const size_t count = set.rocks.size();
+    const int side = std::max(1, int(std::ceil(std::cbrt(double(std::max<size_t>(count, 1))))));
+    std::vector<Coord> offsets(count);
+    std::vector<openvdb::FloatGrid::Ptr> grids(count);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 16),
+        [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                const Rock& rock = set.rocks[i];
+                const Coord s(int(i % size_t(side)), int((i / size_t(side)) % size_t(side)),
+                              int(i / size_t(side * side)));
+                offsets[i] = mul(s, slot) - rock.origin.offsetBy(-pad, -pad, -pad);
+                grids[i] = rockLevelSet(rock, dx, offsets[i], halfWidth);
+            }
+        });
+    auto library = openvdb::FloatGrid::create(float(halfWidth * dx));
+    library->setTransform(openvdb::math::Transform::createLinearTransform(dx));
+    library->setGridClass(openvdb::GRID_LEVEL_SET);
+    library->setName("library");
+    for (auto& g : grids) {
+        std::vector<openvdb::FloatTree::LeafNodeType*> leaves;
+        g->tree().stealNodes(leaves);
+        for (auto* leaf : leaves) library->tree().addLeaf(leaf);
+    }
+    openvdb::tools::signedFloodFill(library->tree());
+    set.stats.levelSetSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+
+    nlohmann::json rocks = nlohmann::json::array();
+    for (size_t i = 0; i < count; ++i) {
+        const Rock& r = set.rocks[i];
+        char key[17];
+        std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(r.seed.key));
+        rocks.push_back({{"key", key},
+                         {"seed", {r.seed.p[0], r.seed.p[1], r.seed.p[2]}},
+                         {"offset", {offsets[i][0], offsets[i][1], offsets[i][2]}},
+                         {"origin", {r.origin[0], r.origin[1], r.origin[2]}},
+                         {"dims", {r.dims[0], r.dims[1], r.dims[2]}},
+                         {"solid", r.solidVoxels()},
+                         {"contacts", r.contacts.size()}});
+    }
+    nlohmann::json regions = nlohmann::json::array();
+    for (const Region& g : set.regions) {
+        regions.push_back({{"type", g.type}, {"axes", g.axes}, {"colours", g.colours},
+                           {"rocks", g.rocks}});
+    }
+    const TileStats& st = set.stats;
+    nlohmann::json meta = {
+        {"format", 1},
+        {"params", p.toJson()},
+        {"voxel_size", dx},
+        {"stats", {{"stones", st.stones}, {"regions", st.regions}, {"seeds", st.seeds},
+                   {"contacts", st.contacts}, {"seed_seconds", st.seedSeconds},
+                   {"voronoi_erosion_seconds", st.voronoiSeconds},
+                   {"level_set_seconds", st.levelSetSeconds}}},
+        {"regions", regions},
+        {"rocks", rocks}};
+    library->insertMeta("rockvdb:tiles", openvdb::StringMetadata(meta.dump()));
+    return {library};
+}
+
+} // namespace rockpile
+} // namespace rockvdb

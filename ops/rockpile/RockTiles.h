@@ -1,0 +1,170 @@
+// rockvdb — rock tiles: Voronoi rocks in contact, periodic or on aperiodic corner cubes
+// (aperiodic-rock-piles.txt §2–§5; arches-material-stacks-terrain.txt §5).
+//
+// Space is tiled by cubes whose corners sit on the integer lattice. Each cube is a grid of n³
+// cells holding 1..s seeds p_k; rock k is the discrete (anisotropic) Voronoi cell of p_k on a
+// grid of m voxels per cell (n_G = m·n per cube), eroded everywhere but near its contacts.
+//
+// Aperiodic tiling (§2–§3): lattice vertices take one of 2 colours; a cube is one of the 2⁸ =
+// 256 corner colourings. A cell's seeds are a pure function of the colours of the lattice
+// feature that owns it — the vertex, edge, face or cube (in that order) whose region's
+// 1-neighbourhood holds the cell — and of its position relative to that feature, never of
+// where the cube is. A rock's shape depends on the seeds of the 27 cells around its own, all
+// owned by its region's feature or by sub-features of it (§3's copying of neighbour-region
+// seeds, made a rule): the rocks of a region are identical in every cube that has it, and a
+// rock straddling a cube face is the same rock seen from either side.
+//
+// Unique rocks are counted per region as Table 1 does: 2 vertex regions (the 2×2×2 cells
+// around a lattice vertex), 12 edge, 48 face and 256 centre regions.
+//
+// Periodic tiling (arches §5): one colour, Poisson-sphere seeds in the periodic cube,
+// Euclidean Voronoi cells and a Gaussian erosion resistance around the contacts.
+#pragma once
+
+#include <core/Field.h>
+
+#include <nlohmann/json_fwd.hpp>
+#include <openvdb/openvdb.h>
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace rockvdb {
+namespace rockpile {
+
+enum class Tiling { Aperiodic, Periodic };
+
+/// Everything that defines a tile set. Lengths in cells unless stated (a cell is
+/// cubeSize / n metres).
+struct TileParams
+{
+    Tiling tiling = Tiling::Aperiodic;
+    int n = 5;                        ///< cells per cube edge (aperiodic: >= 4)
+    int seedsMin = 1, seedsMax = 1;   ///< seeds per cell n_k in [min, max] (s = max)
+    /// α, β, γ: scalings of the ellipsoidal distance f_k along the seed's random frame; each
+    /// drawn uniformly in [v·(1 − anisotropyJitter), v].
+    std::array<double, 3> anisotropy{{1.0, 1.0, 1.0}};
+    double anisotropyJitter = 0.25;
+    double gMax = 2.0;                ///< g_k uniform in [1, gMax] (the paper uses up to 4)
+    int voxelsPerCell = 10;           ///< m: n_G = m·n voxels per cube edge (Table 1: 10)
+    double cubeSize = 1.0;            ///< metres
+    double contactInner = 0.08;       ///< a: no erosion within a of a contact (cells)
+    double contactOuter = 0.3;        ///< b: full erosion beyond b (cells)
+    int erosionSteps = 6;             ///< spheroidal erosion iterations
+    double erosionRate = 0.5;         ///< ε per step at full exposure
+    double poissonRadius = 0.0;       ///< periodic: seed spacing (cells; 0 = 0.8)
+    uint64_t seed = 0;
+
+    static TileParams fromJson(const nlohmann::json& j);
+    nlohmann::json toJson() const;
+    /// @throw ValueError naming the parameter ("rockpile: n must be ...").
+    void validate() const;
+    int colours() const { return tiling == Tiling::Periodic ? 1 : 2; }
+    double voxelSize() const { return cubeSize / double(n * voxelsPerCell); }
+};
+
+/// A seed p_k: position in cell units (global lattice of cells), its frame and scalings.
+struct Seed
+{
+    Vec3d p;
+    std::array<Vec3d, 3> frame; ///< x, y, z unit axes
+    Vec3d scale;                ///< α, β, γ
+    double g = 1.0;
+    uint64_t key = 0;           ///< unique within the tile set, stable (ties break by it)
+
+    /// d_k(q) = f_k(q)/g_k, f_k = α((q−p)·x)² + β((q−p)·y)² + γ((q−p)·z)².
+    double distance(const Vec3d& q) const
+    {
+        const Vec3d d = q - p;
+        const double a = d.dot(frame[0]), b = d.dot(frame[1]), c = d.dot(frame[2]);
+        return (scale[0] * a * a + scale[1] * b * b + scale[2] * c * c) / g;
+    }
+};
+
+/// Lattice vertex colours: colour(i, j, k) in [0, colours).
+using Colouring = std::function<int(int, int, int)>;
+
+/// The seeds of cell @a cell (global cell coordinates) under @a colouring.
+std::vector<Seed> cellSeeds(const TileParams& p, const openvdb::Coord& cell,
+                            const Colouring& colouring);
+
+/// A contact point c_ij kept between two rocks (tile voxel units, global).
+struct Contact
+{
+    Vec3d point;
+    uint64_t other = 0; ///< the other rock's seed key (a key names rock content: equal
+                        ///< keys recur wherever the same region does)
+    Vec3d otherSeed;    ///< the other rock's seed, cell units (which copy it is)
+};
+
+/// One rock: its eroded erosion state ρ ∈ [0, 1] over a dense voxel box (the rock field is
+/// r = 2ρ − 1, trilinear, surface at ρ = 1/2), in global tile voxels (voxel v covers cell
+/// coordinates [v, v + 1)/m, centre at (v + ½)/m).
+struct Rock
+{
+    Seed seed;
+    openvdb::Coord origin;   ///< first voxel of the box
+    openvdb::Coord dims;     ///< box size
+    std::vector<float> rho;  ///< x-major: ((x·dims.y) + y)·dims.z + z
+    std::vector<Contact> contacts;
+    size_t voronoiVoxels = 0; ///< voxels of the discrete Voronoi cell before erosion
+
+    float at(const openvdb::Coord& v) const;
+    size_t solidVoxels() const; ///< voxels with ρ > 1/2
+};
+
+/// @brief Rock k of cell @a cell: the discrete Voronoi cell of seed @a index among the seeds
+/// of the 27 cells around it, its contacts and @a p.erosionSteps steps of spheroidal erosion.
+Rock makeRock(const TileParams& p, const openvdb::Coord& cell, int index,
+              const Colouring& colouring);
+
+/// The regions of a tile set: 2 vertex, 12 edge, 48 face, 256 centre (aperiodic), or the one
+/// periodic cube.
+struct Region
+{
+    int type = 0;                 ///< 3 vertex, 2 edge, 1 face, 0 centre (boundary axes)
+    std::array<int, 3> axes{{0, 0, 0}}; ///< per axis: 1 if the region lies on a lattice plane
+    std::vector<int> colours;     ///< of the feature's lattice vertices, canonical order
+    std::vector<size_t> rocks;    ///< indices into TileSet::rocks
+};
+
+struct TileStats
+{
+    size_t stones = 0, regions = 0, seeds = 0, contacts = 0;
+    double seedSeconds = 0, voronoiSeconds = 0, erosionSeconds = 0, levelSetSeconds = 0;
+};
+
+struct TileSet
+{
+    TileParams params;
+    std::vector<Region> regions;
+    std::vector<Rock> rocks;
+    TileStats stats;
+};
+
+/// @brief Every unique rock of the tile set, in parallel (deterministic).
+TileSet generateTiles(const TileParams& p);
+
+/// @brief The rocks whose seeds lie in the cube at lattice position @a cube under
+/// @a colouring (each computed from that cube's point of view).
+std::vector<Rock> cubeRocks(const TileParams& p, const openvdb::Coord& cube,
+                            const Colouring& colouring);
+
+/// @brief A narrow-band level set of the rock surface (r = 0) in tile voxels shifted by
+/// @a offset voxels: distances to the trilinear surface, half width @a halfWidth voxels.
+openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize,
+                                     const openvdb::Coord& offset = openvdb::Coord(0),
+                                     double halfWidth = 3.0);
+
+/// @brief The tile set as grids for one file: `library`, a level set holding every rock's
+/// surface in its own atlas slot (rock i's canonical voxel v sits at v + offset_i), with the
+/// metadata `rockvdb:tiles` (JSON: format, params, stats, regions with their rocks, and per
+/// rock its key, seed, atlas offset, box, solid voxels and contacts). Level sets are built in
+/// parallel; fills stats.levelSetSeconds.
+openvdb::GridCPtrVec tileGrids(TileSet& set, double halfWidth = 3.0);
+
+} // namespace rockpile
+} // namespace rockvdb
