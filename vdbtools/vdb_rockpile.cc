@@ -20,8 +20,9 @@ int main(int argc, char** argv)
         "[p_i p_j], and spheroidal erosion damped within a..b of the contacts. Aperiodic sets "
         "hold the 2 vertex, 12 edge, 48 face and 256 centre regions of the 2-colour corner "
         "cubes, so rocks straddling cube faces match in every compatible neighbour. The file "
-        "is a .vdb: level set 'library' with every unique rock in its own slot, and the tile "
-        "description as metadata 'rockvdb:tiles'. Lengths in cells unless stated (a cell is "
+        "is a .vdb: fog volume 'rho' with every unique rock's erosion state in its own slot "
+        "(the rock field is r = 2 rho - 1, trilinear), and the tile description as metadata "
+        "'rockvdb:tiles'; --library writes the rocks' level sets too. Lengths in cells unless stated (a cell is "
         "cube-size / n metres).");
     CLI::App& app = tool.app();
     app.require_subcommand(1);
@@ -53,6 +54,10 @@ int main(int argc, char** argv)
         ->capture_default_str();
     tiles->add_option("--poisson-radius", p.poissonRadius,
                       "Periodic: seed spacing in cells (0 = 0.8)")->capture_default_str();
+    std::string library;
+    tiles->add_option("--library", library,
+                      "Also write every rock's level set, each in its own slot of level set "
+                      "'library', to this .vdb");
     tool.addSeed(*tiles);
     tool.addOutput(*tiles, "Output tile set (.vdb / .tiles; '-' = stdout)");
     return tool.run(argc, argv, [&] {
@@ -67,15 +72,22 @@ int main(int argc, char** argv)
         p.seed = tool.seed();
         p.validate();
         rockpile::TileSet set = rockpile::generateTiles(p);
-        auto grids = rockpile::tileGrids(set);
+        openvdb::GridCPtrVec grids{rockpile::tileGrid(set)};
         const auto& st = set.stats;
         char line[256];
         std::snprintf(line, sizeof line, "%zu stones (%zu regions, %zu seeds, %zu contacts)",
                       st.stones, st.regions, st.seeds, st.contacts);
         tool.info(line);
-        std::snprintf(line, sizeof line,
-                      "phases: seeds %.3f s, voronoi + erosion %.3f s, level sets %.3f s",
-                      st.seedSeconds, st.voronoiSeconds, st.levelSetSeconds);
+        double lsSeconds = -1;
+        if (!library.empty()) {
+            auto lib = rockpile::libraryGrid(set);
+            lsSeconds = lib->metaValue<double>("rockvdb:level_set_seconds");
+            stampProvenance(*lib, tool.name(), tool.paramsJson());
+            writeGrids(library, {lib});
+        }
+        std::snprintf(line, sizeof line, "phases: seeds %.3f s, voronoi + erosion %.3f s%s",
+                      st.seedSeconds, st.voronoiSeconds,
+                      lsSeconds >= 0 ? (", level sets " + std::to_string(lsSeconds).substr(0, 5) + " s").c_str() : "");
         tool.info(line);
         for (auto& g : grids) {
             stampProvenance(*openvdb::ConstPtrCast<openvdb::GridBase>(g), tool.name(),

@@ -620,15 +620,29 @@ std::vector<Rock> cubeRocks(const TileParams& p, const Coord& cube, const Colour
 
 // ---- level sets ---------------------------------------------------------------------------
 
-openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize, const Coord& offset,
-                                     double halfWidth)
+namespace {
+
+using LeafT = openvdb::FloatTree::LeafNodeType;
+
+// Scratch arrays reused by each thread's rocks (a rock's box is ~10⁴ voxels; allocating
+// them per rock cost more than filling them).
+struct LevelSetScratch
 {
+    std::vector<float> r, d2;
+    std::vector<Vec3f> cp;
+    std::vector<uint8_t> done;
+    std::vector<size_t> front, next;
+};
+
+// The leaves of a rock's level set (see rockLevelSet), inactive voxels at ±background by
+// side: ready to be added to any tree.
+std::vector<LeafT*> rockLeaves(const Rock& rock, double voxelSize, const Coord& offset,
+                               double halfWidth)
+{
+    std::vector<LeafT*> out;
+    if (rock.rho.empty()) return out;
+    thread_local LevelSetScratch sc;
     const float bg = float(halfWidth * voxelSize);
-    auto grid = openvdb::FloatGrid::create(bg);
-    grid->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
-    grid->setGridClass(openvdb::GRID_LEVEL_SET);
-    grid->setName("surface");
-    if (rock.rho.empty()) return grid;
     // The trilinear surface r = 2ρ − 1 = 0 is sampled where it crosses the grid's edges, and
     // each voxel's nearest crossing is carried outward layer by layer over the band (each new
     // voxel takes the nearest of its 26 neighbours' crossings): distances to the sampled
@@ -637,27 +651,28 @@ openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize, const C
     const int nx = rock.dims[0] + 2 * pad, ny = rock.dims[1] + 2 * pad, nz = rock.dims[2] + 2 * pad;
     const size_t total = size_t(nx) * ny * nz;
     const int sx = ny * nz, sy = nz;
-    std::vector<float> r(total, -0.5f);
+    constexpr float kFar = std::numeric_limits<float>::max();
+    auto& r = sc.r;
+    auto& d2 = sc.d2;
+    auto& cp = sc.cp;
+    auto& done = sc.done;
+    r.assign(total, -0.5f);
+    d2.assign(total, kFar);
+    cp.resize(total);
+    done.assign(total, 0);
     for (int x = 0; x < rock.dims[0]; ++x)
         for (int y = 0; y < rock.dims[1]; ++y)
             for (int z = 0; z < rock.dims[2]; ++z) {
                 r[size_t((x + pad) * sx + (y + pad) * sy + z + pad)] =
                     rock.rho[size_t((x * rock.dims[1] + y) * rock.dims[2] + z)] - 0.5f;
             }
-    constexpr float kFar = std::numeric_limits<float>::max();
-    std::vector<Vec3f> cp(total);
-    std::vector<float> d2(total, kFar);
     auto pos = [&](size_t i) {
         return Vec3f(float(int(i / size_t(sx))), float(int((i / size_t(sy)) % size_t(ny))),
                      float(int(i % size_t(nz))));
     };
-    auto offer = [&](size_t i, const Vec3f& q) {
-        const float dd = (q - pos(i)).lengthSqr();
-        if (dd < d2[i]) {
-            d2[i] = dd;
-            cp[i] = q;
-        }
-    };
+    auto& front = sc.front;
+    auto& next = sc.next;
+    front.clear();
     // Crossings lie within the rock's box grown by one voxel.
     const int stride[3] = {sx, sy, 1};
     for (int x = pad - 1; x < pad + rock.dims[0]; ++x)
@@ -671,18 +686,19 @@ openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize, const C
                     if ((rc > 0) == (rj > 0)) continue;
                     Vec3f q{float(x), float(y), float(z)};
                     q[a] += rc / (rc - rj);
-                    offer(i, q);
-                    offer(j, q);
+                    for (size_t k : {i, j}) {
+                        const float dd = (q - pos(k)).lengthSqr();
+                        if (dd < d2[k]) {
+                            d2[k] = dd;
+                            cp[k] = q;
+                        }
+                        if (!done[k]) {
+                            done[k] = 1;
+                            front.push_back(k);
+                        }
+                    }
                 }
             }
-    std::vector<uint8_t> done(total, 0);
-    std::vector<size_t> front, next;
-    for (size_t i = 0; i < total; ++i) {
-        if (d2[i] < kFar) {
-            front.push_back(i);
-            done[i] = 1;
-        }
-    }
     int nb[26];
     {
         int q = 0;
@@ -719,8 +735,7 @@ openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize, const C
         for (size_t u : next) done[u] = 1;
         front.swap(next);
     }
-    // Straight into the leaves (one look-up per leaf, not per voxel).
-    auto acc = grid->getAccessor();
+    // Straight into leaves: band voxels active, the rest ±background by side.
     const float band2 = float(halfWidth * halfWidth);
     const Coord base = rock.origin.offsetBy(-pad, -pad, -pad) + offset;
     const Coord last = base.offsetBy(nx - 1, ny - 1, nz - 1);
@@ -728,61 +743,113 @@ openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize, const C
     for (int lx = first[0]; lx <= last[0]; lx += 8)
         for (int ly = first[1]; ly <= last[1]; ly += 8)
             for (int lz = first[2]; lz <= last[2]; lz += 8) {
-                openvdb::FloatTree::LeafNodeType* leaf = nullptr;
+                LeafT* leaf = nullptr;
                 for (int x = std::max(lx, base[0]); x < std::min(lx + 8, last[0] + 1); ++x)
                     for (int y = std::max(ly, base[1]); y < std::min(ly + 8, last[1] + 1); ++y)
                         for (int z = std::max(lz, base[2]); z < std::min(lz + 8, last[2] + 1); ++z) {
                             const size_t i = size_t((x - base[0]) * sx + (y - base[1]) * sy + (z - base[2]));
-                            if (!(d2[i] < band2)) continue;
-                            if (!leaf) leaf = acc.touchLeaf(Coord(lx, ly, lz));
-                            const float d = std::sqrt(d2[i]) * float(voxelSize);
-                            leaf->setValueOn(openvdb::FloatTree::LeafNodeType::coordToOffset(Coord(x, y, z)),
-                                             r[i] > 0 ? -d : d);
+                            const bool in = r[i] > 0;
+                            const openvdb::Index n = LeafT::coordToOffset(Coord(x, y, z));
+                            if (d2[i] < band2) {
+                                if (!leaf) leaf = new LeafT(Coord(lx, ly, lz), bg);
+                                const float d = std::sqrt(d2[i]) * float(voxelSize);
+                                leaf->setValueOn(n, in ? -d : d);
+                            } else if (in) {
+                                if (!leaf) leaf = new LeafT(Coord(lx, ly, lz), bg);
+                                leaf->setValueOnly(n, -bg);
+                            }
                         }
+                if (leaf) out.push_back(leaf);
             }
+    return out;
+}
+
+} // namespace
+
+openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize, const Coord& offset,
+                                     double halfWidth)
+{
+    auto grid = openvdb::FloatGrid::create(float(halfWidth * voxelSize));
+    grid->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    grid->setName("surface");
+    for (LeafT* leaf : rockLeaves(rock, voxelSize, offset, halfWidth)) grid->tree().addLeaf(leaf);
     openvdb::tools::signedFloodFill(grid->tree());
     return grid;
 }
 
-openvdb::GridCPtrVec tileGrids(TileSet& set, double halfWidth)
+namespace {
+
+// Atlas slots: 8-aligned boxes large enough for any rock's box (3 cells) padded by @a pad
+// voxels, so no two rocks share a leaf. Rock i's canonical voxel v sits at v + offset_i.
+std::vector<Coord> atlasOffsets(const TileSet& set, int pad)
 {
-    using Clock = std::chrono::steady_clock;
-    const auto t0 = Clock::now();
-    const TileParams& p = set.params;
-    const double dx = p.voxelSize();
-    const int pad = int(std::ceil(halfWidth)) + 1;
-    // Slots: 8-aligned boxes large enough for any rock (3 cells) and its band, so no two
-    // rocks share a leaf.
-    const int slot = ((3 * p.voxelsPerCell + 2 * pad + 2) + 7) / 8 * 8;
+    const int slot = ((3 * set.params.voxelsPerCell + 2 * pad + 2) + 7) / 8 * 8;
     const size_t count = set.rocks.size();
     const int side = std::max(1, int(std::ceil(std::cbrt(double(std::max<size_t>(count, 1))))));
     std::vector<Coord> offsets(count);
-    std::vector<openvdb::FloatGrid::Ptr> grids(count);
+    for (size_t i = 0; i < count; ++i) {
+        const Coord s(int(i % size_t(side)), int((i / size_t(side)) % size_t(side)),
+                      int(i / size_t(side * side)));
+        offsets[i] = mul(s, slot) - set.rocks[i].origin.offsetBy(-pad, -pad, -pad);
+    }
+    return offsets;
+}
+
+constexpr int kRhoPad = 1;
+
+} // namespace
+
+openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth)
+{
+    using Clock = std::chrono::steady_clock;
+    const auto t0 = Clock::now();
+    const double dx = set.params.voxelSize();
+    const int pad = int(std::ceil(halfWidth)) + 1;
+    const std::vector<Coord> offsets = atlasOffsets(set, pad);
+    const size_t count = set.rocks.size();
+    std::vector<std::vector<LeafT*>> leaves(count);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 16),
         [&](const tbb::blocked_range<size_t>& r) {
             for (size_t i = r.begin(); i != r.end(); ++i) {
-                const Rock& rock = set.rocks[i];
-                const Coord s(int(i % size_t(side)), int((i / size_t(side)) % size_t(side)),
-                              int(i / size_t(side * side)));
-                offsets[i] = mul(s, slot) - rock.origin.offsetBy(-pad, -pad, -pad);
-                grids[i] = rockLevelSet(rock, dx, offsets[i], halfWidth);
+                leaves[i] = rockLeaves(set.rocks[i], dx, offsets[i], halfWidth);
             }
         });
     auto library = openvdb::FloatGrid::create(float(halfWidth * dx));
     library->setTransform(openvdb::math::Transform::createLinearTransform(dx));
     library->setGridClass(openvdb::GRID_LEVEL_SET);
     library->setName("library");
-    for (auto& g : grids) {
-        std::vector<openvdb::FloatTree::LeafNodeType*> leaves;
-        g->tree().stealNodes(leaves);
-        for (auto* leaf : leaves) library->tree().addLeaf(leaf);
-    }
+    for (auto& list : leaves)
+        for (LeafT* leaf : list) library->tree().addLeaf(leaf);
     openvdb::tools::signedFloodFill(library->tree());
-    set.stats.levelSetSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    nlohmann::json slots = nlohmann::json::array();
+    for (size_t i = 0; i < count; ++i) slots.push_back({offsets[i][0], offsets[i][1], offsets[i][2]});
+    library->insertMeta("rockvdb:library_offsets", openvdb::StringMetadata(slots.dump()));
+    library->insertMeta("rockvdb:level_set_seconds",
+                        openvdb::DoubleMetadata(std::chrono::duration<double>(Clock::now() - t0).count()));
+    return library;
+}
 
+openvdb::FloatGrid::Ptr tileGrid(const TileSet& set)
+{
+    const TileParams& p = set.params;
+    const double dx = p.voxelSize();
+    const std::vector<Coord> offsets = atlasOffsets(set, kRhoPad);
+    auto rho = openvdb::FloatGrid::create(0.0f);
+    rho->setTransform(openvdb::math::Transform::createLinearTransform(dx));
+    rho->setGridClass(openvdb::GRID_FOG_VOLUME);
+    rho->setName("rho");
+    rho->setSaveFloatAsHalf(true);
+    auto acc = rho->getAccessor();
     nlohmann::json rocks = nlohmann::json::array();
-    for (size_t i = 0; i < count; ++i) {
+    for (size_t i = 0; i < set.rocks.size(); ++i) {
         const Rock& r = set.rocks[i];
+        for (int x = 0; x < r.dims[0]; ++x)
+            for (int y = 0; y < r.dims[1]; ++y)
+                for (int z = 0; z < r.dims[2]; ++z) {
+                    const float v = r.rho[size_t((x * r.dims[1] + y) * r.dims[2] + z)];
+                    if (v > 0) acc.setValue(r.origin.offsetBy(x, y, z) + offsets[i], v);
+                }
         char key[17];
         std::snprintf(key, sizeof key, "%016llx", static_cast<unsigned long long>(r.seed.key));
         rocks.push_back({{"key", key},
@@ -791,6 +858,7 @@ openvdb::GridCPtrVec tileGrids(TileSet& set, double halfWidth)
                          {"origin", {r.origin[0], r.origin[1], r.origin[2]}},
                          {"dims", {r.dims[0], r.dims[1], r.dims[2]}},
                          {"solid", r.solidVoxels()},
+                         {"voronoi", r.voronoiVoxels},
                          {"contacts", r.contacts.size()}});
     }
     nlohmann::json regions = nlohmann::json::array();
@@ -805,12 +873,66 @@ openvdb::GridCPtrVec tileGrids(TileSet& set, double halfWidth)
         {"voxel_size", dx},
         {"stats", {{"stones", st.stones}, {"regions", st.regions}, {"seeds", st.seeds},
                    {"contacts", st.contacts}, {"seed_seconds", st.seedSeconds},
-                   {"voronoi_erosion_seconds", st.voronoiSeconds},
-                   {"level_set_seconds", st.levelSetSeconds}}},
+                   {"voronoi_erosion_seconds", st.voronoiSeconds}}},
         {"regions", regions},
         {"rocks", rocks}};
-    library->insertMeta("rockvdb:tiles", openvdb::StringMetadata(meta.dump()));
-    return {library};
+    rho->insertMeta("rockvdb:tiles", openvdb::StringMetadata(meta.dump()));
+    return rho;
+}
+
+TileSet tilesFromGrid(const openvdb::FloatGrid& rho)
+{
+    const auto meta = rho.getMetadata<openvdb::StringMetadata>("rockvdb:tiles");
+    if (!meta) fail<ValueError>("rockpile: grid '", rho.getName(), "' holds no tile set (no rockvdb:tiles metadata)");
+    const nlohmann::json j = nlohmann::json::parse(meta->value(), nullptr, false);
+    if (j.is_discarded() || !j.contains("format") || j["format"] != 1) {
+        fail<ValueError>("rockpile: unreadable tile set description (format 1 expected)");
+    }
+    TileSet set;
+    set.params = TileParams::fromJson(j.at("params"));
+    set.params.validate();
+    auto acc = rho.getConstAccessor();
+    for (const auto& rj : j.at("rocks")) {
+        Rock r;
+        r.seed.key = std::stoull(rj.at("key").get<std::string>(), nullptr, 16);
+        for (int a = 0; a < 3; ++a) {
+            r.seed.p[a] = rj.at("seed").at(a).get<double>();
+            r.origin[a] = rj.at("origin").at(a).get<int>();
+            r.dims[a] = rj.at("dims").at(a).get<int>();
+        }
+        if (r.dims[0] < 0 || r.dims[1] < 0 || r.dims[2] < 0 ||
+            double(r.dims[0]) * r.dims[1] * r.dims[2] > 1e7) {
+            fail<ValueError>("rockpile: tile set rock box out of range");
+        }
+        const Coord off(rj.at("offset").at(0).get<int>(), rj.at("offset").at(1).get<int>(),
+                        rj.at("offset").at(2).get<int>());
+        r.voronoiVoxels = rj.value("voronoi", size_t(0));
+        r.rho.resize(size_t(r.dims[0]) * r.dims[1] * r.dims[2]);
+        for (int x = 0; x < r.dims[0]; ++x)
+            for (int y = 0; y < r.dims[1]; ++y)
+                for (int z = 0; z < r.dims[2]; ++z) {
+                    r.rho[size_t((x * r.dims[1] + y) * r.dims[2] + z)] =
+                        acc.getValue(r.origin.offsetBy(x, y, z) + off);
+                }
+        set.rocks.push_back(std::move(r));
+    }
+    for (const auto& gj : j.at("regions")) {
+        Region g;
+        g.type = gj.at("type").get<int>();
+        g.axes = gj.at("axes").get<std::array<int, 3>>();
+        g.colours = gj.at("colours").get<std::vector<int>>();
+        g.rocks = gj.at("rocks").get<std::vector<size_t>>();
+        for (size_t i : g.rocks) {
+            if (i >= set.rocks.size()) fail<ValueError>("rockpile: tile set region names rock ", i, " of ", set.rocks.size());
+        }
+        set.regions.push_back(std::move(g));
+    }
+    const auto& st = j.at("stats");
+    set.stats.stones = st.value("stones", size_t(0));
+    set.stats.regions = set.regions.size();
+    set.stats.seeds = set.rocks.size();
+    set.stats.contacts = st.value("contacts", size_t(0));
+    return set;
 }
 
 } // namespace rockpile

@@ -159,12 +159,21 @@ openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize,
                                      const openvdb::Coord& offset = openvdb::Coord(0),
                                      double halfWidth = 3.0);
 
-/// @brief The tile set as grids for one file: `library`, a level set holding every rock's
-/// surface in its own atlas slot (rock i's canonical voxel v sits at v + offset_i), with the
-/// metadata `rockvdb:tiles` (JSON: format, params, stats, regions with their rocks, and per
-/// rock its key, seed, atlas offset, box, solid voxels and contacts). Level sets are built in
-/// parallel; fills stats.levelSetSeconds.
-openvdb::GridCPtrVec tileGrids(TileSet& set, double halfWidth = 3.0);
+/// @brief The tile set as one grid for its file: `rho`, a fog volume (saved as half floats)
+/// holding every rock's erosion state ρ in its own atlas slot (rock i's canonical voxel v at
+/// v + offset_i), with metadata `rockvdb:tiles` (JSON format 1: params, stats, the regions
+/// with their rocks, and per rock its key, seed, atlas offset, box, solid and Voronoi voxels
+/// and contact count). The paper's rock field r = 2ρ − 1 is all a pile needs.
+openvdb::FloatGrid::Ptr tileGrid(const TileSet& set);
+
+/// @brief The tile set back from a grid written by tileGrid (params validated).
+/// @throw ValueError when the grid holds no (readable) tile set.
+TileSet tilesFromGrid(const openvdb::FloatGrid& rho);
+
+/// @brief Every rock's narrow-band level set in its own atlas slot of one level set
+/// `library` (metadata `rockvdb:library_offsets`: the slot offsets, rock order), built in
+/// parallel.
+openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth = 3.0);
 
 } // namespace rockpile
 } // namespace rockvdb

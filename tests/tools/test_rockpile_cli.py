@@ -19,16 +19,21 @@ def tiles(out, *args, threads=None, n=4):
 
 
 def read(path):
-    g = vdb.read(str(path), "library")
+    g = vdb.read(str(path), "rho")
     return g, json.loads(g.metadata["rockvdb:tiles"])
 
 
+def box_values(acc, lo, dims):
+    return [acc.getValue(tuple(int(v) for v in lo + np.array([x, y, z])))
+            for x in range(dims[0]) for y in range(dims[1]) for z in range(dims[2])]
+
+
 def test_aperiodic_tile_set_file(tmp_path):
-    out = tmp_path / "rocks.tiles"
-    r = tiles(out)
+    out, lib = tmp_path / "rocks.tiles", tmp_path / "library.vdb"
+    r = tiles(out, "--library", str(lib))
     assert r.returncode == 0, r.stderr
     g, meta = read(out)
-    assert g.gridClass == vdb.GridClass.LEVEL_SET
+    assert g.gridClass == vdb.GridClass.FOG_VOLUME
     # 2 vertex + 12 edge + 48 face + 256 centre regions; every seed a rock.
     assert len(meta["regions"]) == 318
     assert [sum(1 for x in meta["regions"] if x["type"] == t) for t in (3, 2, 1, 0)] == [2, 12, 48, 256]
@@ -36,17 +41,22 @@ def test_aperiodic_tile_set_file(tmp_path):
     assert stones == sum(1 for rock in meta["rocks"] if rock["solid"] > 0)
     assert re.search(r"\b%d stones" % stones, r.stderr)
     assert "voronoi + erosion" in r.stderr and "level sets" in r.stderr
-    # Every rock's slot holds a closed surface: inside voxels at its seed's neighbourhood.
+    # Each rock's slot holds its solid voxels (rho > 1/2), as many as the description says,
+    # and the library holds its level set (inside values) at the slot the metadata names.
     acc = g.getConstAccessor()
-    m = meta["params"]["voxels_per_cell"]
-    inside = 0
-    for rock in meta["rocks"][::97]:
-        lo = np.array(rock["origin"]) + np.array(rock["offset"])
-        dims = np.array(rock["dims"])
-        vals = [acc.getValue(tuple(int(v) for v in lo + np.array([x, y, z])))
-                for x in range(dims[0]) for y in range(dims[1]) for z in range(dims[2])]
-        inside += min(vals) < 0
-    assert inside == len(meta["rocks"][::97])
+    library = vdb.read(str(lib), "library")
+    assert library.gridClass == vdb.GridClass.LEVEL_SET
+    slots = json.loads(library.metadata["rockvdb:library_offsets"])
+    lacc = library.getConstAccessor()
+    sample = list(range(0, len(meta["rocks"]), 97))
+    for i in sample:
+        rock = meta["rocks"][i]
+        origin, dims = np.array(rock["origin"]), np.array(rock["dims"])
+        rho = box_values(acc, origin + np.array(rock["offset"]), dims)
+        assert sum(v > 0.5 for v in rho) == rock["solid"]
+        phi = box_values(lacc, origin + np.array(slots[i]), dims)
+        assert min(phi) < 0 and max(phi) > 0
+    assert len(slots) == len(meta["rocks"])
 
 
 def test_periodic_tile_set(tmp_path):
