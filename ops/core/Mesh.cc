@@ -3,11 +3,14 @@
 #include "Error.h"
 #include "VdbIO.h"
 
+#include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/VolumeToMesh.h>
 
 #include <algorithm>
 #include <cctype>
 #include <cstring>
+#include <fstream>
+#include <map>
 #include <sstream>
 
 namespace rockvdb {
@@ -139,6 +142,277 @@ void writeMesh(const Mesh& mesh, const std::string& path)
     if (path == "-" || hasExt(path, ".obj")) return writeFileAtomic(path, toObj(mesh));
     if (hasExt(path, ".ply")) return writeFileAtomic(path, toPly(mesh));
     fail<ValueError>("mesh: output '", path, "' must end in .obj or .ply");
+}
+
+namespace {
+
+std::string lowerExtension(const std::string& path)
+{
+    const auto dot = path.find_last_of('.');
+    std::string ext = dot == std::string::npos ? "" : path.substr(dot + 1);
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return ext;
+}
+
+void addPolygon(Mesh& m, const std::vector<int>& idx, const std::string& where)
+{
+    if (idx.size() < 3) fail<ValueError>(where, ": a face needs at least 3 vertices");
+    for (int i : idx) {
+        if (i < 0 || size_t(i) >= m.points.size()) {
+            fail<ValueError>(where, ": vertex index ", i, " out of range (", m.points.size(),
+                             " vertices)");
+        }
+    }
+    for (size_t k = 1; k + 1 < idx.size(); ++k) {
+        m.triangles.emplace_back(unsigned(idx[0]), unsigned(idx[k]), unsigned(idx[k + 1]));
+    }
+}
+
+Mesh readObj(const std::string& path, std::istream& in)
+{
+    Mesh m;
+    std::string line;
+    int lineNo = 0;
+    while (std::getline(in, line)) {
+        ++lineNo;
+        std::istringstream ls(line);
+        std::string tag;
+        ls >> tag;
+        const std::string where = path + ":" + std::to_string(lineNo);
+        if (tag == "v") {
+            double x, y, z;
+            if (!(ls >> x >> y >> z)) fail<ValueError>(where, ": malformed vertex");
+            m.points.emplace_back(float(x), float(y), float(z));
+        } else if (tag == "f") {
+            std::vector<int> idx;
+            std::string tok;
+            while (ls >> tok) {
+                int i = 0;
+                try {
+                    i = std::stoi(tok.substr(0, tok.find('/')));
+                } catch (const std::exception&) {
+                    fail<ValueError>(where, ": malformed face index '", tok, "'");
+                }
+                idx.push_back(i > 0 ? i - 1 : int(m.points.size()) + i);
+            }
+            addPolygon(m, idx, where);
+        }
+    }
+    return m;
+}
+
+Mesh readStl(const std::string& path, const std::string& bytes)
+{
+    Mesh m;
+    std::map<std::array<float, 3>, unsigned> weld;
+    auto vertex = [&](float x, float y, float z) {
+        const std::array<float, 3> key{{x, y, z}};
+        auto it = weld.find(key);
+        if (it != weld.end()) return it->second;
+        const unsigned i = unsigned(m.points.size());
+        m.points.emplace_back(x, y, z);
+        weld.emplace(key, i);
+        return i;
+    };
+    const bool ascii = bytes.compare(0, 5, "solid") == 0 &&
+                       bytes.find("facet", 0) != std::string::npos;
+    if (ascii) {
+        std::istringstream in(bytes);
+        std::string tok;
+        std::vector<unsigned> tri;
+        while (in >> tok) {
+            if (tok != "vertex") continue;
+            float x, y, z;
+            if (!(in >> x >> y >> z)) fail<ValueError>(path, ": malformed STL vertex");
+            tri.push_back(vertex(x, y, z));
+            if (tri.size() == 3) {
+                m.triangles.emplace_back(tri[0], tri[1], tri[2]);
+                tri.clear();
+            }
+        }
+        return m;
+    }
+    if (bytes.size() < 84) fail<ValueError>(path, ": truncated binary STL");
+    uint32_t n = 0;
+    std::memcpy(&n, bytes.data() + 80, 4);
+    if (bytes.size() < 84 + size_t(n) * 50) fail<ValueError>(path, ": truncated binary STL (", n, " triangles announced)");
+    for (uint32_t t = 0; t < n; ++t) {
+        const char* f = bytes.data() + 84 + size_t(t) * 50 + 12;
+        float v[9];
+        std::memcpy(v, f, sizeof v);
+        m.triangles.emplace_back(vertex(v[0], v[1], v[2]), vertex(v[3], v[4], v[5]),
+                                 vertex(v[6], v[7], v[8]));
+    }
+    return m;
+}
+
+Mesh readPly(const std::string& path, const std::string& bytes)
+{
+    const size_t end = bytes.find("end_header");
+    if (bytes.compare(0, 3, "ply") != 0 || end == std::string::npos) {
+        fail<ValueError>(path, ": not a PLY file");
+    }
+    std::istringstream head(bytes.substr(0, end));
+    std::string line, format;
+    size_t nv = 0, nf = 0;
+    std::vector<std::string> vprops; // vertex property types, in order
+    std::vector<std::string> vnames;
+    std::string countType = "uchar", indexType = "int", section;
+    while (std::getline(head, line)) {
+        std::istringstream ls(line);
+        std::string w;
+        ls >> w;
+        if (w == "format") ls >> format;
+        else if (w == "element") {
+            size_t n;
+            ls >> section >> n;
+            if (section == "vertex") nv = n;
+            else if (section == "face") nf = n;
+        } else if (w == "property") {
+            std::string t;
+            ls >> t;
+            if (section == "vertex") {
+                std::string name;
+                ls >> name;
+                vprops.push_back(t);
+                vnames.push_back(name);
+            } else if (section == "face" && t == "list") {
+                ls >> countType >> indexType;
+            }
+        }
+    }
+    size_t pos = bytes.find('\n', end);
+    if (pos == std::string::npos) fail<ValueError>(path, ": truncated PLY header");
+    ++pos;
+    const int ix = int(std::find(vnames.begin(), vnames.end(), "x") - vnames.begin());
+    if (ix + 2 >= int(vnames.size()) || vnames[size_t(ix) + 1] != "y" || vnames[size_t(ix) + 2] != "z") {
+        fail<ValueError>(path, ": PLY vertices need consecutive x y z properties");
+    }
+    Mesh m;
+    if (format == "ascii") {
+        std::istringstream in(bytes.substr(pos));
+        for (size_t i = 0; i < nv; ++i) {
+            std::vector<double> v(vprops.size());
+            for (double& d : v) {
+                if (!(in >> d)) fail<ValueError>(path, ": truncated PLY vertex list");
+            }
+            m.points.emplace_back(float(v[size_t(ix)]), float(v[size_t(ix) + 1]), float(v[size_t(ix) + 2]));
+        }
+        for (size_t f = 0; f < nf; ++f) {
+            int k;
+            if (!(in >> k) || k < 0 || k > 1000) fail<ValueError>(path, ": malformed PLY face");
+            std::vector<int> idx(size_t(k), 0);
+            for (int& i : idx) in >> i;
+            addPolygon(m, idx, path + ": face " + std::to_string(f));
+        }
+        return m;
+    }
+    if (format != "binary_little_endian") fail<ValueError>(path, ": PLY format '", format, "' unsupported");
+    auto size = [&](const std::string& t) -> size_t {
+        if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+        if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+        if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
+        if (t == "double" || t == "float64") return 8;
+        fail<ValueError>(path, ": PLY type '", t, "' unsupported");
+    };
+    auto read = [&](const std::string& t, size_t& at) -> double {
+        const size_t n = size(t);
+        if (at + n > bytes.size()) fail<ValueError>(path, ": truncated PLY data");
+        const char* p = bytes.data() + at;
+        at += n;
+        if (t == "float" || t == "float32") { float v; std::memcpy(&v, p, 4); return v; }
+        if (t == "double" || t == "float64") { double v; std::memcpy(&v, p, 8); return v; }
+        if (n == 1) return t[0] == 'u' ? double(uint8_t(*p)) : double(int8_t(*p));
+        if (n == 2) { int16_t v; std::memcpy(&v, p, 2); return t[0] == 'u' ? double(uint16_t(v)) : double(v); }
+        int32_t v;
+        std::memcpy(&v, p, 4);
+        return t[0] == 'u' ? double(uint32_t(v)) : double(v);
+    };
+    size_t at = pos;
+    for (size_t i = 0; i < nv; ++i) {
+        std::vector<double> v(vprops.size());
+        for (size_t q = 0; q < v.size(); ++q) v[q] = read(vprops[q], at);
+        m.points.emplace_back(float(v[size_t(ix)]), float(v[size_t(ix) + 1]), float(v[size_t(ix) + 2]));
+    }
+    for (size_t f = 0; f < nf; ++f) {
+        const int k = int(read(countType, at));
+        std::vector<int> idx(size_t(std::max(k, 0)));
+        for (int& i : idx) i = int(read(indexType, at));
+        addPolygon(m, idx, path + ": face " + std::to_string(f));
+    }
+    return m;
+}
+
+} // namespace
+
+Mesh readMesh(const std::string& path)
+{
+    std::ifstream in(path, std::ios::binary);
+    if (!in) fail<IoError>("cannot read mesh ", path);
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    const std::string bytes = ss.str();
+    const std::string ext = lowerExtension(path);
+    Mesh m;
+    if (ext == "obj") {
+        std::istringstream text(bytes);
+        m = readObj(path, text);
+    } else if (ext == "stl") {
+        m = readStl(path, bytes);
+    } else if (ext == "ply") {
+        m = readPly(path, bytes);
+    } else {
+        fail<ValueError>("mesh ", path, ": unknown extension (use .obj, .stl or .ply)");
+    }
+    if (m.triangles.empty()) fail<ValueError>("mesh ", path, " has no faces");
+    return m;
+}
+
+void requireClosed(const Mesh& mesh, const std::string& what)
+{
+    // Directed edges: a closed, consistently oriented surface uses each once, and its twin once.
+    std::map<std::pair<unsigned, unsigned>, int> edges;
+    auto add = [&](unsigned a, unsigned b) { ++edges[{a, b}]; };
+    for (const auto& t : mesh.triangles) {
+        add(t[0], t[1]);
+        add(t[1], t[2]);
+        add(t[2], t[0]);
+    }
+    for (const auto& q : mesh.quads) {
+        add(q[0], q[1]);
+        add(q[1], q[2]);
+        add(q[2], q[3]);
+        add(q[3], q[0]);
+    }
+    size_t open = 0, repeated = 0;
+    for (const auto& e : edges) {
+        if (e.second > 1) ++repeated;
+        if (!edges.count({e.first.second, e.first.first})) ++open;
+    }
+    if (open || repeated) {
+        fail<ValueError>(what, ": the mesh is not closed (", open, " boundary edges, ", repeated,
+                         " edges used twice in one direction); a support needs a closed, "
+                         "consistently oriented surface");
+    }
+}
+
+openvdb::FloatGrid::Ptr meshToLevelSet(const Mesh& mesh, double voxelSize, double exterior,
+                                       double interior)
+{
+    auto xf = openvdb::math::Transform::createLinearTransform(voxelSize);
+    std::vector<openvdb::Vec3s> pts(mesh.points.size());
+    for (size_t i = 0; i < pts.size(); ++i) pts[i] = xf->worldToIndex(mesh.points[i]);
+    std::vector<openvdb::Vec4I> polys;
+    polys.reserve(mesh.triangles.size() + mesh.quads.size());
+    for (const auto& t : mesh.triangles) {
+        polys.emplace_back(t[0], t[1], t[2], openvdb::util::INVALID_IDX);
+    }
+    for (const auto& q : mesh.quads) polys.push_back(q);
+    openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec4I> mesher(pts, polys);
+    auto grid = openvdb::tools::meshToVolume<openvdb::FloatGrid>(mesher, *xf, float(exterior),
+                                                                float(interior));
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    return grid;
 }
 
 } // namespace rockvdb

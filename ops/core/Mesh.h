@@ -34,4 +34,20 @@ void writeMesh(const Mesh& mesh, const std::string& path);
 /// @a group >= 0 its faces are tagged as that part.
 void appendMesh(Mesh& mesh, const Mesh& other, int group = -1);
 
+/// @brief Read a polygon mesh: OBJ (v / f, polygons fanned into triangles), STL (ASCII or
+/// binary) or PLY (ASCII or binary little-endian; vertex x y z and a face index list), by
+/// extension. STL vertices are welded by exact position.
+/// @throw IoError when unreadable, ValueError when malformed (with the file and line).
+Mesh readMesh(const std::string& path);
+
+/// @brief ValueError("<what>: ... is not closed ...") unless every edge of @a mesh is shared
+/// by exactly two faces, used once in each direction (a closed, consistently oriented
+/// surface: what a point membership needs).
+void requireClosed(const Mesh& mesh, const std::string& what);
+
+/// @brief A closed mesh as a narrow-band level set (tools::meshToLevelSet) with voxel size
+/// @a voxelSize and band half widths in voxels outside / inside the surface.
+openvdb::FloatGrid::Ptr meshToLevelSet(const Mesh& mesh, double voxelSize, double exterior,
+                                       double interior);
+
 } // namespace rockvdb

@@ -766,6 +766,12 @@ std::vector<LeafT*> rockLeaves(const Rock& rock, double voxelSize, const Coord& 
 
 } // namespace
 
+std::vector<LeafT*> rockLeavesShifted(const Rock& rock, double voxelSize, const Coord& offset,
+                                      double halfWidth)
+{
+    return rockLeaves(rock, voxelSize, offset, halfWidth);
+}
+
 openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize, const Coord& offset,
                                      double halfWidth)
 {

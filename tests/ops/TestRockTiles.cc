@@ -249,3 +249,116 @@ TEST(RockTiles, BadParametersAreClearErrors)
     p.gMax = 0.5;
     EXPECT_NE(message(p).find("g_max"), std::string::npos);
 }
+
+// ---- piles (§6) ---------------------------------------------------------------------------
+
+#include <core/Primitives.h>
+#include <rockpile/RockPile.h>
+
+namespace {
+
+// Occupancy (inside some rock) of the horizontal slice z = @a k, over [0, size)² voxels.
+std::vector<float> slice(const openvdb::FloatGrid& g, int k, int size)
+{
+    std::vector<float> s(size_t(size) * size);
+    auto acc = g.getConstAccessor();
+    for (int i = 0; i < size; ++i)
+        for (int j = 0; j < size; ++j) s[size_t(i * size + j)] = acc.getValue(Coord(i, j, k)) < 0 ? 1.f : 0.f;
+    return s;
+}
+
+// Normalised correlation of the slice with itself shifted by @a lag voxels along x, away
+// from the support's sides by @a margin voxels (rocks there are cut by the anchor test).
+double correlation(const std::vector<float>& s, int size, int lag, int margin)
+{
+    double sa = 0, sb = 0, sab = 0, saa = 0, sbb = 0;
+    size_t n = 0;
+    for (int i = margin; i + lag < size - margin; ++i)
+        for (int j = margin; j < size - margin; ++j) {
+            const double a = s[size_t(i * size + j)], b = s[size_t((i + lag) * size + j)];
+            sa += a; sb += b; sab += a * b; saa += a * a; sbb += b * b; ++n;
+        }
+    const double cov = sab / n - sa / n * sb / n;
+    return cov / std::sqrt((saa / n - sa * sa / n / n) * (sbb / n - sb * sb / n / n));
+}
+
+} // namespace
+
+TEST(RockPile, AnchorsAreInsideTheSupport)
+{
+    initialize();
+    TileParams p = small();
+    const TileSet set = generateTiles(p);
+    const auto support = sphere(Vec3d(0.3, -0.2, 0.1), 1.3);
+    PileParams pp;
+    PileStats st;
+    const Pile pile = buildPile(set, selectRocks(set, *support, pp, &st), pp);
+    ASSERT_GT(pile.instances.size(), size_t(100));
+    // Independently of the selection: the rocks' inside voxels, read off the output grids.
+    size_t inside = 0, total = 0;
+    for (auto it = pile.rockId->cbeginValueOn(); it; ++it) {
+        if (pile.surface->tree().getValue(it.getCoord()) >= 0) continue;
+        ++total;
+        inside += support->eval(pile.surface->indexToWorld(it.getCoord())) < 0;
+    }
+    EXPECT_GT(double(inside), 0.9 * double(total)) << inside << " of " << total;
+    // Every instance's id names a rock whose inside voxels exist.
+    std::vector<size_t> perInstance(pile.instances.size(), 0);
+    for (auto it = pile.rockId->cbeginValueOn(); it; ++it) ++perInstance[size_t(*it)];
+    EXPECT_EQ(size_t(std::count(perInstance.begin(), perInstance.end(), size_t(0))), size_t(0));
+    EXPECT_GT(st.droppedDeep, size_t(0)); // a 1.3 m ball of 0.2 m rocks has a deep core
+}
+
+TEST(RockPile, PeriodicTilingRepeatsAndAperiodicDoesNot)
+{
+    initialize();
+    auto lagCorrelation = [](TileParams p) {
+        p.voxelsPerCell = 5;
+        const TileSet set = generateTiles(p);
+        const int span = p.n * p.voxelsPerCell;
+        // A slab 4 cubes wide, one cube thick.
+        const auto slab = box(Vec3d(2.0, 2.0, 0.5) * p.cubeSize, Vec3d(2.0, 2.0, 0.5) * p.cubeSize);
+        PileParams pp;
+        const Pile pile = buildPile(set, selectRocks(set, *slab, pp), pp);
+        const int size = 4 * span;
+        const auto s = slice(*pile.surface, span / 2, size);
+        const int margin = 2 * p.voxelsPerCell;
+        return std::make_pair(correlation(s, size, span, margin),
+                              correlation(s, size, span / 2, margin));
+    };
+    TileParams periodic = small();
+    periodic.tiling = Tiling::Periodic;
+    periodic.n = 4;
+    TileParams aperiodic = small();
+    aperiodic.n = 4;
+    const auto per = lagCorrelation(periodic), aper = lagCorrelation(aperiodic);
+    EXPECT_GT(per.first, 0.9);          // the pattern repeats at the tile period
+    EXPECT_LT(per.second, 0.5);         // and not at half of it
+    EXPECT_LT(aper.first, 0.5);         // corner cubes: no repetition at the period
+}
+
+TEST(RockPile, DeterministicAcrossThreads)
+{
+    initialize();
+    const TileSet set = generateTiles(small());
+    const auto support = sphere(Vec3d(0.0), 0.9);
+    PileParams pp;
+    pp.seed = 4;
+    Pile a, b;
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        a = buildPile(set, selectRocks(set, *support, pp), pp);
+    }
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        b = buildPile(set, selectRocks(set, *support, pp), pp);
+    }
+    ASSERT_EQ(a.instances.size(), b.instances.size());
+    EXPECT_EQ(a.surface->activeVoxelCount(), b.surface->activeVoxelCount());
+    size_t diff = 0;
+    auto acc = b.surface->getConstAccessor();
+    auto ids = b.rockId->getConstAccessor();
+    for (auto it = a.surface->cbeginValueOn(); it; ++it) diff += acc.getValue(it.getCoord()) != *it;
+    for (auto it = a.rockId->cbeginValueOn(); it; ++it) diff += ids.getValue(it.getCoord()) != *it;
+    EXPECT_EQ(diff, size_t(0));
+}

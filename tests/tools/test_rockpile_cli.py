@@ -95,3 +95,106 @@ def test_bad_parameters(tmp_path, args, needle):
     out = tmp_path / "o.tiles"
     one_line_error(run([tool("vdb_rockpile"), "tiles", *args, "-o", str(out)]), 2, needle)
     assert not out.exists()
+
+
+# ---- piles (§6) ----------------------------------------------------------------------------
+
+CUBE_OBJ = """v -0.87 -0.87 -0.87
+v 0.87 -0.87 -0.87
+v 0.87 0.87 -0.87
+v -0.87 0.87 -0.87
+v -0.87 -0.87 0.87
+v 0.87 -0.87 0.87
+v 0.87 0.87 0.87
+v -0.87 0.87 0.87
+f 1 4 3 2
+f 5 6 7 8
+f 1 2 6 5
+f 2 3 7 6
+f 3 4 8 7
+f 4 1 5 8
+"""
+
+
+@pytest.fixture(scope="module")
+def tile_set(tmp_path_factory):
+    out = tmp_path_factory.mktemp("tiles") / "rocks.tiles"
+    r = tiles(out)
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+def pile(tiles_path, support, out, *args):
+    return run([tool("vdb_rockpile"), "pile", "--tiles", str(tiles_path), "--support", str(support),
+                *args, "-o", str(out)])
+
+
+def test_pile_in_a_closed_mesh(tmp_path, tile_set):
+    mesh = tmp_path / "cube.obj"
+    mesh.write_text(CUBE_OBJ)
+    out, pts = tmp_path / "pile.vdb", tmp_path / "points.vdb"
+    r = pile(tile_set, mesh, out, "--points", str(pts))
+    assert r.returncode == 0, r.stderr
+    placed = int(re.search(r"placed (\d+) rocks", r.stderr).group(1))
+    assert placed > 50
+    grids = vdb.readAll(str(out))[0]
+    surface = next(g for g in grids if g.name == "surface")
+    ids = next(g for g in grids if g.name == "rock_id")
+    assert surface.gridClass == vdb.GridClass.LEVEL_SET
+    # Rock ids are instance indices 0..placed-1, all present.
+    seen = {int(it.value) for it in ids.citerOnValues()}
+    assert seen == set(range(placed))
+    # The rocks' inside voxels lie mostly inside the support (faces off the voxel centres).
+    dx = surface.transform.voxelSize()[0]
+    inside = np.array([it.min for it in surface.citerOnValues() if it.value < 0]) * dx
+    assert np.mean(np.all(np.abs(inside) < 0.87, axis=1)) > 0.9
+    # The instances as a VDB points grid, read by OpenVDB's own vdb_print.
+    printed = run(["vdb_print", str(pts)])
+    assert printed.returncode == 0 and "rocks" in str(printed.stdout) + str(printed.stderr)
+
+
+def test_pile_supports_agree(tmp_path, tile_set):
+    """The same cube as a mesh (OBJ, ASCII STL) and as an expression places nearly the same rocks."""
+    obj = tmp_path / "cube.obj"
+    obj.write_text(CUBE_OBJ)
+    verts = [tuple(map(float, l.split()[1:])) for l in CUBE_OBJ.splitlines() if l.startswith("v ")]
+    faces = [[int(i) - 1 for i in l.split()[1:]] for l in CUBE_OBJ.splitlines() if l.startswith("f ")]
+    stl = tmp_path / "cube.stl"
+    lines = ["solid cube"]
+    for f in faces:
+        for tri in ((f[0], f[1], f[2]), (f[0], f[2], f[3])):
+            lines += ["facet normal 0 0 0", "outer loop"]
+            lines += ["vertex %g %g %g" % verts[i] for i in tri]
+            lines += ["endloop", "endfacet"]
+    lines.append("endsolid cube")
+    stl.write_text("\n".join(lines))
+    expr = tmp_path / "cube.json"
+    expr.write_text(json.dumps({"type": "box", "center": [0, 0, 0], "size": [1.74, 1.74, 1.74]}))
+    counts = []
+    for support in (obj, stl, expr):
+        r = pile(tile_set, support, tmp_path / (support.suffix[1:] + ".vdb"))
+        assert r.returncode == 0, r.stderr
+        counts.append(int(re.search(r"placed (\d+) rocks", r.stderr).group(1)))
+    assert max(counts) - min(counts) <= 0.05 * max(counts), counts
+
+
+@pytest.mark.parametrize("case,code,needle", [
+    ("open", 2, "not closed"),
+    ("missing_tiles", 1, "none.tiles"),
+    ("extension", 2, "--support must be"),
+    ("threshold", 2, "anchor threshold"),
+])
+def test_pile_bad_input(tmp_path, tile_set, case, code, needle):
+    mesh = tmp_path / "cube.obj"
+    mesh.write_text(CUBE_OBJ if case != "open" else CUBE_OBJ.rsplit("f ", 1)[0])
+    out = tmp_path / "o.vdb"
+    args, tiles_path, support = [], tile_set, mesh
+    if case == "missing_tiles":
+        tiles_path = tmp_path / "none.tiles"
+    if case == "extension":
+        support = tmp_path / "cube.txt"
+        support.write_text("x")
+    if case == "threshold":
+        args = ["--threshold", "0"]
+    one_line_error(pile(tiles_path, support, out, *args), code, needle)
+    assert not out.exists()

@@ -1,0 +1,320 @@
+#include "RockPile.h"
+
+#include <core/Error.h>
+#include <core/Random.h>
+
+#include <openvdb/points/PointConversion.h>
+#include <openvdb/tools/SignedFloodFill.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <tuple>
+
+namespace rockvdb {
+namespace rockpile {
+
+using openvdb::Coord;
+using LeafT = openvdb::FloatTree::LeafNodeType;
+
+// Defined in RockTiles.cc: a rock's level-set leaves shifted by a voxel offset.
+std::vector<LeafT*> rockLeavesShifted(const Rock& rock, double voxelSize, const Coord& offset,
+                                      double halfWidth);
+
+namespace {
+
+constexpr uint64_t kColourStream = 0xc0105;
+
+Coord mul(const Coord& c, int s) { return Coord(c[0] * s, c[1] * s, c[2] * s); }
+
+int floorDiv(double v) { return int(std::floor(v)); }
+
+std::vector<double> rockRadii(const TileSet& set)
+{
+    const int m = set.params.voxelsPerCell;
+    std::vector<double> radius(set.rocks.size(), 0.0);
+    for (size_t i = 0; i < set.rocks.size(); ++i) {
+        const Rock& r = set.rocks[i];
+        const Vec3d s = r.seed.p * double(m) - Vec3d(0.5);
+        for (int x = 0; x < r.dims[0]; ++x)
+            for (int y = 0; y < r.dims[1]; ++y)
+                for (int z = 0; z < r.dims[2]; ++z) {
+                    if (r.rho[size_t((x * r.dims[1] + y) * r.dims[2] + z)] <= 0.5f) continue;
+                    radius[i] = std::max(radius[i], (r.origin.offsetBy(x, y, z).asVec3d() - s).length());
+                }
+        radius[i] = (radius[i] + 1.0) * set.params.voxelSize();
+    }
+    return radius;
+}
+
+} // namespace
+
+double maxRockRadius(const TileSet& set)
+{
+    const std::vector<double> r = rockRadii(set);
+    return r.empty() ? 0.0 : *std::max_element(r.begin(), r.end());
+}
+
+void PileParams::validate() const
+{
+    require(threshold > 0 && threshold <= 1, "rockpile", "anchor threshold", "in (0, 1]",
+            threshold);
+    require(halfWidth >= 1 && halfWidth <= 16, "rockpile", "half width (voxels)", "in [1, 16]",
+            halfWidth);
+}
+
+Vec3d voxelToWorld(const TileSet& set, const Vec3d& v)
+{
+    return v * set.params.voxelSize();
+}
+
+std::vector<Instance> selectRocks(const TileSet& set, const Field& support, const PileParams& p,
+                                  PileStats* stats)
+{
+    p.validate();
+    using Clock = std::chrono::steady_clock;
+    const auto t0 = Clock::now();
+    const TileParams& tp = set.params;
+    const int n = tp.n, m = tp.voxelsPerCell, span = n * m;
+    const double dx = tp.voxelSize();
+    const BBoxd bb = support.bounds();
+    if (!isBounded(bb)) fail<ValueError>("rockpile: the support must be bounded");
+
+    // Region look-up by (type, axes, colours).
+    std::map<std::tuple<int, std::array<int, 3>, std::vector<int>>, size_t> regionOf;
+    for (size_t i = 0; i < set.regions.size(); ++i) {
+        const Region& r = set.regions[i];
+        regionOf[{r.type, r.axes, r.colours}] = i;
+    }
+    const bool periodic = tp.tiling == Tiling::Periodic;
+    auto colour = [&](const Coord& q) {
+        return periodic ? 0 : int(random::hashCoord(p.seed, kColourStream, q[0], q[1], q[2]) & 1);
+    };
+    auto region = [&](int type, std::array<int, 3> axes, std::vector<int> cols) {
+        auto it = regionOf.find({type, axes, cols});
+        if (it == regionOf.end()) fail<ValueError>("rockpile: the tile set lacks a region the tiling needs");
+        return it->second;
+    };
+    // Lattice points whose features can meet the support (rocks reach one cell past them).
+    auto lattice = [&](double w) { return (w / dx + 0.5) / double(span); };
+    Coord lo, hi;
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = floorDiv(lattice(bb.min()[a])) - 1;
+        hi[a] = floorDiv(lattice(bb.max()[a])) + 1;
+    }
+    if (double(hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]) > 1e7) {
+        fail<ValueError>("rockpile: the support spans more than 10^7 cubes of ", tp.cubeSize,
+                         " m; use a smaller support or larger cubes");
+    }
+    struct Feature { size_t region; Coord shift; };
+    std::vector<Feature> features;
+    for (int i = lo[0]; i <= hi[0]; ++i)
+        for (int j = lo[1]; j <= hi[1]; ++j)
+            for (int k = lo[2]; k <= hi[2]; ++k) {
+                const Coord P(i, j, k), shift = mul(P, span);
+                if (periodic) {
+                    features.push_back({0, shift});
+                    continue;
+                }
+                features.push_back({region(3, {{1, 1, 1}}, {colour(P)}), shift});
+                for (int e = 0; e < 3; ++e) {
+                    Coord end = P;
+                    end[e] += 1;
+                    std::array<int, 3> axes{{1, 1, 1}};
+                    axes[e] = 0;
+                    features.push_back({region(2, axes, {colour(P), colour(end)}), shift});
+                }
+                for (int a = 0; a < 3; ++a) {
+                    const int u = a == 0 ? 1 : 0, v = a == 2 ? 1 : 2;
+                    Coord cu(0), cv(0);
+                    cu[u] = 1;
+                    cv[v] = 1;
+                    std::array<int, 3> axes{{0, 0, 0}};
+                    axes[a] = 1;
+                    features.push_back({region(1, axes, {colour(P), colour(P + cu), colour(P + cv),
+                                                         colour(P + cu + cv)}), shift});
+                }
+                std::vector<int> cols;
+                for (int b = 0; b < 8; ++b) cols.push_back(colour(P + Coord((b >> 2) & 1, (b >> 1) & 1, b & 1)));
+                features.push_back({region(0, {{0, 0, 0}}, cols), shift});
+            }
+
+    // Largest embedding radius: the farthest solid voxel from its seed, over the set.
+    const std::vector<double> radius = rockRadii(set);
+    const double rMax = radius.empty() ? 0.0 : *std::max_element(radius.begin(), radius.end());
+
+    struct Candidate { size_t feature, rock; };
+    std::vector<Candidate> candidates;
+    for (size_t f = 0; f < features.size(); ++f) {
+        for (size_t r : set.regions[features[f].region].rocks) {
+            if (set.rocks[r].solidVoxels() > 0) candidates.push_back({f, r});
+        }
+    }
+    std::vector<Instance> found(candidates.size());
+    std::vector<uint8_t> keep(candidates.size(), 0), deep(candidates.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 64),
+        [&](const tbb::blocked_range<size_t>& range) {
+            for (size_t c = range.begin(); c != range.end(); ++c) {
+                const Feature& f = features[candidates[c].feature];
+                const size_t ri = candidates[c].rock;
+                const Rock& r = set.rocks[ri];
+                const Vec3d seedWorld = voxelToWorld(set, r.seed.p * double(m) - Vec3d(0.5) + f.shift.asVec3d());
+                const double fs = support.eval(seedWorld);
+                // Supports are distances (or bounds of them, beyond a grid's band): a rock
+                // whose seed is farther out than its radius has no anchor inside.
+                if (fs > radius[ri]) continue;
+                if (p.dropDeep && fs < -2.0 * rMax) {
+                    deep[c] = 1;
+                    continue;
+                }
+                size_t inside = fs < 0 ? 1 : 0, total = 1;
+                for (int x = 0; x < r.dims[0]; ++x)
+                    for (int y = 0; y < r.dims[1]; ++y)
+                        for (int z = 0; z < r.dims[2]; ++z) {
+                            if (r.rho[size_t((x * r.dims[1] + y) * r.dims[2] + z)] <= 0.5f) continue;
+                            const Coord v = r.origin.offsetBy(x, y, z) + f.shift;
+                            inside += support.eval(voxelToWorld(set, v.asVec3d())) < 0;
+                            ++total;
+                        }
+                const double fraction = double(inside) / double(total);
+                if (fraction >= p.threshold) {
+                    keep[c] = 1;
+                    found[c] = {ri, f.region, f.shift, seedWorld, fraction};
+                }
+            }
+        });
+    std::vector<Instance> out;
+    size_t dropped = 0;
+    for (size_t c = 0; c < candidates.size(); ++c) {
+        if (keep[c]) out.push_back(found[c]);
+        dropped += deep[c];
+    }
+    if (stats) {
+        stats->features = features.size();
+        stats->candidates = candidates.size();
+        stats->placed = out.size();
+        stats->droppedDeep = dropped;
+        stats->selectSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    }
+    return out;
+}
+
+Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PileParams& p)
+{
+    p.validate();
+    using Clock = std::chrono::steady_clock;
+    const auto t0 = Clock::now();
+    const double dx = set.params.voxelSize();
+    const float bg = float(p.halfWidth * dx);
+    Pile pile;
+    pile.instances = std::move(instances);
+    const size_t count = pile.instances.size();
+    std::vector<std::vector<LeafT*>> leaves(count);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 8),
+        [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                const Instance& in = pile.instances[i];
+                leaves[i] = rockLeavesShifted(set.rocks[in.rock], dx, in.shift, p.halfWidth);
+            }
+        });
+    // Leaves of neighbouring rocks meet: group them by origin and unite (min), the id going
+    // to the rock that gives the minimum (the first, on ties).
+    struct Piece { Coord origin; size_t instance; LeafT* leaf; };
+    std::vector<Piece> pieces;
+    for (size_t i = 0; i < count; ++i)
+        for (LeafT* l : leaves[i]) pieces.push_back({l->origin(), i, l});
+    std::sort(pieces.begin(), pieces.end(), [](const Piece& a, const Piece& b) {
+        return a.origin != b.origin ? a.origin < b.origin : a.instance < b.instance;
+    });
+    std::vector<size_t> starts;
+    for (size_t i = 0; i < pieces.size(); ++i) {
+        if (i == 0 || pieces[i].origin != pieces[i - 1].origin) starts.push_back(i);
+    }
+    starts.push_back(pieces.size());
+    const size_t groups = starts.size() - 1;
+    std::vector<LeafT*> surfaceLeaves(groups), idLeaves(groups);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, groups, 64),
+        [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t g = r.begin(); g != r.end(); ++g) {
+                LeafT* base = pieces[starts[g]].leaf;
+                auto* ids = new LeafT(base->origin(), -1.0f);
+                float* v = base->buffer().data();
+                float* id = ids->buffer().data();
+                std::fill(id, id + LeafT::SIZE, -1.0f);
+                const float first = float(pieces[starts[g]].instance);
+                for (openvdb::Index q = 0; q < LeafT::SIZE; ++q) id[q] = first;
+                for (size_t k = starts[g] + 1; k < starts[g + 1]; ++k) {
+                    const float* w = pieces[k].leaf->buffer().data();
+                    const float inst = float(pieces[k].instance);
+                    for (openvdb::Index q = 0; q < LeafT::SIZE; ++q) {
+                        if (w[q] < v[q]) {
+                            v[q] = w[q];
+                            id[q] = inst;
+                        }
+                    }
+                    delete pieces[k].leaf;
+                }
+                auto& mask = base->getValueMask();
+                for (openvdb::Index q = 0; q < LeafT::SIZE; ++q) {
+                    const bool on = std::abs(v[q]) < bg;
+                    mask.set(q, on);
+                    if (!on) {
+                        v[q] = v[q] < 0 ? -bg : bg;
+                        id[q] = -1.0f;
+                    }
+                }
+                ids->getValueMask() = mask;
+                surfaceLeaves[g] = base;
+                idLeaves[g] = ids;
+            }
+        });
+    auto xf = openvdb::math::Transform::createLinearTransform(dx);
+    pile.surface = openvdb::FloatGrid::create(bg);
+    pile.surface->setTransform(xf);
+    pile.surface->setGridClass(openvdb::GRID_LEVEL_SET);
+    pile.surface->setName("surface");
+    pile.rockId = openvdb::FloatGrid::create(-1.0f);
+    pile.rockId->setTransform(xf->copy());
+    pile.rockId->setGridClass(openvdb::GRID_UNKNOWN);
+    pile.rockId->setName("rock_id");
+    for (size_t g = 0; g < groups; ++g) {
+        pile.surface->tree().addLeaf(surfaceLeaves[g]);
+        pile.rockId->tree().addLeaf(idLeaves[g]);
+    }
+    openvdb::tools::signedFloodFill(pile.surface->tree());
+    pile.stats.placed = count;
+    pile.stats.levelSetSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    return pile;
+}
+
+openvdb::GridBase::Ptr instancePoints(const std::vector<Instance>& instances, double voxelSize)
+{
+    std::vector<openvdb::Vec3R> positions;
+    std::vector<int32_t> rock, tile, instance;
+    for (size_t i = 0; i < instances.size(); ++i) {
+        positions.push_back(instances[i].position);
+        rock.push_back(int32_t(instances[i].rock));
+        tile.push_back(int32_t(instances[i].region));
+        instance.push_back(int32_t(i));
+    }
+    auto xf = openvdb::math::Transform::createLinearTransform(voxelSize);
+    openvdb::points::PointAttributeVector<openvdb::Vec3R> wrapper(positions);
+    auto index = openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(wrapper, *xf);
+    auto points = openvdb::points::createPointDataGrid<openvdb::points::NullCodec,
+                                                       openvdb::points::PointDataGrid>(*index, wrapper, *xf);
+    using namespace openvdb::points;
+    for (auto [name, values] : {std::make_pair("rock", &rock), std::make_pair("tile", &tile),
+                                std::make_pair("instance", &instance)}) {
+        appendAttribute<int32_t>(points->tree(), name);
+        populateAttribute<PointDataTree, openvdb::tools::PointIndexTree,
+                          PointAttributeVector<int32_t>>(points->tree(), index->tree(), name,
+                                                         PointAttributeVector<int32_t>(*values));
+    }
+    points->setName("rocks");
+    return points;
+}
+
+} // namespace rockpile
+} // namespace rockvdb

@@ -1,0 +1,77 @@
+// rockvdb — rock piles: instancing a tile set's rocks into a support object
+// (aperiodic-rock-piles.txt §6).
+//
+// Cubes sit with their corners on the integer lattice (scaled by the cube size); each lattice
+// point takes a colour from a hash of (seed, point) — a stochastic aperiodic tiling. Every
+// lattice vertex, edge, face and cube meeting the support holds its region's rocks; a rock is
+// placed when more than a threshold fraction of its anchors (its voxel centres and its seed)
+// lie inside the support, unless it lies deeper than twice the largest embedding radius.
+#pragma once
+
+#include "RockTiles.h"
+
+#include <core/Field.h>
+
+#include <openvdb/openvdb.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace rockvdb {
+namespace rockpile {
+
+struct PileParams
+{
+    double threshold = 0.5;  ///< fraction of anchors inside the support, in (0, 1]
+    bool dropDeep = true;    ///< drop rocks deeper than 2 × the largest embedding radius
+    uint64_t seed = 0;       ///< lattice colours
+    double halfWidth = 3.0;  ///< of the output level set, voxels
+
+    void validate() const;
+};
+
+/// One placed rock.
+struct Instance
+{
+    size_t rock = 0;        ///< index into TileSet::rocks (the library rock)
+    size_t region = 0;      ///< index into TileSet::regions (the tile)
+    openvdb::Coord shift;   ///< voxels added to the rock's canonical voxels
+    Vec3d position;         ///< its seed, world (m)
+    double insideFraction = 0;
+};
+
+struct PileStats
+{
+    size_t features = 0, candidates = 0, placed = 0, droppedDeep = 0;
+    double selectSeconds = 0, levelSetSeconds = 0;
+};
+
+struct Pile
+{
+    std::vector<Instance> instances;
+    openvdb::FloatGrid::Ptr surface; ///< union of the placed rocks (level set)
+    openvdb::FloatGrid::Ptr rockId;  ///< instance index per band voxel (class unknown, bg −1)
+    PileStats stats;
+};
+
+/// @brief World position of tile voxel @a v (voxel centres at v·dx: the lattice point i sits
+/// at (i·n·m − ½)·dx).
+Vec3d voxelToWorld(const TileSet& set, const Vec3d& v);
+
+/// @brief The largest embedding radius of the set's rocks (m): the farthest solid voxel
+/// from its seed, plus a voxel.
+double maxRockRadius(const TileSet& set);
+
+/// @brief Choose the rocks of @a set that fill @a support (negative inside, metres).
+std::vector<Instance> selectRocks(const TileSet& set, const Field& support, const PileParams& p,
+                                  PileStats* stats = nullptr);
+
+/// @brief The union level set of @a instances and its rock ids (in parallel).
+Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PileParams& p);
+
+/// @brief The instances as a VDB points grid "rocks" (attributes P, rock, tile, instance) for
+/// copying library rocks in Houdini; voxel size @a voxelSize.
+openvdb::GridBase::Ptr instancePoints(const std::vector<Instance>& instances, double voxelSize);
+
+} // namespace rockpile
+} // namespace rockvdb
