@@ -1,5 +1,5 @@
 // rockvdb_bench — each issue's numbers beside a reference run in the same process.
-// usage: rockvdb_bench [--quick] [foundation] [blocks] [amplify] [detail]   (no group: all of them)
+// usage: rockvdb_bench [--quick] [foundation] [blocks] [amplify] [detail] [rockpile]   (no group: all of them)
 #include <amplify/Amplify.h>
 #include <blocks/BlockTile.h>
 #include <core/Heightfield.h>
@@ -9,6 +9,9 @@
 #include <core/Primitives.h>
 #include <core/VdbIO.h>
 #include <detail/Detail.h>
+#include <rockpile/RockPile.h>
+#include <rockpile/RockTiles.h>
+#include <openvdb/tools/Composite.h>
 
 #include <nlohmann/json.hpp>
 
@@ -234,6 +237,70 @@ void detailGroup(bool quick)
     }
 }
 
+void rockpileGroup(bool quick)
+{
+    using Clock = std::chrono::steady_clock;
+    auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+    std::printf("\n## rockpile: tile sets (2 threads) beside the rock-piles paper's Table 1 (one core), reference: tools::volumeToMesh of the same rocks (the paper's last phase) in this process\n\n");
+    std::printf("| n | stones (paper) | voronoi + erosion | level sets | tiles total | paper | volumeToMesh of the library | level sets vs meshing |\n");
+    std::printf("|---|---|---|---|---|---|---|---|\n");
+    const int paperStones[] = {7355, 17166, 33217};
+    const double paperSeconds[] = {23, 73, 176};
+    rockpile::TileSet five;
+    for (int n : quick ? std::vector<int>{5} : std::vector<int>{5, 7}) {
+        rockpile::TileParams p;
+        p.n = n;
+        const auto t0 = Clock::now();
+        rockpile::TileSet set = rockpile::generateTiles(p);
+        const double tiles = since(t0);
+        const auto t1 = Clock::now();
+        auto lib = rockpile::libraryGrid(set);
+        const double ls = since(t1);
+        const auto t2 = Clock::now();
+        std::vector<openvdb::Vec3s> pts;
+        std::vector<openvdb::Vec3I> tris;
+        std::vector<openvdb::Vec4I> quads;
+        openvdb::tools::volumeToMesh(*lib, pts, tris, quads, 0.0);
+        const double mesh = since(t2);
+        std::printf("| %d | %zu (%d) | %.2f s | %.2f s | %.2f s | %.0f s | %.2f s | %.2fx |\n", n,
+                    set.stats.stones, paperStones[n - 5], set.stats.voronoiSeconds, ls, tiles + ls,
+                    paperSeconds[n - 5], mesh, ls / mesh);
+        if (n == 5) five = std::move(set);
+    }
+
+    std::printf("\n## rockpile: instancing into a support (2 threads), reference: the same rocks united one by one with tools::csgUnion\n\n");
+    std::printf("| support | rocks placed | select | level set + ids | rocks/s | csgUnion reference (first 1000 rocks) | ratio |\n");
+    std::printf("|---|---|---|---|---|---|---|\n");
+    const double side = quick ? 6.0 : 14.0;
+    auto slab = box(Vec3d(0.0), Vec3d(side / 2, side / 2, 0.5));
+    rockpile::PileParams pp;
+    rockpile::PileStats st;
+    auto instances = rockpile::selectRocks(five, *slab, pp, &st);
+    const auto t3 = Clock::now();
+    rockpile::Pile pile = rockpile::buildPile(five, instances, pp);
+    const double build = since(t3);
+    // Reference: the first 1000 rocks' level sets united into one grid with csgUnion, beside
+    // buildPile on the same 1000.
+    std::vector<rockpile::Instance> first(instances.begin(), instances.begin() + std::min<size_t>(1000, instances.size()));
+    const double dx = five.params.voxelSize();
+    const auto t4 = Clock::now();
+    auto acc = openvdb::FloatGrid::create(float(3 * dx));
+    acc->setTransform(openvdb::math::Transform::createLinearTransform(dx));
+    acc->setGridClass(openvdb::GRID_LEVEL_SET);
+    for (const auto& in : first) {
+        auto g = rockpile::rockLevelSet(five.rocks[in.rock], dx, in.shift);
+        openvdb::tools::csgUnion(*acc, *g);
+    }
+    const double ref = since(t4);
+    const auto t5 = Clock::now();
+    rockpile::buildPile(five, first, pp);
+    const double ours = since(t5);
+    std::printf("| slab %.0f x %.0f x 1 m, n = 5 tiles | %zu | %.2f s | %.2f s | %.0f | %.2f s vs %.3f s | %.1fx |\n",
+                side, side, instances.size(), st.selectSeconds, build,
+                double(instances.size()) / (st.selectSeconds + build), ref, ours, ref / ours);
+}
+
 int main(int argc, char** argv)
 {
     initialize();
@@ -242,16 +309,18 @@ int main(int argc, char** argv)
     std::printf("allocator: %s (both sides of every ratio run in this process with it)\n\n",
                 ROCKVDB_ALLOCATOR);
     bool all = true, wantFoundation = false, wantBlocks = false, wantAmplify = false,
-         wantDetail = false;
+         wantDetail = false, wantRockpile = false;
     for (int i = 1; i < argc; ++i) {
         if (std::strcmp(argv[i], "foundation") == 0) { wantFoundation = true; all = false; }
         if (std::strcmp(argv[i], "blocks") == 0) { wantBlocks = true; all = false; }
         if (std::strcmp(argv[i], "amplify") == 0) { wantAmplify = true; all = false; }
         if (std::strcmp(argv[i], "detail") == 0) { wantDetail = true; all = false; }
+        if (std::strcmp(argv[i], "rockpile") == 0) { wantRockpile = true; all = false; }
     }
     if (all || wantFoundation) foundation(quick);
     if (all || wantBlocks) blocksGroup(quick);
     if (all || wantAmplify) amplifyGroup(quick);
     if (all || wantDetail) detailGroup(quick);
+    if (all || wantRockpile) rockpileGroup(quick);
     return 0;
 }

@@ -3,9 +3,6 @@
 
 #include <core/Error.h>
 #include <core/VdbIO.h>
-#include <core/Expression.h>
-#include <core/GridField.h>
-#include <core/Mesh.h>
 #include <rockpile/RockPile.h>
 #include <rockpile/RockTiles.h>
 
@@ -97,33 +94,7 @@ int main(int argc, char** argv)
             pp.dropDeep = !keepDeep;
             pp.seed = tool.seed();
             pp.validate();
-            // Supports must give inside/outside and, for the deep-rock test, distances twice
-            // the largest rock radius deep.
-            const double depth = 2.0 * rockpile::maxRockRadius(set) + set.params.voxelSize() * 4;
-            FieldPtr support;
-            const std::string ext = supportPath.size() > 4 ? supportPath.substr(supportPath.size() - 4) : "";
-            auto lower = ext;
-            for (char& c : lower) c = char(std::tolower(static_cast<unsigned char>(c)));
-            if (lower == ".vdb") {
-                support = levelSetField(readLevelSet(supportPath, ""), depth);
-            } else if (lower == "json") {
-                ExpressionContext ctx;
-                const auto slash = supportPath.find_last_of('/');
-                ctx.baseDir = slash == std::string::npos ? "." : supportPath.substr(0, slash);
-                ctx.seed = tool.seed();
-                support = fieldFromJson(readJsonFile(supportPath), ctx);
-            } else if (lower == ".obj" || lower == ".stl" || lower == ".ply") {
-                const Mesh mesh = readMesh(supportPath);
-                requireClosed(mesh, "rockpile: support " + supportPath);
-                openvdb::BBoxd box;
-                for (const auto& q : mesh.points) box.expand(openvdb::Vec3d(q));
-                const double voxel = std::max(set.params.voxelSize(), box.extents().length() / 256.0);
-                auto grid = meshToLevelSet(mesh, voxel, 3.0, std::ceil(depth / voxel) + 2.0);
-                support = levelSetField(grid, depth);
-            } else {
-                fail<ValueError>("rockpile: --support must be a .vdb level set, a .json expression or "
-                                 "a .obj/.stl/.ply mesh (got ", supportPath, ")");
-            }
+            const FieldPtr support = rockpile::loadSupport(supportPath, set, tool.seed());
             rockpile::PileStats st;
             auto instances = rockpile::selectRocks(set, *support, pp, &st);
             rockpile::Pile result = rockpile::buildPile(set, instances, pp);
@@ -169,8 +140,7 @@ int main(int argc, char** argv)
         tool.info(line);
         double lsSeconds = -1;
         if (!library.empty()) {
-            auto lib = rockpile::libraryGrid(set);
-            lsSeconds = lib->metaValue<double>("rockvdb:level_set_seconds");
+            auto lib = rockpile::libraryGrid(set, 3.0, &lsSeconds);
             stampProvenance(*lib, tool.name(), tool.paramsJson());
             writeGrids(library, {lib});
         }

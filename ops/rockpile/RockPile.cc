@@ -1,8 +1,13 @@
 #include "RockPile.h"
 
 #include <core/Error.h>
+#include <core/Expression.h>
+#include <core/GridField.h>
+#include <core/Mesh.h>
 #include <core/Random.h>
+#include <core/VdbIO.h>
 
+#include <nlohmann/json.hpp>
 #include <openvdb/points/PointConversion.h>
 #include <openvdb/tools/SignedFloodFill.h>
 #include <tbb/parallel_for.h>
@@ -55,6 +60,46 @@ double maxRockRadius(const TileSet& set)
 {
     const std::vector<double> r = rockRadii(set);
     return r.empty() ? 0.0 : *std::max_element(r.begin(), r.end());
+}
+
+namespace {
+
+double supportDepth(const TileSet& set)
+{
+    return 2.0 * maxRockRadius(set) + 4.0 * set.params.voxelSize();
+}
+
+} // namespace
+
+FieldPtr levelSetSupport(openvdb::FloatGrid::ConstPtr grid, const TileSet& set)
+{
+    return levelSetField(std::move(grid), supportDepth(set));
+}
+
+FieldPtr loadSupport(const std::string& path, const TileSet& set, uint64_t seed)
+{
+    std::string ext = path.substr(path.find_last_of('.') == std::string::npos ? path.size()
+                                                                               : path.find_last_of('.'));
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (ext == ".vdb") return levelSetSupport(readLevelSet(path, ""), set);
+    if (ext == ".json") {
+        ExpressionContext ctx;
+        const auto slash = path.find_last_of('/');
+        ctx.baseDir = slash == std::string::npos ? "." : path.substr(0, slash);
+        ctx.seed = seed;
+        return fieldFromJson(readJsonFile(path), ctx);
+    }
+    if (ext == ".obj" || ext == ".stl" || ext == ".ply") {
+        const Mesh mesh = readMesh(path);
+        requireClosed(mesh, "rockpile: support " + path);
+        openvdb::BBoxd box;
+        for (const auto& q : mesh.points) box.expand(openvdb::Vec3d(q));
+        const double voxel = std::max(set.params.voxelSize(), box.extents().length() / 256.0);
+        const double depth = supportDepth(set);
+        return levelSetField(meshToLevelSet(mesh, voxel, 3.0, std::ceil(depth / voxel) + 2.0), depth);
+    }
+    fail<ValueError>("rockpile: the support must be a .vdb level set, a .json expression or a "
+                     ".obj/.stl/.ply mesh (got ", path, ")");
 }
 
 void PileParams::validate() const

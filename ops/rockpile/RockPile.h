@@ -62,6 +62,16 @@ Vec3d voxelToWorld(const TileSet& set, const Vec3d& v);
 /// from its seed, plus a voxel.
 double maxRockRadius(const TileSet& set);
 
+/// @brief A level set as a support, its band widened (tools::dilateSdf) to the depth the
+/// deep-rock test reads: twice the largest rock radius and a little.
+FieldPtr levelSetSupport(openvdb::FloatGrid::ConstPtr grid, const TileSet& set);
+
+/// @brief A support from a file: a level set .vdb, a JSON expression of primitives (.json,
+/// relative paths from its folder, @a seed for its noise) or a closed mesh (.obj, .stl,
+/// .ply; converted by tools::meshToLevelSet at the tile voxel size or 1/256 of its extent).
+/// @throw ValueError for other extensions or an open mesh.
+FieldPtr loadSupport(const std::string& path, const TileSet& set, uint64_t seed = 0);
+
 /// @brief Choose the rocks of @a set that fill @a support (negative inside, metres).
 std::vector<Instance> selectRocks(const TileSet& set, const Field& support, const PileParams& p,
                                   PileStats* stats = nullptr);

@@ -172,8 +172,9 @@ TileSet tilesFromGrid(const openvdb::FloatGrid& rho);
 
 /// @brief Every rock's narrow-band level set in its own atlas slot of one level set
 /// `library` (metadata `rockvdb:library_offsets`: the slot offsets, rock order), built in
-/// parallel.
-openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth = 3.0);
+/// parallel; @a seconds (optional) receives the time taken.
+openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth = 3.0,
+                                    double* seconds = nullptr);
 
 } // namespace rockpile
 } // namespace rockvdb

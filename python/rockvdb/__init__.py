@@ -180,3 +180,54 @@ def detail(grid, warp_amplitude=0.0, warp_relief="turbulence", warp_scale=1.5, w
     if blend is not None and blend_mask is None:
         raise ValueError("detail: blend needs blend_mask (the weights)")
     return _rockvdb.detail(grid, _json.dumps(options), voxel_size, half_width, blend_mask)
+
+
+def rock_tiles(n=5, seeds_per_cell=(1, 1), anisotropy=(1.0, 1.0, 1.0), anisotropy_jitter=0.25,
+               g_max=2.0, voxels_per_cell=10, cube_size=1.0, contact_radii=(0.08, 0.3),
+               erosion_steps=6, erosion_rate=0.5, tiling="aperiodic", poisson_radius=0.0,
+               seed=0, path=None):
+    """A rock tile set (vdb_rockpile tiles from Python; aperiodic-rock-piles §2-§5, arches §5).
+    Returns the tile set as a pyopenvdb.FloatGrid 'rho' (each rock's erosion state in its own
+    slot, the description in metadata 'rockvdb:tiles'); path also writes it. Lengths in cells
+    (cube_size / n metres)."""
+    options = {"tiling": str(tiling), "n": int(n),
+               "seeds_per_cell": [int(s) for s in seeds_per_cell],
+               "anisotropy": [float(a) for a in anisotropy],
+               "anisotropy_jitter": float(anisotropy_jitter), "g_max": float(g_max),
+               "voxels_per_cell": int(voxels_per_cell), "cube_size": float(cube_size),
+               "contact_radii": [float(r) for r in contact_radii],
+               "erosion_steps": int(erosion_steps), "erosion_rate": float(erosion_rate),
+               "poisson_radius": float(poisson_radius), "seed": int(seed)}
+    grid = _rockvdb.rock_tiles(_json.dumps(options))
+    if path is not None:
+        pyopenvdb.write(str(path), [grid])
+    return grid
+
+
+def _tile_grid(tiles):
+    import os
+    if isinstance(tiles, (str, os.PathLike)):
+        return pyopenvdb.read(str(tiles), "rho")
+    return tiles
+
+
+def rock_library(tiles):
+    """Every rock of a tile set (a 'rho' grid or a tile file path) as a level set 'library',
+    each rock in its own slot (offsets in metadata 'rockvdb:library_offsets')."""
+    return _rockvdb.rock_library(_tile_grid(tiles))
+
+
+def rock_pile(tiles, support, threshold=0.5, keep_deep=False, seed=0, stats=None):
+    """Fill a support with a tile set's rocks (vdb_rockpile pile from Python; §6). tiles: a
+    'rho' grid or a tile file path; support: a pyopenvdb.FloatGrid level set, a rockvdb Field
+    (e.g. rockvdb.sphere(...)), or a path (.vdb, .json expression, closed .obj/.stl/.ply).
+    Returns (surface, rock_id) grids; stats (a dict) receives counts, times, and each placed
+    rock's library index and seed position."""
+    import os
+    if isinstance(support, os.PathLike):
+        support = str(support)
+    options = {"threshold": float(threshold), "keep_deep": bool(keep_deep), "seed": int(seed)}
+    surface, rock_id, info = _rockvdb.rock_pile(_tile_grid(tiles), support, _json.dumps(options))
+    if stats is not None:
+        stats.update(info)
+    return surface, rock_id

@@ -17,6 +17,8 @@
 #include <core/Primitives.h>
 #include <core/VdbIO.h>
 #include <detail/Detail.h>
+#include <rockpile/RockPile.h>
+#include <rockpile/RockTiles.h>
 
 #include <nlohmann/json.hpp>
 #include <pybind11/numpy.h>
@@ -392,6 +394,90 @@ PYBIND11_MODULE(_rockvdb, m)
         return r.surface;
     }, py::arg("grid"), py::arg("options"), py::arg("voxel_size") = std::nullopt,
        py::arg("half_width") = std::nullopt, py::arg("blend_mask") = std::nullopt);
+
+    m.def("rock_tiles", [](const std::string& options) {
+        const json o = json::parse(options);
+        rockpile::TileParams p = rockpile::TileParams::fromJson(o);
+        p.validate();
+        Grid rho;
+        {
+            py::gil_scoped_release release;
+            rho = rockpile::tileGrid(rockpile::generateTiles(p));
+        }
+        stampProvenance(*rho, "rockvdb.rock_tiles", p.toJson().dump());
+        return rho;
+    }, py::arg("options"));
+
+    m.def("rock_library", [](Grid tiles) {
+        if (!tiles) throw py::type_error("rockpile: the tile set grid is None");
+        const rockpile::TileSet set = rockpile::tilesFromGrid(*tiles);
+        Grid lib;
+        {
+            py::gil_scoped_release release;
+            lib = rockpile::libraryGrid(set);
+        }
+        stampProvenance(*lib, "rockvdb.rock_library", set.params.toJson().dump());
+        return lib;
+    }, py::arg("tiles"));
+
+    m.def("rock_pile", [](Grid tiles, py::object support, const std::string& options) {
+        if (!tiles) throw py::type_error("rockpile: the tile set grid is None");
+        const json o = json::parse(options);
+        const rockpile::TileSet set = rockpile::tilesFromGrid(*tiles);
+        rockpile::PileParams pp;
+        pp.threshold = o.at("threshold");
+        pp.dropDeep = !o.at("keep_deep").get<bool>();
+        pp.seed = o.at("seed");
+        pp.validate();
+        FieldPtr field;
+        json params = o;
+        params["tiles"] = set.params.toJson();
+        if (py::isinstance<py::str>(support)) {
+            field = rockpile::loadSupport(support.cast<std::string>(), set, pp.seed);
+            params["support"] = support.cast<std::string>();
+        } else if (py::isinstance<PyField>(support)) {
+            const PyField& f = support.cast<const PyField&>();
+            field = f.field;
+            params["support"] = f.expr;
+        } else {
+            Grid g;
+            try {
+                if (!support.is_none()) g = support.cast<Grid>();
+            } catch (const py::cast_error&) {
+            }
+            if (!g) {
+                throw py::type_error("rockpile: the support must be a pyopenvdb.FloatGrid level "
+                                     "set, a rockvdb Field or a file path");
+            }
+            requireLevelSet(*g, "rockpile support");
+            field = rockpile::levelSetSupport(g, set);
+            params["support"] = "level set";
+        }
+        rockpile::PileStats st;
+        rockpile::Pile pile;
+        {
+            py::gil_scoped_release release;
+            auto instances = rockpile::selectRocks(set, *field, pp, &st);
+            pile = rockpile::buildPile(set, std::move(instances), pp);
+        }
+        stampProvenance(*pile.surface, "rockvdb.rock_pile", params.dump());
+        stampProvenance(*pile.rockId, "rockvdb.rock_pile", params.dump());
+        py::dict stats;
+        stats["placed"] = st.placed;
+        stats["candidates"] = st.candidates;
+        stats["features"] = st.features;
+        stats["dropped_deep"] = st.droppedDeep;
+        stats["select_seconds"] = st.selectSeconds;
+        stats["level_set_seconds"] = pile.stats.levelSetSeconds;
+        py::list rocks, positions;
+        for (const auto& in : pile.instances) {
+            rocks.append(in.rock);
+            positions.append(py::make_tuple(in.position[0], in.position[1], in.position[2]));
+        }
+        stats["rocks"] = rocks;
+        stats["positions"] = positions;
+        return py::make_tuple(Grid(pile.surface), Grid(pile.rockId), stats);
+    }, py::arg("tiles"), py::arg("support"), py::arg("options"));
 
     m.def("read_image", [](const std::string& path, const std::string& op) {
         GrayImage img = readGrayImage(path, op.c_str());

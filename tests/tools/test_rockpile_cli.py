@@ -181,7 +181,7 @@ def test_pile_supports_agree(tmp_path, tile_set):
 @pytest.mark.parametrize("case,code,needle", [
     ("open", 2, "not closed"),
     ("missing_tiles", 1, "none.tiles"),
-    ("extension", 2, "--support must be"),
+    ("extension", 2, "support must be a .vdb"),
     ("threshold", 2, "anchor threshold"),
 ])
 def test_pile_bad_input(tmp_path, tile_set, case, code, needle):
