@@ -61,8 +61,24 @@ def detailed(tmp_path_factory, blocks):
     return out
 
 
-def every_output(tmp_path, scene, heightfield_png, blocks, amplified=None, detailed=None):
+@pytest.fixture(scope="module")
+def piled(tmp_path_factory):
+    """vdb_rockpile: a corner-cube tile set (5 cm voxels) piled into a ball."""
+    d = tmp_path_factory.mktemp("piled")
+    run([tool("vdb_rockpile"), "-q", "tiles", "--n", "4", "--voxels-per-cell", "5",
+         "-o", str(d / "rocks.tiles")], check=True)
+    (d / "ball.json").write_text(json.dumps({"type": "sphere", "center": [0.2, 0, 0],
+                                             "radius": 1.1}))
+    out = d / "pile.vdb"
+    run([tool("vdb_rockpile"), "-q", "pile", "--tiles", str(d / "rocks.tiles"), "--support",
+         str(d / "ball.json"), "-o", str(out)], check=True)
+    return out
+
+
+def every_output(tmp_path, scene, heightfield_png, blocks, amplified=None, detailed=None,
+                 piled=None):
     files = [scene, blocks] + ([amplified] if amplified else []) + ([detailed] if detailed else [])
+    files += [piled] if piled else []
     h = tmp_path / "hf.vdb"
     run([tool("vdb_heightfield"), "-q", str(heightfield_png), "--cell-size", "0.1",
          "--voxel-size", "0.05", "-o", str(h)], check=True)
@@ -72,9 +88,9 @@ def every_output(tmp_path, scene, heightfield_png, blocks, amplified=None, detai
 
 
 def test_pyopenvdb_reads_every_file(tmp_path, scene, heightfield_png, blocks, amplified,
-                                    detailed):
+                                    detailed, piled):
     import pyopenvdb as vdb
-    for f in every_output(tmp_path, scene, heightfield_png, blocks, amplified, detailed):
+    for f in every_output(tmp_path, scene, heightfield_png, blocks, amplified, detailed, piled):
         grids, meta = vdb.readAll(str(f))
         names = [g.name for g in grids]
         assert "surface" in names
@@ -87,6 +103,10 @@ def test_pyopenvdb_reads_every_file(tmp_path, scene, heightfield_png, blocks, am
     assert {g.name for g in grids} == {"surface", "block_id", "material"}
     amp_ids = [g for g in grids if g.name == "block_id"][0]
     assert any(it.value >= 0 for it in amp_ids.citerOnValues()), "no replicated block"
+    grids, _ = vdb.readAll(str(piled))
+    assert {g.name for g in grids} == {"surface", "rock_id"}
+    rock_ids = [g for g in grids if g.name == "rock_id"][0]
+    assert rock_ids.activeVoxelCount() == [g for g in grids if g.name == "surface"][0].activeVoxelCount()
     grids, _ = vdb.readAll(str(scene))
     ids = [g for g in grids if g.name == "block_id"][0]
     assert ids.activeVoxelCount() == [g for g in grids if g.name == "surface"][0].activeVoxelCount()
@@ -118,10 +138,12 @@ def test_vdb_render_renders(scene, tmp_path):
 
 
 @pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
-@pytest.mark.parametrize("which", ["scene", "blocks", "amplified", "detailed"])
-def test_blender_imports_and_meshes_surface(which, scene, blocks, amplified, detailed, tmp_path):
+@pytest.mark.parametrize("which", ["scene", "blocks", "amplified", "detailed", "piled"])
+def test_blender_imports_and_meshes_surface(which, scene, blocks, amplified, detailed, piled,
+                                            tmp_path):
     import pyopenvdb as vdb
-    scene = {"scene": scene, "blocks": blocks, "amplified": amplified, "detailed": detailed}[which]
+    scene = {"scene": scene, "blocks": blocks, "amplified": amplified, "detailed": detailed,
+             "piled": piled}[which]
     report = tmp_path / "blender.json"
     p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
                         os.path.join(HERE, "blender_mesh.py"), "--", str(scene), str(report)],
