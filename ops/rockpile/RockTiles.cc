@@ -14,6 +14,7 @@
 #include <limits>
 #include <map>
 #include <mutex>
+#include <tuple>
 
 namespace rockvdb {
 namespace rockpile {
@@ -106,8 +107,8 @@ Seed makeSeed(const TileParams& p, uint64_t h, const Vec3d& position)
 const std::vector<std::vector<Vec3d>>& periodicSeeds(const TileParams& p)
 {
     static std::mutex mutex;
-    static std::map<std::string, std::vector<std::vector<Vec3d>>> cache;
-    const std::string key = p.toJson().dump();
+    static std::map<std::tuple<int, double, uint64_t>, std::vector<std::vector<Vec3d>>> cache;
+    const auto key = std::make_tuple(p.n, p.poissonRadius, p.seed);
     std::lock_guard<std::mutex> lock(mutex);
     auto it = cache.find(key);
     if (it != cache.end()) return it->second;
@@ -389,7 +390,6 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
                 if (label[c] == self) queue.push_back(c);
             }
     Coord lo(std::numeric_limits<int>::max()), hi(std::numeric_limits<int>::min());
-    std::vector<int16_t> touching;
     for (size_t q = 0; q < queue.size(); ++q) {
         const Coord c = queue[q];
         lo = Coord::minComponent(lo, c);
@@ -402,7 +402,6 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
                 label[u] = owner(u);
                 if (label[u] == self) queue.push_back(u);
             }
-            if (label[u] != self) touching.push_back(label[u]);
         }
     }
     rock.voronoiVoxels = queue.size();
@@ -416,7 +415,6 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
     // face between the two cells really passes (no third seed nearer).
     // Every competitor is tried, not only those whose voxels touch the cell: the pair's
     // contact must not hinge on how each side's voxels happened to sample the face.
-    (void)touching;
     for (int16_t j = 0; j < int16_t(seeds.size()); ++j) {
         if (j == self) continue;
         const Seed& a = rock.seed;
@@ -729,10 +727,13 @@ std::vector<LeafT*> rockLeaves(const Rock& rock, double voxelSize, const Coord& 
                     const size_t j = i + size_t(stride[a]);
                     const float rj = r[j];
                     if ((rc > 0) == (rj > 0)) continue;
-                    Vec3f q{float(x), float(y), float(z)};
+                    const Vec3f pi{float(x), float(y), float(z)};
+                    Vec3f pj = pi, q = pi;
+                    pj[a] += 1.0f;
                     q[a] += rc / (rc - rj);
-                    for (size_t k : {i, j}) {
-                        const float dd = (q - pos(k)).lengthSqr();
+                    for (int side = 0; side < 2; ++side) {
+                        const size_t k = side ? j : i;
+                        const float dd = (q - (side ? pj : pi)).lengthSqr();
                         if (dd < d2[k]) {
                             d2[k] = dd;
                             cp[k] = q;

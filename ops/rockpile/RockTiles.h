@@ -51,7 +51,8 @@ struct TileParams
     double gMax = 2.0;                ///< g_k uniform in [1, gMax] (the paper uses up to 4)
     int voxelsPerCell = 10;           ///< m: n_G = m·n voxels per cube edge (Table 1: 10)
     double cubeSize = 1.0;            ///< metres
-    double contactInner = 0.08;       ///< a: no erosion within a of a contact (cells)
+    double contactInner = 0.08;       ///< a: no erosion within a of a contact (cells; at
+                                      ///< least one voxel, so contacts survive sampling)
     double contactOuter = 0.3;        ///< b: full erosion beyond b (cells)
     int erosionSteps = 6;             ///< spheroidal erosion iterations
     double erosionRate = 0.5;         ///< ε per step at full exposure
@@ -154,7 +155,8 @@ std::vector<Rock> cubeRocks(const TileParams& p, const openvdb::Coord& cube,
                             const Colouring& colouring);
 
 /// @brief A narrow-band level set of the rock surface (r = 0) in tile voxels shifted by
-/// @a offset voxels: distances to the trilinear surface, half width @a halfWidth voxels.
+/// @a offset voxels: distances to the trilinear surface sampled where it crosses the grid's
+/// edges (nearest crossing carried outward layer by layer), half width @a halfWidth voxels.
 openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize,
                                      const openvdb::Coord& offset = openvdb::Coord(0),
                                      double halfWidth = 3.0);
