@@ -362,3 +362,40 @@ TEST(RockPile, DeterministicAcrossThreads)
     for (auto it = a.rockId->cbeginValueOn(); it; ++it) diff += ids.getValue(it.getCoord()) != *it;
     EXPECT_EQ(diff, size_t(0));
 }
+
+#include <openvdb/points/AttributeArray.h>
+#include <openvdb/points/PointCount.h>
+#include <openvdb/points/PointDataGrid.h>
+
+TEST(RockPile, InstancePointsCarryEveryRock)
+{
+    initialize();
+    const TileSet set = generateTiles(small());
+    PileParams pp;
+    const auto instances = selectRocks(set, *sphere(Vec3d(0.0), 0.9), pp);
+    ASSERT_GT(instances.size(), size_t(20));
+    auto base = instancePoints(instances, set.params.cubeSize / set.params.n);
+    auto points = openvdb::gridPtrCast<openvdb::points::PointDataGrid>(base);
+    ASSERT_TRUE(points);
+    EXPECT_EQ(points->getName(), "rocks");
+    EXPECT_EQ(openvdb::points::pointCount(points->tree()), instances.size());
+    // Every (instance, rock, tile, position) comes back, each once.
+    std::vector<int> seen(instances.size(), 0);
+    for (auto leaf = points->tree().cbeginLeaf(); leaf; ++leaf) {
+        using namespace openvdb::points;
+        AttributeHandle<openvdb::Vec3f> P(leaf->constAttributeArray("P"));
+        AttributeHandle<int32_t> rock(leaf->constAttributeArray("rock"));
+        AttributeHandle<int32_t> tile(leaf->constAttributeArray("tile"));
+        AttributeHandle<int32_t> inst(leaf->constAttributeArray("instance"));
+        for (auto idx = leaf->beginIndexOn(); idx; ++idx) {
+            const size_t i = size_t(inst.get(*idx));
+            ASSERT_LT(i, instances.size());
+            ++seen[i];
+            EXPECT_EQ(size_t(rock.get(*idx)), instances[i].rock);
+            EXPECT_EQ(size_t(tile.get(*idx)), instances[i].region);
+            const Vec3d w = points->transform().indexToWorld(P.get(*idx) + idx.getCoord().asVec3d());
+            EXPECT_LT((w - instances[i].position).length(), 1e-4);
+        }
+    }
+    EXPECT_EQ(size_t(std::count(seen.begin(), seen.end(), 1)), instances.size());
+}
