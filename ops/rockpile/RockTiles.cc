@@ -5,7 +5,6 @@
 #include <core/Sampling.h>
 
 #include <nlohmann/json.hpp>
-#include <openvdb/tools/SignedFloodFill.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -674,115 +673,125 @@ struct LevelSetScratch
     std::vector<float> r, d2;
     std::vector<Vec3f> cp;
     std::vector<uint8_t> done;
-    std::vector<size_t> front, next;
+    std::vector<int32_t> front, next;
 };
 
 // The leaves of a rock's level set (see rockLevelSet), inactive voxels at ±background by
-// side: ready to be added to any tree.
+// side: ready to be added to any tree. Every inside voxel lies in a leaf, so a tree made of
+// such leaves needs no sign flood fill.
 std::vector<LeafT*> rockLeaves(const Rock& rock, double voxelSize, const Coord& offset,
                                double halfWidth)
 {
     std::vector<LeafT*> out;
     if (rock.rho.empty()) return out;
-    thread_local LevelSetScratch sc;
+    thread_local LevelSetScratch scratch;
+    LevelSetScratch& sc = scratch;
     const float bg = float(halfWidth * voxelSize);
     // The trilinear surface r = 2ρ − 1 = 0 is sampled where it crosses the grid's edges, and
-    // each voxel's nearest crossing is carried outward layer by layer over the band (each new
-    // voxel takes the nearest of its 26 neighbours' crossings): distances to the sampled
-    // surface. Dense arrays over the rock's box padded by the band.
+    // each voxel's nearest crossing is carried outward layer by layer over the band (each
+    // voxel of a new layer takes the nearest of its finished 26 neighbours' crossings):
+    // distances to the sampled surface. Dense arrays over the rock's box padded by the band;
+    // cp holds the vector from a voxel to its crossing, d2 its squared length.
     const int pad = int(std::ceil(halfWidth)) + 1;
     const int nx = rock.dims[0] + 2 * pad, ny = rock.dims[1] + 2 * pad, nz = rock.dims[2] + 2 * pad;
     const size_t total = size_t(nx) * ny * nz;
     const int sx = ny * nz, sy = nz;
     constexpr float kFar = std::numeric_limits<float>::max();
-    auto& r = sc.r;
-    auto& d2 = sc.d2;
-    auto& cp = sc.cp;
-    auto& done = sc.done;
-    r.assign(total, -0.5f);
-    d2.assign(total, kFar);
-    cp.resize(total);
-    done.assign(total, 0);
+    sc.r.assign(total, -0.5f);
+    sc.d2.assign(total, kFar);
+    sc.cp.resize(total);
+    sc.done.assign(total, 0);
+    // Raw pointers: stores through uint8_t may alias anything, so through the vectors every
+    // store to done would reload every array's address.
+    float* const r = sc.r.data();
+    float* const d2 = sc.d2.data();
+    Vec3f* const cp = sc.cp.data();
+    uint8_t* const done = sc.done.data();
     for (int x = 0; x < rock.dims[0]; ++x)
-        for (int y = 0; y < rock.dims[1]; ++y)
-            for (int z = 0; z < rock.dims[2]; ++z) {
-                r[size_t((x + pad) * sx + (y + pad) * sy + z + pad)] =
-                    rock.rho[size_t((x * rock.dims[1] + y) * rock.dims[2] + z)] - 0.5f;
-            }
-    auto pos = [&](size_t i) {
-        return Vec3f(float(int(i / size_t(sx))), float(int((i / size_t(sy)) % size_t(ny))),
-                     float(int(i % size_t(nz))));
-    };
-    auto& front = sc.front;
-    auto& next = sc.next;
+        for (int y = 0; y < rock.dims[1]; ++y) {
+            const float* src = rock.rho.data() + size_t((x * rock.dims[1] + y) * rock.dims[2]);
+            float* dst = r + size_t((x + pad) * sx + (y + pad) * sy + pad);
+            for (int z = 0; z < rock.dims[2]; ++z) dst[z] = src[z] - 0.5f;
+        }
+    std::vector<int32_t>& front = sc.front;
+    std::vector<int32_t>& next = sc.next;
     front.clear();
-    // Crossings lie within the rock's box grown by one voxel.
+    // Crossings lie within the rock's box grown by one voxel. Each is offered to the 18
+    // voxels round its edge (the edge's ends and their 8 neighbours across it), which takes
+    // the nearest crossing of every voxel near the surface exactly.
     const int stride[3] = {sx, sy, 1};
     for (int x = pad - 1; x < pad + rock.dims[0]; ++x)
         for (int y = pad - 1; y < pad + rock.dims[1]; ++y)
             for (int z = pad - 1; z < pad + rock.dims[2]; ++z) {
-                const size_t i = size_t(x * sx + y * sy + z);
+                const int i = x * sx + y * sy + z;
                 const float rc = r[i];
                 for (int a = 0; a < 3; ++a) {
-                    const size_t j = i + size_t(stride[a]);
-                    const float rj = r[j];
+                    const float rj = r[i + stride[a]];
                     if ((rc > 0) == (rj > 0)) continue;
-                    const Vec3f pi{float(x), float(y), float(z)};
-                    Vec3f pj = pi, q = pi;
-                    pj[a] += 1.0f;
-                    q[a] += rc / (rc - rj);
-                    for (int side = 0; side < 2; ++side) {
-                        const size_t k = side ? j : i;
-                        const float dd = (q - (side ? pj : pi)).lengthSqr();
-                        if (dd < d2[k]) {
-                            d2[k] = dd;
-                            cp[k] = q;
-                        }
-                        if (!done[k]) {
-                            done[k] = 1;
-                            front.push_back(k);
-                        }
-                    }
+                    const float t = rc / (rc - rj);
+                    const int b = (a + 1) % 3, c = (a + 2) % 3;
+                    for (int side = 0; side < 2; ++side)
+                        for (int db = -1; db <= 1; ++db)
+                            for (int dc = -1; dc <= 1; ++dc) {
+                                const int k = i + side * stride[a] + db * stride[b] + dc * stride[c];
+                                Vec3f v;
+                                v[a] = side ? t - 1.0f : t;
+                                v[b] = float(-db);
+                                v[c] = float(-dc);
+                                const float dd = v.lengthSqr();
+                                if (dd < d2[k]) {
+                                    d2[k] = dd;
+                                    cp[k] = v;
+                                }
+                                if (!done[k]) {
+                                    done[k] = 1;
+                                    front.push_back(k);
+                                }
+                            }
                 }
             }
     int nb[26];
+    Vec3f nbOffset[26];
     {
         int q = 0;
         for (int i = -1; i <= 1; ++i)
             for (int j = -1; j <= 1; ++j)
                 for (int k = -1; k <= 1; ++k) {
-                    if (i || j || k) nb[q++] = i * sx + j * sy + k;
+                    if (!(i || j || k)) continue;
+                    nb[q] = i * sx + j * sy + k;
+                    nbOffset[q++] = Vec3f(float(i), float(j), float(k));
                 }
     }
-    // The padding keeps every neighbour index of the first pad − 1 layers inside the box.
-    for (int layer = 0; layer < pad - 1 && !front.empty(); ++layer) {
+    // Each layer pushes its crossings to the not yet finished neighbours; the next layer is
+    // the set of voxels reached (in the order first reached: deterministic). The first
+    // layer lies within a voxel of the crossings' edges, so pad − 2 more reach every voxel
+    // nearer than the half width, and the padding keeps their neighbours inside the box.
+    for (int layer = 0; layer < pad - 2 && !front.empty(); ++layer) {
         next.clear();
-        for (size_t c : front)
+        for (const int c : front) {
+            const Vec3f vc = cp[c];
             for (int q = 0; q < 26; ++q) {
-                const size_t u = size_t(ptrdiff_t(c) + nb[q]);
-                if (done[u]) continue;
-                done[u] = 2;
-                next.push_back(u);
-            }
-        for (size_t u : next) {
-            const Vec3f pu = pos(u);
-            float best = d2[u];
-            for (int q = 0; q < 26; ++q) {
-                const size_t w = size_t(ptrdiff_t(u) + nb[q]);
-                if (done[w] != 1) continue;
-                const float dd = (cp[w] - pu).lengthSqr();
-                if (dd < best) {
-                    best = dd;
-                    cp[u] = cp[w];
+                const int u = c + nb[q];
+                const uint8_t state = done[u];
+                const Vec3f v = vc - nbOffset[q];
+                const float dd = v.lengthSqr();
+                if (state == 0) {
+                    done[u] = 2;
+                    next.push_back(u);
+                    d2[u] = dd;
+                    cp[u] = v;
+                } else if (dd < d2[u]) {
+                    d2[u] = dd;
+                    cp[u] = v;
                 }
             }
-            d2[u] = best;
         }
-        for (size_t u : next) done[u] = 1;
+        for (const int u : next) done[u] = 1;
         front.swap(next);
     }
     // Straight into leaves: band voxels active, the rest ±background by side.
     const float band2 = float(halfWidth * halfWidth);
+    const float scale = float(voxelSize);
     const Coord base = rock.origin.offsetBy(-pad, -pad, -pad) + offset;
     const Coord last = base.offsetBy(nx - 1, ny - 1, nz - 1);
     const Coord first = base & ~7;
@@ -790,21 +799,31 @@ std::vector<LeafT*> rockLeaves(const Rock& rock, double voxelSize, const Coord& 
         for (int ly = first[1]; ly <= last[1]; ly += 8)
             for (int lz = first[2]; lz <= last[2]; lz += 8) {
                 LeafT* leaf = nullptr;
+                float* values = nullptr;
+                const int z0 = std::max(lz, base[2]), z1 = std::min(lz + 8, last[2] + 1);
                 for (int x = std::max(lx, base[0]); x < std::min(lx + 8, last[0] + 1); ++x)
-                    for (int y = std::max(ly, base[1]); y < std::min(ly + 8, last[1] + 1); ++y)
-                        for (int z = std::max(lz, base[2]); z < std::min(lz + 8, last[2] + 1); ++z) {
-                            const size_t i = size_t((x - base[0]) * sx + (y - base[1]) * sy + (z - base[2]));
+                    for (int y = std::max(ly, base[1]); y < std::min(ly + 8, last[1] + 1); ++y) {
+                        const int row = (x - base[0]) * sx + (y - base[1]) * sy - base[2];
+                        const openvdb::Index rowOffset = ((x & 7) << 6) | ((y & 7) << 3);
+                        for (int z = z0; z < z1; ++z) {
+                            const int i = row + z;
                             const bool in = r[i] > 0;
-                            const openvdb::Index n = LeafT::coordToOffset(Coord(x, y, z));
-                            if (d2[i] < band2) {
-                                if (!leaf) leaf = new LeafT(Coord(lx, ly, lz), bg);
-                                const float d = std::sqrt(d2[i]) * float(voxelSize);
-                                leaf->setValueOn(n, in ? -d : d);
-                            } else if (in) {
-                                if (!leaf) leaf = new LeafT(Coord(lx, ly, lz), bg);
-                                leaf->setValueOnly(n, -bg);
+                            const bool band = d2[i] < band2;
+                            if (!band && !in) continue;
+                            if (!leaf) {
+                                leaf = new LeafT(Coord(lx, ly, lz), bg);
+                                values = leaf->buffer().data();
+                            }
+                            const openvdb::Index n = rowOffset | openvdb::Index(z & 7);
+                            if (band) {
+                                const float d = std::sqrt(d2[i]) * scale;
+                                values[n] = in ? -d : d;
+                                leaf->getValueMask().setOn(n);
+                            } else {
+                                values[n] = -bg;
                             }
                         }
+                    }
                 if (leaf) out.push_back(leaf);
             }
     return out;
@@ -825,8 +844,8 @@ openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize, const C
     grid->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
     grid->setGridClass(openvdb::GRID_LEVEL_SET);
     grid->setName("surface");
+    // (No flood fill: every inside voxel is in a leaf.)
     for (LeafT* leaf : rockLeaves(rock, voxelSize, offset, halfWidth)) grid->tree().addLeaf(leaf);
-    openvdb::tools::signedFloodFill(grid->tree());
     return grid;
 }
 
@@ -873,7 +892,6 @@ openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth, double
     library->setName("library");
     for (auto& list : leaves)
         for (LeafT* leaf : list) library->tree().addLeaf(leaf);
-    openvdb::tools::signedFloodFill(library->tree());
     nlohmann::json slots = nlohmann::json::array();
     for (size_t i = 0; i < count; ++i) slots.push_back({offsets[i][0], offsets[i][1], offsets[i][2]});
     library->insertMeta("rockvdb:library_offsets", openvdb::StringMetadata(slots.dump()));

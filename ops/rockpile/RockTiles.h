@@ -156,7 +156,9 @@ std::vector<Rock> cubeRocks(const TileParams& p, const openvdb::Coord& cube,
 
 /// @brief A narrow-band level set of the rock surface (r = 0) in tile voxels shifted by
 /// @a offset voxels: distances to the trilinear surface sampled where it crosses the grid's
-/// edges (nearest crossing carried outward layer by layer), half width @a halfWidth voxels.
+/// edges (each crossing offered to the voxels round its edge, then the nearest carried
+/// outward layer by layer), half width @a halfWidth voxels. Inside voxels all lie in leaves,
+/// so the tree needs no sign flood fill.
 openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize,
                                      const openvdb::Coord& offset = openvdb::Coord(0),
                                      double halfWidth = 3.0);

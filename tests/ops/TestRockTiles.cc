@@ -7,6 +7,7 @@
 #include <rockpile/RockTiles.h>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <openvdb/tools/Interpolation.h>
 #include <tbb/global_control.h>
 
@@ -223,6 +224,85 @@ TEST(RockTiles, DeterministicAcrossThreadCounts)
     // 2 + 12 + 48 + 256 regions, and as many rocks as seeds.
     EXPECT_EQ(one.regions.size(), size_t(318));
     EXPECT_EQ(one.rocks.size(), one.stats.seeds);
+}
+
+TEST(RockTiles, LevelSetsAreDistancesToTheSampledSurface)
+{
+    initialize();
+    const TileParams p = small();
+    const auto rocks = cubeRocks(p, Coord(0), randomColouring(4));
+    const double dx = p.voxelSize(), hw = 3.0;
+    // The surface r = ρ − ½ = 0 sampled where it crosses the voxel edges, found here
+    // independently; every band voxel's |φ| must be its distance to the nearest crossing.
+    double worst = 0, sum = 0;
+    size_t band = 0, missing = 0, big = 0;
+    for (size_t i = 0; i < rocks.size(); i += 4) {
+        const Rock& r = rocks[i];
+        std::vector<openvdb::Vec3d> crossings;
+        for (int x = -1; x <= r.dims[0]; ++x)
+            for (int y = -1; y <= r.dims[1]; ++y)
+                for (int z = -1; z <= r.dims[2]; ++z) {
+                    const Coord c = r.origin.offsetBy(x, y, z);
+                    const double a = r.at(c) - 0.5;
+                    for (int axis = 0; axis < 3; ++axis) {
+                        Coord d = c;
+                        d[axis] += 1;
+                        const double b = r.at(d) - 0.5;
+                        if ((a > 0) == (b > 0)) continue;
+                        openvdb::Vec3d q(c[0], c[1], c[2]);
+                        q[axis] += a / (a - b);
+                        crossings.push_back(q);
+                    }
+                }
+        ASSERT_FALSE(crossings.empty());
+        const auto ls = rockLevelSet(r, dx, Coord(0), hw);
+        EXPECT_EQ(ls->getGridClass(), openvdb::GRID_LEVEL_SET);
+        const auto acc = ls->getConstAccessor();
+        // Every voxel of the rock's box grown by the band: sign from ρ, distance if in band.
+        for (int x = -4; x < r.dims[0] + 4; ++x)
+            for (int y = -4; y < r.dims[1] + 4; ++y)
+                for (int z = -4; z < r.dims[2] + 4; ++z) {
+                    const Coord c = r.origin.offsetBy(x, y, z);
+                    double exact = 1e30;
+                    for (const auto& q : crossings) exact = std::min(exact, (q - c.asVec3d()).lengthSqr());
+                    exact = std::sqrt(exact);
+                    const float phi = acc.getValue(c);
+                    ASSERT_EQ(phi < 0, r.at(c) > 0.5f) << c;
+                    if (exact < hw - 0.25) missing += !acc.isValueOn(c);
+                    if (!acc.isValueOn(c)) continue;
+                    const double err = std::abs(std::abs(phi) / dx - exact);
+                    worst = std::max(worst, err);
+                    sum += err;
+                    big += err > 0.05;
+                    ++band;
+                }
+    }
+    EXPECT_GT(band, size_t(10000));
+    EXPECT_EQ(missing, size_t(0)) << "band voxels left inactive";
+    EXPECT_LT(sum / double(band), 0.002) << "mean error, voxels";
+    EXPECT_LT(double(big), 0.002 * double(band)) << "voxels off by more than 0.05 voxel";
+    EXPECT_LT(worst, 0.25) << "max error, voxels";
+
+    // The library holds each rock's level set bit for bit, at the slot its metadata names.
+    TileParams q = small();
+    q.n = 4;
+    const TileSet set = generateTiles(q);
+    const auto library = libraryGrid(set, hw);
+    const auto slots = nlohmann::json::parse(
+        library->metaValue<std::string>("rockvdb:library_offsets"));
+    ASSERT_EQ(slots.size(), set.rocks.size());
+    const auto lacc = library->getConstAccessor();
+    size_t active = 0;
+    for (size_t i = 0; i < set.rocks.size(); i += 7) {
+        const Coord offset(slots[i][0].get<int>(), slots[i][1].get<int>(), slots[i][2].get<int>());
+        const auto own = rockLevelSet(set.rocks[i], q.voxelSize(), offset, hw);
+        for (auto it = own->cbeginValueOn(); it; ++it) {
+            ASSERT_EQ(lacc.getValue(it.getCoord()), *it) << "rock " << i;
+            ASSERT_TRUE(lacc.isValueOn(it.getCoord()));
+            ++active;
+        }
+    }
+    EXPECT_GT(active, size_t(0));
 }
 
 TEST(RockTiles, BadParametersAreClearErrors)
