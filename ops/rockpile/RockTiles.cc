@@ -97,6 +97,7 @@ Seed makeSeed(const TileParams& p, uint64_t h, const Vec3d& position)
     for (int a = 0; a < 3; ++a) {
         const double v = p.anisotropy[a];
         s.scale[a] = random::uniform(h, kScale, uint64_t(a), v * (1.0 - p.anisotropyJitter), v);
+        s.weight[a] = 1.0 / (s.scale[a] * s.scale[a]);
     }
     s.g = random::uniform(h, kG, 0, 1.0, p.gMax);
     return s;
@@ -348,7 +349,7 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
         double q[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
         for (int a = 0; a < 3; ++a)
             for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j) q[i][j] += k.scale[a] * k.frame[a][i] * k.frame[a][j] / k.g;
+                for (int j = 0; j < 3; ++j) q[i][j] += k.weight[a] * k.frame[a][i] * k.frame[a][j] / k.g;
         q00[s] = q[0][0];
         q11[s] = q[1][1];
         q22[s] = q[2][2];
@@ -411,9 +412,12 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
     }
 
     // §5 contact points: c_kj on [p_k p_j] with d_k(c) = d_j(c) (bisection), kept where the
-    // face between the two cells really passes (no third seed nearer).
+    // face between the two cells really passes: no third seed nearer, and the discrete
+    // cells touch there — two face neighbours among the 8 voxels round c, one of each cell
+    // (near a junction a third cell's voxels can fill the gap). The contact is the middle
+    // of the nearest such pair: on the discrete face, so the rocks' surfaces meet there.
     // Every competitor is tried, not only those whose voxels touch the cell: the pair's
-    // contact must not hinge on how each side's voxels happened to sample the face.
+    // contact must not hinge on the order the flood met the voxels.
     for (int16_t j = 0; j < int16_t(seeds.size()); ++j) {
         if (j == self) continue;
         const Seed& a = rock.seed;
@@ -430,7 +434,27 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
         for (size_t s = 0; s < seeds.size() && kept; ++s) {
             if (int(s) != self && int(s) != j && seeds[s].distance(c) < dc * (1 - 1e-9)) kept = false;
         }
-        if (kept) rock.contacts.push_back({c * double(m) - Vec3d(0.5), b.key, b.p});
+        if (!kept) continue;
+        const Vec3d cv = c * double(m) - Vec3d(0.5); // voxel units (voxel v's centre at v)
+        const Coord corner(int(std::floor(cv[0])), int(std::floor(cv[1])), int(std::floor(cv[2])));
+        int16_t o[8];
+        for (int q = 0; q < 8; ++q) o[q] = owner(corner.offsetBy(q >> 2, (q >> 1) & 1, q & 1));
+        double best = std::numeric_limits<double>::max();
+        Vec3d point;
+        for (int q = 0; q < 8; ++q)
+            for (int bit = 1; bit < 8; bit <<= 1) {
+                const int u = q | bit; // the 12 edges of the 2x2x2 block, in a fixed order
+                if (u == q) continue;
+                if (!((o[q] == self && o[u] == j) || (o[q] == j && o[u] == self))) continue;
+                const Vec3d mid = Vec3d(corner[0] + (q >> 2), corner[1] + ((q >> 1) & 1), corner[2] + (q & 1)) +
+                                  Vec3d(bit == 4 ? 0.5 : 0, bit == 2 ? 0.5 : 0, bit == 1 ? 0.5 : 0);
+                const double dd = (mid - cv).lengthSqr();
+                if (dd < best) {
+                    best = dd;
+                    point = mid;
+                }
+            }
+        if (best < std::numeric_limits<double>::max()) rock.contacts.push_back({point, b.key, b.p});
     }
 
     // §5 erosion over the cell's box grown by one voxel: ρ = 1 in the cell, damped near

@@ -44,8 +44,9 @@ struct TileParams
     Tiling tiling = Tiling::Aperiodic;
     int n = 5;                        ///< cells per cube edge (aperiodic: >= 4)
     int seedsMin = 1, seedsMax = 1;   ///< seeds per cell n_k in [min, max] (s = max)
-    /// α, β, γ: scalings of the ellipsoidal distance f_k along the seed's random frame; each
-    /// drawn uniformly in [v·(1 − anisotropyJitter), v].
+    /// α, β, γ: relative extents of the ellipsoidal distance f_k along the seed's random
+    /// frame (see Seed; 5, 5, 1 makes flat rocks); each drawn uniformly in
+    /// [v·(1 − anisotropyJitter), v].
     std::array<double, 3> anisotropy{{1.0, 1.0, 1.0}};
     double anisotropyJitter = 0.25;
     double gMax = 2.0;                ///< g_k uniform in [1, gMax] (the paper uses up to 4)
@@ -68,20 +69,28 @@ struct TileParams
 };
 
 /// A seed p_k: position in cell units (global lattice of cells), its frame and scalings.
+///
+/// §4 writes f_k = α((p − p_k)·x)² + …, yet calls α, β, γ "the relative size along the
+/// frame axes" and shows α = β = 5, γ = 1 as flat rocks (Figure 13): with α multiplying the
+/// square those would be needles (the cell reaches farthest where d_k grows slowest). We
+/// follow the words and the figure: α, β, γ are the relative extents, f_k = ((p − p_k)·x/α)²
+/// + ((p − p_k)·y/β)² + ((p − p_k)·z/γ)², so the level sets of f_k are ellipsoids with
+/// semi-axes ∝ α, β, γ.
 struct Seed
 {
     Vec3d p;
     std::array<Vec3d, 3> frame; ///< x, y, z unit axes
-    Vec3d scale;                ///< α, β, γ
+    Vec3d scale;                ///< α, β, γ: relative extents along x, y, z
+    Vec3d weight;               ///< 1/α², 1/β², 1/γ²: the coefficients of f_k
     double g = 1.0;
     uint64_t key = 0;           ///< unique within the tile set, stable (ties break by it)
 
-    /// d_k(q) = f_k(q)/g_k, f_k = α((q−p)·x)² + β((q−p)·y)² + γ((q−p)·z)².
+    /// d_k(q) = f_k(q)/g_k.
     double distance(const Vec3d& q) const
     {
         const Vec3d d = q - p;
         const double a = d.dot(frame[0]), b = d.dot(frame[1]), c = d.dot(frame[2]);
-        return (scale[0] * a * a + scale[1] * b * b + scale[2] * c * c) / g;
+        return (weight[0] * a * a + weight[1] * b * b + weight[2] * c * c) / g;
     }
 };
 

@@ -41,8 +41,9 @@ bool sameRock(const Rock& a, const Rock& b)
     return a.seed.key == b.seed.key && a.origin == b.origin && a.dims == b.dims && a.rho == b.rho;
 }
 
-// Thickness / width of a rock's solid voxels: smallest over largest principal extent.
-double flatness(const Rock& r)
+// The principal extents of a rock's solid voxels, largest first (square roots of the
+// covariance eigenvalues); empty for rocks too small to measure.
+std::array<double, 3> extents(const Rock& r)
 {
     std::vector<openvdb::Vec3d> pts;
     for (int x = 0; x < r.dims[0]; ++x)
@@ -50,7 +51,7 @@ double flatness(const Rock& r)
             for (int z = 0; z < r.dims[2]; ++z) {
                 if (r.rho[size_t((x * r.dims[1] + y) * r.dims[2] + z)] > 0.5f) pts.emplace_back(x, y, z);
             }
-    if (pts.size() < 20) return -1;
+    if (pts.size() < 20) return {{0, 0, 0}};
     openvdb::Vec3d mean(0.0);
     for (auto& q : pts) mean += q;
     mean /= double(pts.size());
@@ -63,8 +64,10 @@ double flatness(const Rock& r)
     openvdb::Vec3d ev;
     openvdb::math::Mat3d vecs;
     openvdb::math::diagonalizeSymmetricMatrix(cov, vecs, ev);
-    const double lo = std::min({ev[0], ev[1], ev[2]}), hi = std::max({ev[0], ev[1], ev[2]});
-    return std::sqrt(std::max(lo, 0.0) / hi);
+    std::array<double, 3> e{{std::sqrt(std::max(ev[0], 0.0)), std::sqrt(std::max(ev[1], 0.0)),
+                             std::sqrt(std::max(ev[2], 0.0))}};
+    std::sort(e.begin(), e.end(), std::greater<double>());
+    return e;
 }
 
 } // namespace
@@ -123,28 +126,37 @@ TEST(RockTiles, ContactsLieOnBothRocksAndNoVoxelIsInTwoRocks)
     };
     for (const Rock& r : rocks) bySeed[id(r.seed.key, r.seed.p)] = &r;
     const double dx = p.voxelSize();
-    size_t checked = 0;
+    size_t checked = 0, oneSided = 0;
+    double worstContact = 0;
     for (const Rock& r : rocks) {
         const auto ls = rockLevelSet(r, dx);
         for (const Contact& c : r.contacts) {
             auto it = bySeed.find(id(c.other, c.otherSeed));
             if (it == bySeed.end()) continue; // the other rock's seed is in another cube
-            // Kept contacts are mutual: each rock found the face from its own neighbourhood.
+            // Kept contacts are mutual (each rock finds the face from its own 27 cells),
+            // but for the rare pair a seed outside one of the neighbourhoods decides.
             const auto& back = it->second->contacts;
             if (std::none_of(back.begin(), back.end(),
                              [&](const Contact& o) { return o.otherSeed == r.seed.p; })) {
+                ++oneSided;
                 continue;
             }
             const auto other = rockLevelSet(*it->second, dx);
             const openvdb::Vec3d q(c.point);
             const double da = openvdb::tools::BoxSampler::sample(ls->tree(), q) / dx;
             const double db = openvdb::tools::BoxSampler::sample(other->tree(), q) / dx;
+            worstContact = std::max({worstContact, std::abs(da), std::abs(db)});
             EXPECT_LE(std::abs(da), 1.0) << "contact " << q;
             EXPECT_LE(std::abs(db), 1.0) << "contact " << q;
             ++checked;
         }
     }
     EXPECT_GT(checked, rocks.size());
+    // The issue asks for one voxel; a contact sits on the discrete face between the two
+    // rocks, where both surfaces pass.
+    EXPECT_LT(worstContact, 0.1);
+    // A contact is one-sided only when a seed outside one rock's 27 cells decides it.
+    EXPECT_LT(oneSided * 100, checked);
     std::map<Coord, int> owners;
     for (const Rock& r : rocks)
         for (int x = 0; x < r.dims[0]; ++x)
@@ -190,19 +202,29 @@ TEST(RockTiles, AnisotropicDistanceMakesFlatRocks)
     p.voxelsPerCell = 10;
     p.anisotropyJitter = 0;
     const Colouring col = randomColouring(2);
-    auto medianFlatness = [&](std::array<double, 3> aniso) {
+    // Median thickness / width (smallest over largest extent) and middle / width: flat
+    // rocks have a small first and a large second, needles small both, round rocks neither.
+    auto shape = [&](std::array<double, 3> aniso) {
         p.anisotropy = aniso;
-        std::vector<double> f;
+        std::vector<double> thin, mid;
         for (const Rock& r : cubeRocks(p, Coord(0), col)) {
-            const double v = flatness(r);
-            if (v > 0) f.push_back(v);
+            const auto e = extents(r);
+            if (e[0] <= 0) continue;
+            thin.push_back(e[2] / e[0]);
+            mid.push_back(e[1] / e[0]);
         }
-        std::nth_element(f.begin(), f.begin() + long(f.size() / 2), f.end());
-        return f[f.size() / 2];
+        auto median = [](std::vector<double> v) {
+            std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+            return v[v.size() / 2];
+        };
+        return std::make_pair(median(thin), median(mid));
     };
-    const double flat = medianFlatness({{5, 5, 1}}), round = medianFlatness({{1, 1, 1}});
-    EXPECT_LT(flat, 0.5);
-    EXPECT_GT(round, 0.5);
+    // §4, Figure 13: α = β = 5, γ = 1 gives flat rocks.
+    const auto flat = shape({{5, 5, 1}}), round = shape({{1, 1, 1}}), needle = shape({{1, 1, 5}});
+    EXPECT_LT(flat.first, 0.5);
+    EXPECT_GT(flat.second, 0.6);
+    EXPECT_GT(round.first, 0.5);
+    EXPECT_LT(needle.second, 0.6);
 }
 
 TEST(RockTiles, DeterministicAcrossThreadCounts)
