@@ -466,7 +466,9 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
     for (const Coord& c : queue) rho[c] = 1.0f;
     // (At least a voxel of no erosion, so every contact survives the discretisation.)
     const double a = std::max(p.contactInner * m, 1.0), b = std::max(p.contactOuter * m, a + 1.0);
-    const double r2 = std::pow((p.poissonRadius > 0 ? p.poissonRadius : 0.8) * m, 2);
+    // Arches §5: r is the Poisson radius of [LD06], whose disks of radius r do not overlap:
+    // half our seed spacing (the minimum distance between seeds).
+    const double r2 = std::pow(0.5 * (p.poissonRadius > 0 ? p.poissonRadius : 0.8) * m, 2);
     for (const Coord& c : queue) {
         double w = 1.0;
         for (const Contact& ct : rock.contacts) {
