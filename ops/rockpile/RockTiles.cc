@@ -715,7 +715,7 @@ std::vector<LeafT*> rockLeaves(const Rock& rock, double voxelSize, const Coord& 
     const float bg = float(halfWidth * voxelSize);
     // The trilinear surface r = 2ρ − 1 = 0 is sampled where it crosses the grid's edges, and
     // each voxel's nearest crossing is carried outward layer by layer over the band (each
-    // voxel of a new layer takes the nearest of its finished 26 neighbours' crossings):
+    // layer offers its crossings to its 26 neighbours; a voxel keeps the nearest offered):
     // distances to the sampled surface. Dense arrays over the rock's box padded by the band;
     // cp holds the vector from a voxel to its crossing, d2 its squared length.
     const int pad = int(std::ceil(halfWidth)) + 1;
