@@ -38,7 +38,9 @@ int main(int argc, char** argv)
         ->capture_default_str();
     tiles->add_option("--seeds-per-cell", seeds, "Seeds per cell n_k in [min,max] (s = max)")
         ->expected(2)->delimiter(',')->capture_default_str();
-    tiles->add_option("--anisotropy", aniso, "alpha,beta,gamma of the ellipsoidal distance")
+    tiles->add_option("--anisotropy", aniso,
+                      "alpha,beta,gamma: relative rock extents along each seed's random frame "
+                      "(5,5,1: flat rocks)")
         ->expected(3)->delimiter(',')->capture_default_str();
     tiles->add_option("--anisotropy-jitter", p.anisotropyJitter,
                       "Each coefficient uniform in [v(1-j), v]")->capture_default_str();

@@ -189,7 +189,8 @@ def rock_tiles(n=5, seeds_per_cell=(1, 1), anisotropy=(1.0, 1.0, 1.0), anisotrop
     """A rock tile set (vdb_rockpile tiles from Python; aperiodic-rock-piles §2-§5, arches §5).
     Returns the tile set as a pyopenvdb.FloatGrid 'rho' (each rock's erosion state in its own
     slot, the description in metadata 'rockvdb:tiles'); path also writes it. Lengths in cells
-    (cube_size / n metres)."""
+    (cube_size / n metres). anisotropy: the relative extents (alpha, beta, gamma) of the rocks
+    along each seed's random frame; (5, 5, 1) makes flat rocks."""
     options = {"tiling": str(tiling), "n": int(n),
                "seeds_per_cell": [int(s) for s in seeds_per_cell],
                "anisotropy": [float(a) for a in anisotropy],
