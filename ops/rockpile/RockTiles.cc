@@ -382,6 +382,7 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
     const Coord start(int(std::floor(ps[0] * m)), int(std::floor(ps[1] * m)),
                       int(std::floor(ps[2] * m)));
     std::vector<Coord> queue;
+    std::vector<uint8_t> touches(ns, 0); // the seeds owning a face neighbour of the cell
     for (int i = -1; i <= 1 && queue.empty(); ++i)
         for (int j = -1; j <= 1 && queue.empty(); ++j)
             for (int k = -1; k <= 1 && queue.empty(); ++k) {
@@ -402,6 +403,7 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
                 label[u] = owner(u);
                 if (label[u] == self) queue.push_back(u);
             }
+            if (label[u] != self) touches[size_t(label[u])] = 1;
         }
     }
     rock.voronoiVoxels = queue.size();
@@ -413,13 +415,14 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
 
     // §5 contact points: c_kj on [p_k p_j] with d_k(c) = d_j(c) (bisection), kept where the
     // face between the two cells really passes: no third seed nearer, and the discrete
-    // cells touch there — two face neighbours among the 8 voxels round c, one of each cell
-    // (near a junction a third cell's voxels can fill the gap). The contact is the middle
-    // of the nearest such pair: on the discrete face, so the rocks' surfaces meet there.
-    // Every competitor is tried, not only those whose voxels touch the cell: the pair's
-    // contact must not hinge on the order the flood met the voxels.
-    for (int16_t j = 0; j < int16_t(seeds.size()); ++j) {
-        if (j == self) continue;
+    // cells touch there — two face neighbours among the 8 voxels round c, one of the rock,
+    // one of the other cell (near a junction a third cell's voxels can fill the gap). The
+    // contact is the middle of the nearest such pair: on the discrete face, so both rocks'
+    // surfaces pass through it. Only seeds owning a face neighbour of the rock can qualify
+    // (the flood labelled every face neighbour).
+    auto labelAt = [&](const Coord& v) { return label.inside(v) ? label[v] : kUnknown; };
+    for (int16_t j = 0; j < int16_t(ns); ++j) {
+        if (!touches[size_t(j)]) continue;
         const Seed& a = rock.seed;
         const Seed& b = seeds[size_t(j)];
         double t0 = 0, t1 = 1;
@@ -431,14 +434,14 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
         const Vec3d c = a.p + (b.p - a.p) * (0.5 * (t0 + t1));
         const double dc = a.distance(c);
         bool kept = true;
-        for (size_t s = 0; s < seeds.size() && kept; ++s) {
+        for (size_t s = 0; s < ns && kept; ++s) {
             if (int(s) != self && int(s) != j && seeds[s].distance(c) < dc * (1 - 1e-9)) kept = false;
         }
         if (!kept) continue;
         const Vec3d cv = c * double(m) - Vec3d(0.5); // voxel units (voxel v's centre at v)
         const Coord corner(int(std::floor(cv[0])), int(std::floor(cv[1])), int(std::floor(cv[2])));
         int16_t o[8];
-        for (int q = 0; q < 8; ++q) o[q] = owner(corner.offsetBy(q >> 2, (q >> 1) & 1, q & 1));
+        for (int q = 0; q < 8; ++q) o[q] = labelAt(corner.offsetBy(q >> 2, (q >> 1) & 1, q & 1));
         double best = std::numeric_limits<double>::max();
         Vec3d point;
         for (int q = 0; q < 8; ++q)
