@@ -329,40 +329,43 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
     const double invM = 1.0 / double(m);
     // The nearest seed of voxel v (centre (v + ½)/m cells); ties go to the smaller key.
     // d_k as a quadratic form Q_k = Σ_a s_a e_a e_aᵀ / g_k (6 coefficients, no division),
-    // the seeds laid out by coefficient so the distance loop vectorises.
+    // in single precision relative to the rock's cell (every position within 2 cells), the
+    // seeds laid out by coefficient so the distance loops vectorise.
     const size_t ns = seeds.size();
-    std::vector<double> soa(9 * ns);
-    double* px = soa.data();
-    double* py = px + ns;
-    double* pz = py + ns;
-    double* q00 = pz + ns;
-    double* q11 = q00 + ns;
-    double* q22 = q11 + ns;
-    double* q01 = q22 + ns;
-    double* q02 = q01 + ns;
-    double* q12 = q02 + ns;
+    const Vec3d origin(cell[0], cell[1], cell[2]);
+    std::vector<float> soa(10 * ns);
+    float* px = soa.data();
+    float* py = px + ns;
+    float* pz = py + ns;
+    float* q00 = pz + ns;
+    float* q11 = q00 + ns;
+    float* q22 = q11 + ns;
+    float* q01 = q22 + ns;
+    float* q02 = q01 + ns;
+    float* q12 = q02 + ns;
+    float* dist = q12 + ns;
     for (size_t s = 0; s < ns; ++s) {
         const Seed& k = seeds[s];
-        px[s] = k.p[0];
-        py[s] = k.p[1];
-        pz[s] = k.p[2];
+        px[s] = float(k.p[0] - origin[0]);
+        py[s] = float(k.p[1] - origin[1]);
+        pz[s] = float(k.p[2] - origin[2]);
         double q[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
         for (int a = 0; a < 3; ++a)
             for (int i = 0; i < 3; ++i)
                 for (int j = 0; j < 3; ++j) q[i][j] += k.weight[a] * k.frame[a][i] * k.frame[a][j] / k.g;
-        q00[s] = q[0][0];
-        q11[s] = q[1][1];
-        q22[s] = q[2][2];
-        q01[s] = 2 * q[0][1];
-        q02[s] = 2 * q[0][2];
-        q12[s] = 2 * q[1][2];
+        q00[s] = float(q[0][0]);
+        q11[s] = float(q[1][1]);
+        q22[s] = float(q[2][2]);
+        q01[s] = float(2 * q[0][1]);
+        q02[s] = float(2 * q[0][2]);
+        q12[s] = float(2 * q[1][2]);
     }
-    std::vector<double> dist(ns);
     auto owner = [&](const Coord& v) {
-        const double x = (v[0] + 0.5) * invM, y = (v[1] + 0.5) * invM, z = (v[2] + 0.5) * invM;
-        double* __restrict d = dist.data();
+        const float x = float((v[0] + 0.5) * invM - origin[0]), y = float((v[1] + 0.5) * invM - origin[1]),
+                    z = float((v[2] + 0.5) * invM - origin[2]);
+        float* __restrict d = dist;
         for (size_t s = 0; s < ns; ++s) {
-            const double a = x - px[s], b = y - py[s], c = z - pz[s];
+            const float a = x - px[s], b = y - py[s], c = z - pz[s];
             d[s] = q00[s] * a * a + q11[s] * b * b + q22[s] * c * c + q01[s] * a * b +
                    q02[s] * a * c + q12[s] * b * c;
         }
