@@ -17,8 +17,9 @@
 // Unique rocks are counted per region as Table 1 does: 2 vertex regions (the 2×2×2 cells
 // around a lattice vertex), 12 edge, 48 face and 256 centre regions.
 //
-// Periodic tiling (arches §5): one colour, Poisson-sphere seeds in the periodic cube,
-// Euclidean Voronoi cells and a Gaussian erosion resistance around the contacts.
+// Periodic tiling (arches §5): one colour, Poisson-sphere seeds in the periodic cube, Voronoi
+// cells of equal weight (g = 1: Euclidean with anisotropy 1,1,1 and no jitter; the frames and
+// extents still apply when set) and a Gaussian erosion resistance around the contacts.
 #pragma once
 
 #include <core/Field.h>
