@@ -1,6 +1,7 @@
 // Rock tiles (issue 6, aperiodic-rock-piles.txt §3–§5): corner-cube consistency across
 // compatible neighbours, contacts on both rocks' surfaces, no voxel in two rocks, erosion,
-// anisotropic (flat) rocks, determinism across threads, and bad parameters.
+// anisotropic (flat, not needle) rocks, determinism across threads, level-set distances and
+// the library, and bad parameters.
 #include <core/Error.h>
 #include <core/Random.h>
 #include <core/VdbIO.h>
@@ -42,7 +43,7 @@ bool sameRock(const Rock& a, const Rock& b)
 }
 
 // The principal extents of a rock's solid voxels, largest first (square roots of the
-// covariance eigenvalues); empty for rocks too small to measure.
+// covariance eigenvalues); zeros for rocks too small to measure.
 std::array<double, 3> extents(const Rock& r)
 {
     std::vector<openvdb::Vec3d> pts;
