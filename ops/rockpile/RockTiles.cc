@@ -328,7 +328,7 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
     rock.seed = seeds[size_t(self)];
     const double invM = 1.0 / double(m);
     // The nearest seed of voxel v (centre (v + ½)/m cells); ties go to the smaller key.
-    // d_k as a quadratic form Q_k = Σ_a s_a e_a e_aᵀ / g_k (6 coefficients, no division),
+    // d_k as a quadratic form Q_k = Σ_a w_a e_a e_aᵀ / g_k (w_a = 1/α_a², 6 coefficients),
     // in single precision relative to the rock's cell (every position within 2 cells), the
     // seeds laid out by coefficient so the distance loops vectorise.
     const size_t ns = seeds.size();
@@ -385,7 +385,7 @@ Rock makeRock(const TileParams& p, const Coord& cell, int index, const Colouring
     const Coord start(int(std::floor(ps[0] * m)), int(std::floor(ps[1] * m)),
                       int(std::floor(ps[2] * m)));
     std::vector<Coord> queue;
-    std::vector<uint8_t> touches(ns, 0); // the seeds owning a face neighbour of the cell
+    std::vector<uint8_t> touches(ns, 0); // the seeds owning a face neighbour of the rock
     for (int i = -1; i <= 1 && queue.empty(); ++i)
         for (int j = -1; j <= 1 && queue.empty(); ++j)
             for (int k = -1; k <= 1 && queue.empty(); ++k) {
