@@ -1,14 +1,106 @@
 #!/usr/bin/env bash
-# Demo: a small rocky scene (fBm terrain + five warped boulders, smooth-unioned, each with
-# its id) baked to a level set with a block_id grid, then a shaded preview tinted by id.
-# usage: samples/01_demo.sh BUILD_DIR OUT_DIR
+# The flagship scene: a sea cliff of fractured rock with a scree of boulders at its foot,
+# every method of the suite joined in one pipeline of vdb_* tools, from procedural inputs only.
+#   1. two block tiles (implicit-blocks §4): equidimensional and tabular
+#   2. a procedural sea-cliff heightfield amplified with them in two strata (§5: tabular
+#      above, equidimensional below), piped into surface detail (gradient warp, §4.2, and
+#      horizontal Gabor ridges, gabor-details §3)
+#   3. a corner-cube rock tile set (aperiodic-rock-piles) filling a scree wedge against the
+#      cliff foot (the support is the wedge minus the terrain), piped into a CSG union with the
+#      cliff that carries every id grid
+#   4. a shaded preview tinted by material: 0 terrain, 1 equidimensional blocks, 2 tabular
+#      blocks, 3 scree rocks
+# usage: samples/01_demo.sh BUILD_DIR OUT_DIR [--quality draft|default|high]
+#        (or ROCKVDB_QUALITY=draft|default|high); writes OUT_DIR/demo.vdb and demo.png
 set -euo pipefail
 BUILD="${1:-build}"
 OUT="${2:-out}"
-HERE="$(cd "$(dirname "$0")" && pwd)"
+QUALITY="${ROCKVDB_QUALITY:-default}"
+if [ "${3:-}" = "--quality" ]; then QUALITY="${4:?--quality needs draft, default or high}"; fi
+case "$QUALITY" in
+    draft)   VOXEL=0.25; CELLS=4;  HF_CELL=0.5 ;;  # a quick look (tests use it)
+    default) VOXEL=0.1;  CELLS=10; HF_CELL=0.5 ;;  # ~2 minutes on 2 cores
+    high)    VOXEL=0.05; CELLS=20; HF_CELL=0.25 ;; # the papers' 5 cm (rocks: 20 voxels/cell)
+    *) echo "01_demo.sh: --quality must be draft, default or high (got '$QUALITY')" >&2; exit 2 ;;
+esac
+B="$BUILD/vdbtools"
 mkdir -p "$OUT"
-"$BUILD/vdbtools/vdb_primitive" --voxel-size 0.05 --seed 1 -o "$OUT/demo.vdb" \
-    expr "$HERE/demo_scene.json" --attribute block_id
-"$BUILD/vdbtools/vdb_preview" "$OUT/demo.vdb" --ids block_id --azimuth 225 --elevation 35 \
-    --zoom 1.5 -o "$OUT/demo.png"
-"$BUILD/vdbtools/vdb_info" "$OUT/demo.vdb"
+
+# One line per stage: name, seconds, and what its output holds (vdb_info --brief).
+SUMMARY=()
+stage() {  # stage NAME OUTPUT COMMAND...
+    local name="$1" output="$2" t0 t1
+    shift 2
+    t0=$(date +%s.%N)
+    "$@"
+    t1=$(date +%s.%N)
+    local what
+    case "$output" in
+        *.png) what="$(basename "$output")  $(du -h "$output" | cut -f1)" ;;
+        *) what="$("$B/vdb_info" --brief "$output" | sed "s|^$OUT/||")" ;;
+    esac
+    SUMMARY+=("$(printf '%-30s %7.1f s   %s' "$name" "$(awk "BEGIN {print $t1 - $t0}")" "$what")")
+}
+
+# The terrain: an 80 x 60 m sea cliff (plateau 28 m, face 9 m wide, wavy coast along y).
+SAMPLES="[$(awk "BEGIN {print 80 / $HF_CELL + 1}"), $(awk "BEGIN {print 60 / $HF_CELL + 1}")]"
+CLIFF="{\"type\": \"sea_cliff\", \"samples\": $SAMPLES, \"cell_size\": $HF_CELL,
+        \"height\": 28, \"coast\": 36, \"width\": 9, \"waviness\": 5, \"roughness\": 0.6,
+        \"seed\": 7, \"base_depth\": 4}"
+echo "$CLIFF" > "$OUT/demo_terrain.json"
+cat > "$OUT/demo_strata.json" <<'JSON'
+{"normal": [0.15, 0, 1], "noise": {"amplitude": 1.5, "frequency": 0.08, "seed": 2},
+ "layers": [{"tile": "demo_equi", "top": 15}, {"tile": "demo_tabular"}]}
+JSON
+# The scree: a wedge against the cliff foot, its top at the angle of repose (~34 degrees)
+# falling from 8 m to the sea floor, its ends sloping too; the terrain is cut out of it.
+cat > "$OUT/demo_scree.json" <<JSON
+{"type": "difference", "children": [
+  {"type": "polytope", "smooth": 1.0, "planes": [
+    [0.559, 0, 0.829, 28.5], [0, 0.559, 0.829, 29.0], [0, -0.559, 0.829, -5.6],
+    [0, 0, -1, 1], [-1, 0, 0, -28]]},
+  $CLIFF]}
+JSON
+
+tiles() {
+    "$B/vdb_blocks" -q --type equidimensional --tile-size 10 --seed 3 --voxel-size 0.2 \
+        -o "$OUT/demo_equi.vdb" --tile "$OUT/demo_equi.tile"
+    "$B/vdb_blocks" -q --type tabular --tile-size 10 --seed 4 --voxel-size 0.2 \
+        -o "$OUT/demo_tabular.vdb" --tile "$OUT/demo_tabular.tile"
+}
+cliff() {
+    "$B/vdb_amplify" -q --terrain "$OUT/demo_terrain.json" \
+        --tiles "$OUT/demo_equi.tile,$OUT/demo_tabular.tile" --strata "$OUT/demo_strata.json" \
+        --max-slope 0.6 --distance-range=-1.5,1 --voxel-size "$VOXEL" -o - |
+    "$B/vdb_detail" -q - --warp-amplitude 0.12 --warp-scale 3 \
+        --gabor-amplitude 0.08 --gabor-frequency 1.2 --direction-axis 0,0,1 \
+        -o "$OUT/demo_cliff.vdb"
+}
+rocks() {
+    "$B/vdb_rockpile" -q tiles --n 5 --cube-size 5 --voxels-per-cell "$CELLS" \
+        --seeds-per-cell 1,3 --anisotropy 1.6,1.3,1 --seed 5 -o "$OUT/demo_rocks.tiles"
+}
+scree() {
+    "$B/vdb_rockpile" -q pile --tiles "$OUT/demo_rocks.tiles" --support "$OUT/demo_scree.json" \
+        --material 3 -o - |
+    "$B/vdb_csg" -q union "$OUT/demo_cliff.vdb" - -o "$OUT/demo.vdb"
+}
+preview() {
+    "$B/vdb_preview" "$OUT/demo.vdb" --ids material \
+        --palette '0=#9a9184,1=#c8ae86,2=#b58a7c,3=#7d8792' \
+        --azimuth -38 --elevation 24 --zoom 1.5 --width 1280 --height 720 \
+        -o "$OUT/demo.png" 2> "$OUT/demo_preview.txt"
+}
+
+T0=$(date +%s.%N)
+stage "block tiles (vdb_blocks x2)" "$OUT/demo_tabular.vdb" tiles
+stage "cliff (vdb_amplify | detail)" "$OUT/demo_cliff.vdb" cliff
+stage "rock tiles (vdb_rockpile)" "$OUT/demo_rocks.tiles" rocks
+stage "scree (rockpile pile | csg)" "$OUT/demo.vdb" scree
+stage "preview (vdb_preview)" "$OUT/demo.png" preview
+{
+    echo "rockvdb demo ($QUALITY: ${VOXEL} m voxels) in $OUT:"
+    printf '  %s\n' "${SUMMARY[@]}"
+    printf '  %-30s %7.1f s\n' "total" "$(awk "BEGIN {print $(date +%s.%N) - $T0}")"
+    echo "  preview: $(sed 's/^vdb_preview: //' "$OUT/demo_preview.txt") (material ids)"
+} >&2

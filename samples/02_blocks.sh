@@ -8,7 +8,7 @@ OUT="${2:-out}"
 TYPE="${3:-tabular}"
 mkdir -p "$OUT"
 "$BUILD/vdbtools/vdb_blocks" --type "$TYPE" --tile-size 20 --seed 7 --voxel-size 0.1 \
-    -o "$OUT/$TYPE.vdb" --tile "$OUT/$TYPE.tile"
-"$BUILD/vdbtools/vdb_preview" "$OUT/$TYPE.vdb" --ids block_id --azimuth 30 --elevation 25 --zoom 1.4 \
-    -o "$OUT/$TYPE.png"
-"$BUILD/vdbtools/vdb_info" "$OUT/$TYPE.vdb" | head -4
+    -o "$OUT/blocks_$TYPE.vdb" --tile "$OUT/blocks_$TYPE.tile"
+"$BUILD/vdbtools/vdb_preview" "$OUT/blocks_$TYPE.vdb" --ids block_id --azimuth 30 --elevation 25 --zoom 1.4 \
+    -o "$OUT/blocks_$TYPE.png"
+"$BUILD/vdbtools/vdb_info" "$OUT/blocks_$TYPE.vdb" | head -4

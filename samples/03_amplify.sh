@@ -9,7 +9,7 @@ OUT="${2:-out}"
 VOXEL="${3:-0.1}"
 mkdir -p "$OUT"
 # The heightfield: a 25 m plateau falling over ~8 m to the sea floor along a wavy coastline.
-PYTHONPATH="$BUILD/python" /usr/bin/python3 - "$OUT/cliff.exr" <<'PY'
+PYTHONPATH="$BUILD/python" /usr/bin/python3 - "$OUT/amplify_cliff.exr" <<'PY'
 import sys
 import numpy as np
 import rockvdb
@@ -20,15 +20,15 @@ t = np.clip((coast - x) / 8.0 + 0.5, 0, 1)
 rockvdb.write_heightfield(sys.argv[1], (25 * t * t * (3 - 2 * t)).astype(np.float32))
 PY
 "$BUILD/vdbtools/vdb_blocks" --type equidimensional --tile-size 10 --seed 3 --voxel-size 0.2 \
-    -o "$OUT/equi.vdb" --tile "$OUT/equi.tile"
+    -o "$OUT/amplify_equi.vdb" --tile "$OUT/amplify_equi.tile"
 "$BUILD/vdbtools/vdb_blocks" --type tabular --tile-size 10 --seed 4 --voxel-size 0.2 \
-    -o "$OUT/tabular.vdb" --tile "$OUT/tabular.tile"
-cat > "$OUT/strata.json" <<'JSON'
+    -o "$OUT/amplify_tabular.vdb" --tile "$OUT/amplify_tabular.tile"
+cat > "$OUT/amplify_strata.json" <<'JSON'
 {"normal": [0.2, 0, 1], "noise": {"amplitude": 1.5, "frequency": 0.08, "seed": 2},
- "layers": [{"tile": "equi", "top": 14}, {"tile": "tabular"}]}
+ "layers": [{"tile": "amplify_equi", "top": 14}, {"tile": "amplify_tabular"}]}
 JSON
-"$BUILD/vdbtools/vdb_amplify" --terrain "$OUT/cliff.exr" --cell-size 0.5 --height-scale 1 \
-    --tiles "$OUT/equi.tile,$OUT/tabular.tile" --strata "$OUT/strata.json" --max-slope 0.6 \
-    --distance-range -1.5,1 --voxel-size "$VOXEL" -o "$OUT/cliff.vdb"
-"$BUILD/vdbtools/vdb_preview" "$OUT/cliff.vdb" --ids material --azimuth -60 --elevation 20 \
-    --zoom 1.3 -o "$OUT/cliff.png"
+"$BUILD/vdbtools/vdb_amplify" --terrain "$OUT/amplify_cliff.exr" --cell-size 0.5 --height-scale 1 \
+    --tiles "$OUT/amplify_equi.tile,$OUT/amplify_tabular.tile" --strata "$OUT/amplify_strata.json" --max-slope 0.6 \
+    --distance-range -1.5,1 --voxel-size "$VOXEL" -o "$OUT/amplify_cliff.vdb"
+"$BUILD/vdbtools/vdb_preview" "$OUT/amplify_cliff.vdb" --ids material --azimuth -60 --elevation 20 \
+    --zoom 1.3 -o "$OUT/amplify_cliff.png"

@@ -8,9 +8,9 @@ OUT="${2:-out}"
 VOXEL="${3:-0.03}"
 mkdir -p "$OUT"
 "$BUILD/vdbtools/vdb_blocks" -q --type tabular --tile-size 6 --point-radius 0.3 --seed 4 \
-    --warp-amplitude 0 --voxel-size "$VOXEL" -o "$OUT/plain.vdb"
-"$BUILD/vdbtools/vdb_detail" "$OUT/plain.vdb" --warp-amplitude 0.03 --warp-scale 0.8 \
+    --warp-amplitude 0 --voxel-size "$VOXEL" -o "$OUT/detail_plain.vdb"
+"$BUILD/vdbtools/vdb_detail" "$OUT/detail_plain.vdb" --warp-amplitude 0.03 --warp-scale 0.8 \
     --gabor-amplitude 0.025 --gabor-frequency 5 --direction-curvature --tilt 20,0 \
-    -o "$OUT/detailed.vdb"
-"$BUILD/vdbtools/vdb_preview" "$OUT/detailed.vdb" --azimuth 35 --elevation 25 --zoom 1.4 \
-    -o "$OUT/detailed.png"
+    -o "$OUT/detail_tabular.vdb"
+"$BUILD/vdbtools/vdb_preview" "$OUT/detail_tabular.vdb" --azimuth 35 --elevation 25 --zoom 1.4 \
+    -o "$OUT/detail_tabular.png"

@@ -195,11 +195,19 @@ CLI::Option* Tool::addOutput(CLI::App& where, const std::string& help)
     return where.add_option("-o,--output", mOutput, help)->required();
 }
 
-void Tool::addBakeOptions(CLI::App& where)
+void Tool::addBakeOptions(CLI::App& where, bool inputDefaults)
 {
-    where.add_option("--voxel-size", mBake.voxelSize, "Voxel edge length (m)")->capture_default_str();
-    where.add_option("--half-width", mBake.halfWidth, "Narrow-band half width (voxels)")
-        ->capture_default_str();
+    if (inputDefaults) {
+        where.add_option("--voxel-size", mBake.voxelSize,
+                         "Voxel edge length (m) [default: the input's]");
+        where.add_option("--half-width", mBake.halfWidth,
+                         "Narrow-band half width (voxels) [default: the input's]");
+    } else {
+        where.add_option("--voxel-size", mBake.voxelSize, "Voxel edge length (m)")
+            ->capture_default_str();
+        where.add_option("--half-width", mBake.halfWidth, "Narrow-band half width (voxels)")
+            ->capture_default_str();
+    }
     where.add_option("--renormalize", mBake.renormalize,
                      "Renormalise non-exact fields to distances: auto|on|off")
         ->check(CLI::IsMember({"auto", "on", "off"}))->capture_default_str();

@@ -60,7 +60,9 @@ public:
     /// @name Shared options (call the ones the tool needs before run()).
     /// @{
     CLI::Option* addOutput(CLI::App& where, const std::string& help);
-    void addBakeOptions(CLI::App& where);
+    /// With @a inputDefaults, --voxel-size and --half-width default to the input grid's
+    /// (the tool sets them; --help says so).
+    void addBakeOptions(CLI::App& where, bool inputDefaults = false);
     void addSeed(CLI::App& where);
     /// @}
 

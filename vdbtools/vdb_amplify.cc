@@ -25,7 +25,7 @@ int main(int argc, char** argv)
         "than --fraction of its anchors lie within --distance-range of the terrain surface on "
         "ground steeper than --max-slope (|g.u_z| < max-slope). The kept copies are united with "
         "the terrain. Writes 'surface', 'block_id' (block index, -1 on bare terrain) and "
-        "'material' (tile index of the block, -1 on bare terrain). With several tiles a strata "
+        "'material' (0 on bare terrain, 1 + the tile's index on its blocks). With several tiles a strata "
         "file chooses the tile by elevation (the material of sec. 5). The heightfield "
         "convention is vdb_heightfield's.");
     CLI::App& app = tool.app();
@@ -36,7 +36,9 @@ int main(int argc, char** argv)
     amplify::PlacementRules rules;
     std::vector<double> range{rules.distanceMin, rules.distanceMax};
     app.add_option("--terrain", terrain,
-                   "Heightfield .exr / 16-bit .png, or a terrain level set .vdb")->required();
+                   "Heightfield .exr / 16-bit .png, a procedural heightfield .json (a sea_cliff, "
+                   "noise_terrain or heightfield node, as vdb_primitive expr reads), or a "
+                   "terrain level set .vdb ('-' = a .vdb on stdin)")->required();
     std::string terrainGrid = "surface";
     app.add_option("--terrain-grid", terrainGrid, "Level-set grid name in a .vdb terrain")
         ->capture_default_str();
@@ -105,9 +107,26 @@ int main(int argc, char** argv)
                 amplify::Strata::fromJson(readJsonFile(strataFile), names));
         }
         FieldPtr ground;
-        const bool isVdb = terrain.size() > 4 && terrain.substr(terrain.size() - 4) == ".vdb";
-        if (isVdb) {
+        auto endsWith = [&](const char* ext) {
+            const std::string e(ext);
+            return terrain.size() > e.size() && terrain.substr(terrain.size() - e.size()) == e;
+        };
+        if (endsWith(".vdb") || terrain == "-") {
             ground = amplify::levelSetTerrain(readLevelSet(terrain, terrainGrid), rules);
+        } else if (endsWith(".json")) {
+            // A procedural heightfield (sea_cliff, noise_terrain, heightfield): its exact
+            // distance and footprint, as for an image.
+            ExpressionContext ctx;
+            const auto slash = terrain.find_last_of('/');
+            ctx.baseDir = slash == std::string::npos ? "." : terrain.substr(0, slash);
+            auto node = heightfieldFromJson(readJsonFile(terrain), ctx);
+            if (!node) {
+                fail<ValueError>("amplify: a JSON terrain must be a heightfield node (sea_cliff, "
+                                 "noise_terrain or heightfield); bake other expressions with "
+                                 "vdb_primitive expr and pass the .vdb (", terrain, ")");
+            }
+            cellSize = node->heightfield->cellSize;
+            ground = amplify::heightfieldTerrain(node->heightfield, node->baseDepth, rules);
         } else {
             ground = amplify::heightfieldTerrain(
                 std::make_shared<Heightfield>(loadHeightfield(terrain, cellSize, heightScale)),

@@ -28,7 +28,7 @@ int main(int argc, char** argv)
         "grid 'block_id' (float ids) over --periods tile periods, the tile description as "
         "metadata 'rockvdb:tile' (and with --tile as a standalone .tile file, what vdb_amplify "
         "reads), and statistics like the paper's Table 1 on stderr, ending with the line "
-        "'generation: N.NNN s' (sampling through hulls).");
+        "'vdb_blocks: generation: N.NNN s' (sampling through hulls).");
     CLI::App& app = tool.app();
     TileParams p;
     std::string type = "equidimensional", fractures, authored, tileOut, fromTile, meshes;
@@ -85,12 +85,16 @@ int main(int argc, char** argv)
     app.add_option("--from-tile", fromTile,
                    "Bake an existing tile (.tile or a vdb_blocks .vdb) instead of generating one");
     app.add_option("--meshes", meshes, "Write one mesh per block (home frame) to .obj or .ply");
+    std::string up = "z";
+    app.add_option("--up", up, "Up axis of the --meshes file: z (rockvdb) or y (Blender's OBJ "
+                               "import default, Houdini)")->capture_default_str();
     tool.addSeed(app);
     tool.addBakeOptions(app);
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
 
     return tool.run(argc, argv, [&] {
         const BakeSettings settings = tool.bake().settings();
+        const UpAxis upAxis = upAxisFromString(up, "blocks: --up");
         {
             // The tile field is exact up to s/4 from the blocks; a renormalised bake reads
             // values up to about 2·band + a voxel + 2·amplitude. Refuse before generating.
@@ -145,7 +149,8 @@ int main(int argc, char** argv)
                           "hulls %.3f s",
                           s.sampling, s.graph, s.fracturing, s.clustering, s.hulls);
             tool.info(line);
-            std::fprintf(stderr, "generation: %.3f s\n", s.generation);
+            std::snprintf(line, sizeof line, "generation: %.3f s", s.generation);
+            tool.info(line);
         }
         TileFieldOptions opt;
         opt.periods = {periods[0], periods[1], periods[2]};
@@ -177,7 +182,7 @@ int main(int argc, char** argv)
                 auto g = bake(*blockField(tile, j), one).surface;
                 appendMesh(all, meshLevelSet(*g), int(j));
             }
-            writeMesh(all, meshes);
+            writeMesh(all, meshes, upAxis);
             tool.info("wrote " + std::to_string(tile->blocks.size()) + " block meshes to " + meshes);
         }
     });

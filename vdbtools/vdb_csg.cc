@@ -7,6 +7,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <map>
+
 using namespace rockvdb;
 
 int main(int argc, char** argv)
@@ -14,7 +17,7 @@ int main(int argc, char** argv)
     cli::Tool tool("vdb_csg",
         "Combine level sets: union, intersection or difference (the first minus the others), "
         "folded left to right; optional smooth radius (implicit-blocks §4.2 operator). Inputs "
-        "on other voxel sizes are resampled onto the first.");
+        "on other voxel sizes are resampled onto the first. The inputs' id grids come along.");
     CLI::App& app = tool.app();
     std::string op;
     std::vector<std::string> inputs;
@@ -26,6 +29,11 @@ int main(int argc, char** argv)
         ->expected(1, 1 << 20);
     app.add_option("--grid", gridName, "Level-set grid to read from each input")->capture_default_str();
     app.add_option("--smooth", smooth, "Smooth blend radius R (m); 0 = hard CSG")->capture_default_str();
+    bool noIds = false;
+    app.add_flag("--no-ids", noIds,
+                 "Do not carry the inputs' id grids (block_id, rock_id, material, ...). By "
+                 "default each is carried: a voxel takes the id of the input whose surface the "
+                 "result follows there (in a difference, the first input's)");
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
 
     return tool.run(argc, argv, [&] {
@@ -34,9 +42,25 @@ int main(int argc, char** argv)
             fail<ValueError>("csg: stdin ('-') can be given only once");
         }
         std::vector<openvdb::FloatGrid::ConstPtr> grids;
+        // Each input's id grids (float grids that are not level sets: block_id, rock_id,
+        // material), by name in order of first appearance.
+        std::vector<std::string> idNames;
+        std::vector<std::map<std::string, openvdb::FloatGrid::ConstPtr>> idGrids;
         nlohmann::json sources = nlohmann::json::array();
         for (const auto& path : inputs) {
-            auto g = readLevelSet(path, gridName);
+            auto all = readGrids(path);
+            auto g = findLevelSet(*all, gridName, path == "-" ? "<stdin>" : path);
+            idGrids.emplace_back();
+            if (!noIds) {
+                for (const auto& gb : *all) {
+                    auto f = openvdb::gridPtrCast<openvdb::FloatGrid>(gb);
+                    if (!f || f == g || f->getGridClass() == openvdb::GRID_LEVEL_SET) continue;
+                    if (!idGrids.back().emplace(f->getName(), f).second) continue;
+                    if (std::find(idNames.begin(), idNames.end(), f->getName()) == idNames.end()) {
+                        idNames.push_back(f->getName());
+                    }
+                }
+            }
             nlohmann::json src = {{"file", path}};
             if (auto p = provenance(*g)) {
                 src["generator"] = p->generator;
@@ -49,7 +73,23 @@ int main(int argc, char** argv)
         nlohmann::json params = nlohmann::json::parse(tool.paramsJson());
         params["sources"] = sources;
         stampProvenance(*result, tool.name(), params.dump());
-        tool.info(std::to_string(result->activeVoxelCount()) + " active voxels");
-        writeGrids(tool.output(), {result});
+        openvdb::GridCPtrVec out{result};
+        for (const auto& name : idNames) {
+            std::vector<openvdb::FloatGrid::ConstPtr> ids;
+            for (const auto& m : idGrids) {
+                auto it = m.find(name);
+                ids.push_back(it == m.end() ? nullptr : it->second);
+            }
+            auto carried = csgAttribute(csgOpFromString(op), grids, ids, *result, name);
+            stampProvenance(*carried, tool.name(), params.dump());
+            out.push_back(carried);
+        }
+        tool.info(std::to_string(result->activeVoxelCount()) + " active voxels" +
+                  (idNames.empty() ? std::string() : ", id grids carried: " + [&] {
+                      std::string s;
+                      for (const auto& n : idNames) s += (s.empty() ? "" : ", ") + n;
+                      return s;
+                  }()));
+        writeGrids(tool.output(), out);
     });
 }

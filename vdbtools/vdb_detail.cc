@@ -50,7 +50,8 @@ int main(int argc, char** argv)
     app.add_option("--gabor-amplitude", g.amplitude, "Gabor: largest displacement (m); 0 = off")
         ->capture_default_str();
     app.add_option("--gabor-frequency", g.frequency,
-                   "Gabor: F0, cycles per metre (below the voxel Nyquist limit)")->capture_default_str();
+                   "Gabor: F0, cycles per metre (below the voxel Nyquist limit); 0 = 1/(10 x "
+                   "amplitude), ridges ten times as wide as they are high")->capture_default_str();
     app.add_option("--gabor-bandwidth", g.bandwidth, "Gabor: a (1/m); 0 = F0/2")->capture_default_str();
     app.add_option("--gabor-orientation", g.orientationDeg,
                    "Gabor: frequency direction in the frame, degrees from t towards b")
@@ -89,7 +90,7 @@ int main(int argc, char** argv)
     app.add_option("--blend-mask-grid", blendGrid,
                    "Grid name in --blend-mask (default: its only or first float grid)");
     tool.addSeed(app);
-    tool.addBakeOptions(app);
+    tool.addBakeOptions(app, /*inputDefaults=*/true);
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
 
     return tool.run(argc, argv, [&] {
@@ -107,7 +108,7 @@ int main(int argc, char** argv)
         if (app.count("--half-width") == 0) {
             settings.halfWidth = double(grid->background()) / grid->voxelSize()[0];
         }
-        settings.gridName = grid->getName();
+        settings.gridName = grid->getName().empty() ? "surface" : grid->getName();
         nlohmann::json o = {
             {"warp_amplitude", p.warp.amplitude}, {"warp_relief", relief},
             {"warp_scale", p.warp.scale}, {"warp_octaves", p.warp.octaves},
@@ -149,6 +150,9 @@ int main(int argc, char** argv)
                       r.stats.fillSeconds, r.stats.finishSeconds);
         tool.info(line);
         nlohmann::json prov = nlohmann::json::parse(tool.paramsJson());
+        // What was used, not the option's unset default: the input's voxel size and band.
+        prov["voxel-size"] = settings.voxelSize;
+        prov["half-width"] = settings.halfWidth;
         if (auto src = provenance(*grid)) {
             prov["source"] = {{"generator", src->generator},
                                 {"params", nlohmann::json::parse(src->params, nullptr, false)}};

@@ -7,6 +7,8 @@
 
 #include <iostream>
 
+#include <sys/stat.h>
+
 using namespace rockvdb;
 
 int main(int argc, char** argv)
@@ -18,12 +20,16 @@ int main(int argc, char** argv)
     bool asJson = false;
     app.add_option("inputs", inputs, "Input .vdb files ('-' = stdin)")->required()->expected(1, 1 << 20);
     app.add_flag("--json", asJson, "Print one JSON document (provenance parameters in full)");
+    bool brief = false;
+    app.add_flag("--brief", brief, "One line per file: its size and each grid's active voxels");
 
     return tool.run(argc, argv, [&] {
         nlohmann::json files = nlohmann::json::array();
         for (const auto& path : inputs) {
             auto grids = readGrids(path);
             nlohmann::json jf = {{"file", path}, {"grids", nlohmann::json::array()}};
+            struct stat st;
+            if (path != "-" && ::stat(path.c_str(), &st) == 0) jf["file_bytes"] = uint64_t(st.st_size);
             for (const auto& g : *grids) {
                 if (!g) continue;
                 const auto ibox = g->evalActiveVoxelBoundingBox();
@@ -50,6 +56,24 @@ int main(int argc, char** argv)
         }
         if (asJson) {
             std::cout << files.dump(2) << "\n";
+            return;
+        }
+        if (brief) {
+            for (const auto& jf : files) {
+                std::cout << jf["file"].get<std::string>();
+                if (jf.contains("file_bytes")) {
+                    std::cout << "  " << formatBytes(jf["file_bytes"].get<double>());
+                }
+                // Level sets first, then the others, each in file order.
+                for (const bool levelSets : {true, false}) {
+                    for (const auto& jg : jf["grids"]) {
+                        if ((jg["class"].get<std::string>() == "level set") != levelSets) continue;
+                        std::cout << "  " << jg["name"].get<std::string>() << " "
+                                  << jg["active_voxels"].get<uint64_t>();
+                    }
+                }
+                std::cout << "\n";
+            }
             return;
         }
         for (const auto& jf : files) {

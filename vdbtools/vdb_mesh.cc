@@ -17,14 +17,18 @@ int main(int argc, char** argv)
     app.add_option("--grid", gridName, "Level-set grid to mesh")->capture_default_str();
     app.add_option("--isovalue", isovalue, "Iso-surface value (m)")->capture_default_str();
     app.add_option("--adaptivity", adaptivity, "0 = uniform .. 1 = most adaptive")->capture_default_str();
+    std::string up = "z";
+    app.add_option("--up", up, "Up axis of the written mesh: z (rockvdb) or y (what Blender's "
+                               "OBJ import expects by default, Houdini)")->capture_default_str();
     tool.addOutput(app, "Output .obj or .ply ('-' = OBJ on stdout)");
 
     return tool.run(argc, argv, [&] {
+        const UpAxis upAxis = upAxisFromString(up, "mesh: --up");
         auto grid = readLevelSet(input, gridName);
         const Mesh mesh = meshLevelSet(*grid, isovalue, adaptivity);
         tool.info(std::to_string(mesh.points.size()) + " points, " +
                   std::to_string(mesh.triangles.size()) + " triangles, " +
                   std::to_string(mesh.quads.size()) + " quads");
-        writeMesh(mesh, tool.output());
+        writeMesh(mesh, tool.output(), upAxis);
     });
 }

@@ -5,6 +5,8 @@
 #include <core/Preview.h>
 #include <core/VdbIO.h>
 
+#include <cstdio>
+
 using namespace rockvdb;
 
 int main(int argc, char** argv)
@@ -24,9 +26,14 @@ int main(int argc, char** argv)
     app.add_option("--elevation", s.elevation, "Camera angle above the ground (degrees)")->capture_default_str();
     app.add_option("--fov", s.fov, "Vertical field of view (degrees)")->capture_default_str();
     app.add_option("--zoom", s.zoom, "> 1 moves the camera closer")->capture_default_str();
+    std::string palette;
+    app.add_option("--palette", palette,
+                   "Colours per id for --ids, ID=#rrggbb[,ID=#rrggbb...] (sRGB); other ids get "
+                   "a colour hashed from the id");
     tool.addOutput(app, "Output .png");
 
     return tool.run(argc, argv, [&] {
+        if (!palette.empty()) s.palette = parsePalette(palette, "preview: --palette");
         s.validate();
         auto grids = readGrids(input);
         const std::string src = input == "-" ? "<stdin>" : input;
@@ -38,6 +45,21 @@ int main(int argc, char** argv)
             }
             if (!ids) fail<ValueError>("no float grid '", idsName, "' in '", src, "'");
         }
-        writePreview(*grid, tool.output(), s, ids.get());
+        PreviewStats st;
+        writePreview(*grid, tool.output(), s, ids.get(), &st);
+        // What the picture shows, per id: a part that is hidden shows up here as 0%.
+        char line[64];
+        std::snprintf(line, sizeof line, "surface %.1f%% of the image",
+                      100.0 * double(st.surfacePixels) / double(st.pixels));
+        std::string msg = line;
+        if (ids) {
+            msg += "; by " + idsName + ":";
+            for (const auto& [id, n] : st.idPixels) {
+                std::snprintf(line, sizeof line, " %d %.1f%%", id,
+                              100.0 * double(n) / double(st.pixels));
+                msg += line;
+            }
+        }
+        tool.info(msg);
     });
 }

@@ -72,6 +72,17 @@ int main(int argc, char** argv)
                      "The pile's shape: a level set .vdb, a JSON expression of primitives "
                      "(.json, as vdb_primitive expr) or a closed mesh (.obj, .stl, .ply)")
         ->required();
+    rockpile::SupportOptions supportOptions;
+    std::string up = "z";
+    pile->add_option("--support-grid", supportOptions.grid,
+                     "Level set to read from a .vdb support (default: 'surface', else the "
+                     "file's only level set)");
+    pile->add_option("--up", up, "Up axis of a mesh support: z (rockvdb) or y (Blender's OBJ "
+                                 "export default, Houdini)")->capture_default_str();
+    pile->add_option("--material", pp.material,
+                     "Also write grid 'material' holding this id on every rock voxel (to unite "
+                     "the pile with other stages' material grids); -1 = none")
+        ->capture_default_str();
     pile->add_option("--threshold", pp.threshold,
                      "Place a rock when this fraction of its anchors (voxel centres and seed) "
                      "is inside")->capture_default_str();
@@ -96,7 +107,9 @@ int main(int argc, char** argv)
             pp.dropDeep = !keepDeep;
             pp.seed = tool.seed();
             pp.validate();
-            const FieldPtr support = rockpile::loadSupport(supportPath, set, tool.seed());
+            supportOptions.up = upAxisFromString(up, "rockpile: --up");
+            const FieldPtr support = rockpile::loadSupport(supportPath, set, tool.seed(),
+                                                           supportOptions);
             rockpile::PileStats st;
             auto instances = rockpile::selectRocks(set, *support, pp, &st);
             rockpile::Pile result = rockpile::buildPile(set, instances, pp);
@@ -118,9 +131,13 @@ int main(int argc, char** argv)
                 stampProvenance(*lib, tool.name(), tool.paramsJson());
                 writeGrids(pileLibrary, {lib});
             }
-            stampProvenance(*result.surface, tool.name(), tool.paramsJson());
-            stampProvenance(*result.rockId, tool.name(), tool.paramsJson());
-            writeGrids(tool.output(), {result.surface, result.rockId});
+            openvdb::GridCPtrVec out{result.surface, result.rockId};
+            if (result.material) out.push_back(result.material);
+            for (auto& g : out) {
+                stampProvenance(*openvdb::ConstPtrCast<openvdb::GridBase>(g), tool.name(),
+                                tool.paramsJson());
+            }
+            writeGrids(tool.output(), out);
             return;
         }
         if (tiling == "aperiodic") p.tiling = rockpile::Tiling::Aperiodic;

@@ -330,10 +330,13 @@ openvdb::FloatGrid::Ptr splitMaterial(openvdb::FloatGrid& ids)
     material->setName("material");
     for (auto it = ids.beginValueOn(); it; ++it) {
         const float id = it.getValue();
-        if (id < 0) continue;
+        if (id < 0) {
+            material->tree().setValueOn(it.getCoord(), kTerrainMaterial);
+            continue;
+        }
         const float tile = std::floor(id / kMaterialStride);
         it.setValue(id - tile * kMaterialStride);
-        material->tree().setValueOn(it.getCoord(), tile);
+        material->tree().setValueOn(it.getCoord(), tile + 1.0f);
     }
     return material;
 }

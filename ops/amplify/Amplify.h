@@ -120,8 +120,13 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
 /// Attribute ids of the amplified terrain: tile·kMaterialStride + block (terrain: kNoId).
 constexpr float kMaterialStride = 65536.0f;
 
+/// Material ids: bare terrain is 0, the blocks of tile k are k + 1 (so other stages' solids,
+/// e.g. a rock pile, can take the next ids and one 'material' grid names every part).
+constexpr float kTerrainMaterial = 0.0f;
+
 /// @brief Split a bake's ids (tile·kMaterialStride + block) in place into block indices and
-/// return the matching "material" grid (tile index; kNoId on bare terrain).
+/// return the matching "material" grid (kTerrainMaterial on bare terrain, 1 + tile index on
+/// blocks).
 openvdb::FloatGrid::Ptr splitMaterial(openvdb::FloatGrid& ids);
 
 /// @brief f̃ = f ∪ t: the terrain united with the present block copies of every tile (one

@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <fstream>
 #include <iterator>
 #include <set>
@@ -105,39 +106,79 @@ private:
                                                  num(n, "lacunarity", path, 2.0),
                                                  num(n, "gain", path, 0.5)));
         }
+        if (auto hf = buildHeightfield(type, n, path)) {
+            HeightfieldSettings hs;
+            hs.baseDepth = hf->baseDepth;
+            return heightfieldField(hf->heightfield, hs);
+        }
+        bad(path + "/type", "unknown type '" + type + "'");
+    }
+
+public:
+    /// The heightfield of a heightfield node (nullopt for other types).
+    std::optional<HeightfieldNode> buildHeightfield(const std::string& type, const json& n,
+                                                    const std::string& path)
+    {
         if (type == "heightfield") {
             allow(n, path, {"file", "cell_size", "height_scale", "base_depth"});
             const json& f = field(n, "file", path);
             if (!f.is_string()) bad(path + "/file", "expected a path string");
             std::string file = f.get<std::string>();
             if (!file.empty() && file[0] != '/') file = mCtx.baseDir + "/" + file;
-            auto hf = std::make_shared<Heightfield>(loadHeightfield(
-                file, num(n, "cell_size", path, 1.0), num(n, "height_scale", path, 1.0)));
-            HeightfieldSettings hs;
-            hs.baseDepth = num(n, "base_depth", path, 1.0);
-            return heightfieldField(hf, hs);
+            return HeightfieldNode{std::make_shared<Heightfield>(loadHeightfield(
+                                       file, num(n, "cell_size", path, 1.0),
+                                       num(n, "height_scale", path, 1.0))),
+                                   num(n, "base_depth", path, 1.0)};
         }
         if (type == "noise_terrain") {
             allow(n, path, {"samples", "cell_size", "amplitude", "frequency", "octaves", "seed",
                             "base_depth", "lacunarity", "gain"});
-            const json& s = field(n, "samples", path);
-            if (!s.is_array() || s.size() != 2 || !s[0].is_number_integer() ||
-                !s[1].is_number_integer()) {
-                bad(path + "/samples", "expected [nx, ny] integers");
-            }
+            const auto samples = sampleCount(n, path);
             noise::Fbm fbm;
             fbm.frequency = num(n, "frequency", path, 0.1);
             fbm.octaves = int(num(n, "octaves", path, 5));
             fbm.lacunarity = num(n, "lacunarity", path, 2.0);
             fbm.gain = num(n, "gain", path, 0.5);
-            auto hf = std::make_shared<Heightfield>(noiseHeightfield(
-                s[0].get<int>(), s[1].get<int>(), num(n, "cell_size", path, 1.0),
-                num(n, "amplitude", path, 1.0), fbm, seed(n, path)));
-            HeightfieldSettings hs;
-            hs.baseDepth = num(n, "base_depth", path, 1.0);
-            return heightfieldField(hf, hs);
+            return HeightfieldNode{std::make_shared<Heightfield>(noiseHeightfield(
+                                       samples[0], samples[1], num(n, "cell_size", path, 1.0),
+                                       num(n, "amplitude", path, 1.0), fbm, seed(n, path))),
+                                   num(n, "base_depth", path, 1.0)};
         }
-        bad(path + "/type", "unknown type '" + type + "'");
+        if (type == "sea_cliff") {
+            allow(n, path, {"samples", "cell_size", "height", "floor", "coast", "width",
+                            "waviness", "coast_frequency", "roughness", "roughness_frequency",
+                            "seed", "base_depth"});
+            SeaCliff c;
+            if (n.contains("samples")) {
+                const auto samples = sampleCount(n, path);
+                c.nx = samples[0];
+                c.ny = samples[1];
+            }
+            c.cellSize = num(n, "cell_size", path, c.cellSize);
+            c.height = num(n, "height", path, c.height);
+            c.floor = num(n, "floor", path, c.floor);
+            c.coast = num(n, "coast", path, 0.5 * (c.nx - 1) * c.cellSize);
+            c.width = num(n, "width", path, c.width);
+            c.waviness = num(n, "waviness", path, c.waviness);
+            c.coastFrequency = num(n, "coast_frequency", path, c.coastFrequency);
+            c.roughness = num(n, "roughness", path, c.roughness);
+            c.roughnessFrequency = num(n, "roughness_frequency", path, c.roughnessFrequency);
+            c.seed = seed(n, path);
+            return HeightfieldNode{std::make_shared<Heightfield>(seaCliffHeightfield(c)),
+                                   num(n, "base_depth", path, 1.0)};
+        }
+        return std::nullopt;
+    }
+
+private:
+    static std::array<int, 2> sampleCount(const json& n, const std::string& path)
+    {
+        const json& s = field(n, "samples", path);
+        if (!s.is_array() || s.size() != 2 || !s[0].is_number_integer() ||
+            !s[1].is_number_integer()) {
+            bad(path + "/samples", "expected [nx, ny] integers");
+        }
+        return {s[0].get<int>(), s[1].get<int>()};
     }
 
     [[noreturn]] static void bad(const std::string& path, const std::string& what)
@@ -201,6 +242,19 @@ private:
 FieldPtr fieldFromJson(const json& node, const ExpressionContext& ctx)
 {
     return Builder(ctx).build(node, "");
+}
+
+std::optional<HeightfieldNode> heightfieldFromJson(const json& node, const ExpressionContext& ctx)
+{
+    if (!node.is_object() || !node.contains("type") || !node["type"].is_string()) return std::nullopt;
+    Builder b(ctx);
+    try {
+        return b.buildHeightfield(node["type"].get<std::string>(), node, "");
+    } catch (const ValueError& e) {
+        const std::string msg = e.what();
+        if (msg.rfind("expression", 0) == 0) throw;
+        fail<ValueError>("expression: at /: ", msg);
+    }
 }
 
 FieldPtr fieldFromJsonText(const std::string& text, const ExpressionContext& ctx)

@@ -16,6 +16,9 @@
 //    "base_depth": d}                        (relative paths are relative to the JSON file)
 //   {"type": "noise_terrain", "samples": [nx, ny], "cell_size": c, "amplitude": a,
 //    "frequency": f, "octaves": n, "seed": s, "base_depth": d}
+//   {"type": "sea_cliff", "samples": [nx, ny], "cell_size": c, "height": h, "floor": f,
+//    "coast": x, "width": w, "waviness": a, "coast_frequency": f, "roughness": r,
+//    "roughness_frequency": f, "seed": s, "base_depth": d}   (see SeaCliff in Heightfield.h)
 // Unknown keys are errors (they are usually typos); messages give the JSON path.
 #pragma once
 
@@ -24,6 +27,8 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <string>
 
 namespace rockvdb {
@@ -36,6 +41,22 @@ struct ExpressionContext
 
 /// @brief Build a field from a parsed expression. @throw ValueError with the JSON path.
 FieldPtr fieldFromJson(const nlohmann::json& node, const ExpressionContext& ctx);
+
+struct Heightfield;
+
+/// A heightfield node (heightfield, noise_terrain, sea_cliff) as its heightfield and floor,
+/// for consumers that use the heightfield itself (vdb_amplify's exact terrain distance and
+/// footprint).
+struct HeightfieldNode
+{
+    std::shared_ptr<const Heightfield> heightfield;
+    double baseDepth = 1.0;
+};
+
+/// @brief The heightfield of @a node when it is a heightfield node; nullopt otherwise.
+/// @throw ValueError with the JSON path for a malformed heightfield node.
+std::optional<HeightfieldNode> heightfieldFromJson(const nlohmann::json& node,
+                                                   const ExpressionContext& ctx);
 
 /// @brief Parse text then build. @throw ValueError for malformed JSON (with line/column).
 FieldPtr fieldFromJsonText(const std::string& text, const ExpressionContext& ctx);

@@ -7,6 +7,7 @@
 #include <openvdb/tools/Composite.h>
 #include <openvdb/tools/FastSweeping.h>
 #include <openvdb/tools/GridTransformer.h>
+#include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tools/SignedFloodFill.h>
 #include <openvdb/tree/LeafManager.h>
@@ -123,6 +124,61 @@ FloatGrid::Ptr csgGrids(CsgOp op, const std::vector<FloatGrid::ConstPtr>& grids,
     result->setGridClass(openvdb::GRID_LEVEL_SET);
     result->setName(ref.getName().empty() ? "surface" : ref.getName());
     return result;
+}
+
+FloatGrid::Ptr csgAttribute(CsgOp op, const std::vector<FloatGrid::ConstPtr>& surfaces,
+                            const std::vector<FloatGrid::ConstPtr>& ids, const FloatGrid& result,
+                            const std::string& name)
+{
+    require(!surfaces.empty() && ids.size() == surfaces.size(), "csg", "id grids per input",
+            "one (or null) per input", ids.size());
+    auto out = FloatGrid::create(-1.0f);
+    out->setTransform(result.transform().copy());
+    out->setGridClass(openvdb::GRID_UNKNOWN);
+    out->setName(name);
+    out->tree().topologyUnion(result.tree());
+    const size_t n = surfaces.size();
+    std::vector<bool> sameXf(n);
+    for (size_t i = 0; i < n; ++i) {
+        if (!surfaces[i]) fail<ValueError>("csg: input ", i, " is null");
+        sameXf[i] = surfaces[i]->transform() == result.transform() &&
+                    (!ids[i] || ids[i]->transform() == result.transform());
+    }
+    openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
+    leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+        std::vector<FloatGrid::ConstAccessor> phi, id;
+        for (size_t i = 0; i < n; ++i) {
+            phi.push_back(surfaces[i]->getConstAccessor());
+            id.push_back((ids[i] ? ids[i] : surfaces[i])->getConstAccessor());
+        }
+        for (auto it = leaf.beginValueOn(); it; ++it) {
+            const openvdb::Coord ijk = it.getCoord();
+            const openvdb::Vec3d p = result.transform().indexToWorld(ijk);
+            auto value = [&](size_t i) -> float {
+                if (sameXf[i]) return phi[i].getValue(ijk);
+                const openvdb::Vec3d q = surfaces[i]->transform().worldToIndex(p);
+                return openvdb::tools::BoxSampler::sample(phi[i], q);
+            };
+            size_t win = 0;
+            if (op != CsgOp::Difference) {
+                float best = value(0);
+                for (size_t i = 1; i < n; ++i) {
+                    const float v = value(i);
+                    if (op == CsgOp::Union ? v < best : v > best) {
+                        best = v;
+                        win = i;
+                    }
+                }
+            }
+            float v = -1.0f;
+            if (ids[win]) {
+                v = sameXf[win] ? id[win].getValue(ijk)
+                                : id[win].getValue(ids[win]->transform().worldToIndexCellCentered(p));
+            }
+            it.setValue(v);
+        }
+    });
+    return out;
 }
 
 } // namespace rockvdb

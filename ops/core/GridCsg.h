@@ -5,6 +5,7 @@
 
 #include <openvdb/openvdb.h>
 
+#include <string>
 #include <vector>
 
 namespace rockvdb {
@@ -19,5 +20,18 @@ namespace rockvdb {
 /// @note Inputs are never modified. The result is named after the first input.
 openvdb::FloatGrid::Ptr csgGrids(CsgOp op, const std::vector<openvdb::FloatGrid::ConstPtr>& grids,
                                  double smoothRadius = 0.0);
+
+/// @brief An id grid (block_id, rock_id, material: integer ids, background −1) for the result
+/// of csgGrids(@a op, @a surfaces): each active voxel of @a result takes the id of the input
+/// whose surface the result follows there — the smallest value for a union, the largest for
+/// an intersection (ties: the first input) — read from that input's id grid (@a ids[i], null
+/// when the input has none: −1). In a difference every id comes from the first input (the cut
+/// faces belong to the solid that was cut; −1 where its id grid does not reach). Inputs on
+/// other transforms are sampled in world space (trilinear values, nearest ids).
+/// @return A float grid named @a name with @a result's active topology.
+openvdb::FloatGrid::Ptr csgAttribute(CsgOp op,
+                                     const std::vector<openvdb::FloatGrid::ConstPtr>& surfaces,
+                                     const std::vector<openvdb::FloatGrid::ConstPtr>& ids,
+                                     const openvdb::FloatGrid& result, const std::string& name);
 
 } // namespace rockvdb

@@ -2,6 +2,7 @@
 
 #include "Error.h"
 #include "Image.h"
+#include "Random.h"
 
 #include <algorithm>
 #include <cmath>
@@ -52,6 +53,62 @@ Heightfield noiseHeightfield(int nx, int ny, double cellSize, double amplitude,
         for (int i = 0; i < nx; ++i)
             hf.z[size_t(j) * size_t(nx) + size_t(i)] =
                 scale * noise::fbm2(seed, fbm, float(i * cellSize), float(j * cellSize));
+    return hf;
+}
+
+void SeaCliff::validate() const
+{
+    const char* op = "sea_cliff";
+    require(nx >= 2 && ny >= 2 && double(nx) * ny <= 1e9, op, "samples",
+            "between 2x2 and 1e9 samples", std::to_string(nx) + "x" + std::to_string(ny));
+    require(std::isfinite(cellSize) && cellSize > 0, op, "cell size", "> 0 m", cellSize);
+    require(std::isfinite(height) && std::isfinite(floor) && height > floor, op, "height",
+            "> floor (m)", height);
+    require(std::isfinite(coast), op, "coast", "finite (m)", coast);
+    require(std::isfinite(width) && width > 0, op, "width", "> 0 m", width);
+    require(std::isfinite(waviness) && waviness >= 0, op, "waviness", ">= 0 m", waviness);
+    require(std::isfinite(coastFrequency) && coastFrequency > 0, op, "coast frequency",
+            "> 0 per m", coastFrequency);
+    require(std::isfinite(roughness) && roughness >= 0, op, "roughness", ">= 0 m", roughness);
+    require(std::isfinite(roughnessFrequency) && roughnessFrequency > 0, op,
+            "roughness frequency", "> 0 per m", roughnessFrequency);
+}
+
+Heightfield seaCliffHeightfield(const SeaCliff& c)
+{
+    c.validate();
+    Heightfield hf;
+    hf.nx = c.nx;
+    hf.ny = c.ny;
+    hf.cellSize = c.cellSize;
+    hf.z.resize(size_t(c.nx) * size_t(c.ny));
+    noise::Fbm shore;
+    shore.frequency = c.coastFrequency;
+    shore.octaves = 3;
+    noise::Fbm rough;
+    rough.frequency = c.roughnessFrequency;
+    rough.octaves = 5;
+    const double shoreScale = 0.5 * c.waviness / shore.amplitudeSum();
+    const double phase[2] = {2.0 * M_PI * random::uniform(c.seed, 91, 0),
+                             2.0 * M_PI * random::uniform(c.seed, 91, 1)};
+    const double roughScale = c.roughness / rough.amplitudeSum();
+    for (int j = 0; j < c.ny; ++j) {
+        const double y = j * c.cellSize;
+        // The coastline: two sines of seeded phase (bays and headlands of about waviness
+        // metres) plus 1D noise along y (a row of the 2D noise far from the surface's).
+        const double w = 2.0 * M_PI * c.coastFrequency * y;
+        const double coast = c.coast +
+            c.waviness * (0.7 * std::sin(w + phase[0]) + 0.3 * std::sin(2.3 * w + phase[1])) +
+            shoreScale * noise::fbm2(c.seed, shore, float(y), 517.0f);
+        for (int i = 0; i < c.nx; ++i) {
+            const double x = i * c.cellSize;
+            const double t = std::clamp((coast - x) / c.width + 0.5, 0.0, 1.0);
+            const double s = t * t * (3.0 - 2.0 * t);
+            const double z = c.floor + (c.height - c.floor) * s +
+                             roughScale * noise::fbm2(c.seed + 1, rough, float(x), float(y));
+            hf.z[size_t(j) * size_t(c.nx) + size_t(i)] = float(z);
+        }
+    }
     return hf;
 }
 

@@ -40,6 +40,32 @@ Heightfield loadHeightfield(const std::string& path, double cellSize, double hei
 Heightfield noiseHeightfield(int nx, int ny, double cellSize, double amplitude,
                              const noise::Fbm& fbm, uint64_t seed);
 
+/// A procedural sea cliff: a plateau falling to a sea floor along a wavy coastline that runs
+/// along y, its top and foot rounded by a smoothstep, with fBm roughness over everything.
+/// z(x, y) = floor + (height − floor)·S(t) + roughness·fbm(x, y)/Σgain, S(t) = t²(3 − 2t),
+/// t = clamp((c(y) − x)/width + ½, 0, 1), the coastline c(y) = coast + waviness·(0.7 sin(ωy +
+/// φ₀) + 0.3 sin(2.3ωy + φ₁)) + ½·waviness·fbm(y)/Σgain with ω = 2π·coastFrequency and phases
+/// from the seed: the plateau is at small x, the face's steepest slope is
+/// 1.5·(height − floor)/width at its mid-line.
+struct SeaCliff
+{
+    int nx = 161, ny = 161;         ///< samples along x and y
+    double cellSize = 0.5;          ///< m
+    double height = 25.0;           ///< plateau (m)
+    double floor = 0.0;             ///< sea floor (m)
+    double coast = 40.0;            ///< x of the face's mid-line (m)
+    double width = 8.0;             ///< horizontal extent of the face (m)
+    double waviness = 4.0;          ///< coastline amplitude: bays and headlands (m)
+    double coastFrequency = 0.05;   ///< coastline wiggles per metre along y
+    double roughness = 0.6;         ///< fBm amplitude over the whole surface (m)
+    double roughnessFrequency = 0.08; ///< 1/m
+    uint64_t seed = 1;
+    void validate() const;
+};
+
+/// @brief Sample a SeaCliff into a heightfield.
+Heightfield seaCliffHeightfield(const SeaCliff& c);
+
 struct HeightfieldSettings
 {
     double baseDepth = 1.0;     ///< floor of the solid: this far below the lowest sample (m)

@@ -137,11 +137,39 @@ std::string toPly(const Mesh& m)
 
 } // namespace
 
-void writeMesh(const Mesh& mesh, const std::string& path)
+UpAxis upAxisFromString(const std::string& s, const std::string& what)
 {
-    if (path == "-" || hasExt(path, ".obj")) return writeFileAtomic(path, toObj(mesh));
-    if (hasExt(path, ".ply")) return writeFileAtomic(path, toPly(mesh));
-    fail<ValueError>("mesh: output '", path, "' must end in .obj or .ply");
+    if (s == "z" || s == "Z") return UpAxis::Z;
+    if (s == "y" || s == "Y") return UpAxis::Y;
+    fail<ValueError>(what, " must be z or y (got '", s, "')");
+}
+
+void toZUp(Mesh& mesh, UpAxis up)
+{
+    if (up == UpAxis::Z) return;
+    for (auto& p : mesh.points) p = openvdb::Vec3s(p[0], -p[2], p[1]);
+}
+
+void fromZUp(Mesh& mesh, UpAxis up)
+{
+    if (up == UpAxis::Z) return;
+    for (auto& p : mesh.points) p = openvdb::Vec3s(p[0], p[2], -p[1]);
+}
+
+void writeMesh(const Mesh& mesh, const std::string& path, UpAxis up)
+{
+    if (!(path == "-" || hasExt(path, ".obj") || hasExt(path, ".ply"))) {
+        fail<ValueError>("mesh: output '", path, "' must end in .obj or .ply");
+    }
+    const Mesh* out = &mesh;
+    Mesh rotated;
+    if (up != UpAxis::Z) {
+        rotated = mesh;
+        fromZUp(rotated, up);
+        out = &rotated;
+    }
+    if (hasExt(path, ".ply")) return writeFileAtomic(path, toPly(*out));
+    writeFileAtomic(path, toObj(*out));
 }
 
 namespace {
@@ -345,7 +373,7 @@ Mesh readPly(const std::string& path, const std::string& bytes)
 
 } // namespace
 
-Mesh readMesh(const std::string& path)
+Mesh readMesh(const std::string& path, UpAxis up)
 {
     std::ifstream in(path, std::ios::binary);
     if (!in) fail<IoError>("cannot read mesh ", path);
@@ -365,6 +393,7 @@ Mesh readMesh(const std::string& path)
         fail<ValueError>("mesh ", path, ": unknown extension (use .obj, .stl or .ply)");
     }
     if (m.triangles.empty()) fail<ValueError>("mesh ", path, " has no faces");
+    toZUp(m, up);
     return m;
 }
 

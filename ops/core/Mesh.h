@@ -19,6 +19,20 @@ struct Mesh
     std::string groupName = "part";
 };
 
+/// Up axis of a mesh file. rockvdb's world is z up; Blender's OBJ exporter (default settings:
+/// forward −Z, up Y) and Houdini are y up. A y-up file point (X, Y, Z) is our (X, −Z, Y), a
+/// rotation of −90° about x (orientation and winding are kept), so a mesh exported from
+/// Blender lands where it stood in Blender's z-up scene.
+enum class UpAxis { Z, Y };
+
+/// @brief "z" or "y" (ValueError naming @a what otherwise).
+UpAxis upAxisFromString(const std::string& s, const std::string& what = "up axis");
+
+/// @brief Rotate @a mesh's points from file coordinates with up axis @a up to ours (z up).
+void toZUp(Mesh& mesh, UpAxis up);
+/// @brief Rotate @a mesh's points from ours (z up) to file coordinates with up axis @a up.
+void fromZUp(Mesh& mesh, UpAxis up);
+
 /// @brief Mesh the @a isovalue surface of a level set; outward-facing polygons.
 /// @param adaptivity  0 (uniform) .. 1 (most adaptive), as tools::volumeToMesh
 Mesh meshLevelSet(const openvdb::FloatGrid& grid, double isovalue = 0.0, double adaptivity = 0.0);
@@ -27,8 +41,8 @@ Mesh meshLevelSet(const openvdb::FloatGrid& grid, double isovalue = 0.0, double 
 double signedVolume(const Mesh& mesh);
 
 /// @brief Write @a mesh atomically as OBJ (text) or PLY (binary little-endian), chosen by
-/// the extension of @a path; "-" writes OBJ to stdout.
-void writeMesh(const Mesh& mesh, const std::string& path);
+/// the extension of @a path; "-" writes OBJ to stdout. @a up: the file's up axis.
+void writeMesh(const Mesh& mesh, const std::string& path, UpAxis up = UpAxis::Z);
 
 /// @brief Append @a other to @a mesh (indices offset), e.g. one mesh per block; with
 /// @a group >= 0 its faces are tagged as that part.
@@ -37,8 +51,9 @@ void appendMesh(Mesh& mesh, const Mesh& other, int group = -1);
 /// @brief Read a polygon mesh: OBJ (v / f, polygons fanned into triangles), STL (ASCII or
 /// binary) or PLY (ASCII or binary little-endian; vertex x y z and a face index list), by
 /// extension. STL vertices are welded by exact position.
+/// @a up: the file's up axis (points are returned z up).
 /// @throw IoError when unreadable, ValueError when malformed (with the file and line).
-Mesh readMesh(const std::string& path);
+Mesh readMesh(const std::string& path, UpAxis up = UpAxis::Z);
 
 /// @brief ValueError("<what>: ... is not closed ...") unless every edge of @a mesh is shared
 /// by exactly two faces, used once in each direction (a closed, consistently oriented

@@ -12,7 +12,9 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 
 namespace rockvdb {
 
@@ -28,13 +30,45 @@ void PreviewSettings::validate() const
     require(std::isfinite(zoom) && zoom > 0, "preview", "zoom", "> 0", zoom);
 }
 
+std::map<int, std::array<double, 3>> parsePalette(const std::string& text, const std::string& what)
+{
+    std::map<int, std::array<double, 3>> out;
+    size_t start = 0;
+    while (start <= text.size()) {
+        const size_t end = std::min(text.find(',', start), text.size());
+        const std::string item = text.substr(start, end - start);
+        const size_t eq = item.find('=');
+        char* stop = nullptr;
+        const long id = eq == std::string::npos ? -1 : std::strtol(item.c_str(), &stop, 10);
+        const std::string hex = eq == std::string::npos ? "" : item.substr(eq + 1);
+        const bool hexOk = hex.size() == 7 && hex[0] == '#' &&
+            std::all_of(hex.begin() + 1, hex.end(), [](char c) { return std::isxdigit(uint8_t(c)); });
+        if (eq == std::string::npos || stop != item.c_str() + eq || id < 0 || id >= (1 << 24) ||
+            !hexOk) {
+            fail<ValueError>(what, ": expected ID=#rrggbb entries separated by commas (got '",
+                             item, "')");
+        }
+        std::array<double, 3> rgb;
+        for (int k = 0; k < 3; ++k) {
+            const double v = std::stoi(hex.substr(1 + 2 * size_t(k), 2), nullptr, 16) / 255.0;
+            rgb[size_t(k)] = std::pow(v, 1.8); // the display gamma renderPreview applies
+        }
+        out[int(id)] = rgb;
+        start = end + 1;
+    }
+    return out;
+}
+
 std::vector<uint8_t> renderPreview(const openvdb::FloatGrid& grid, const PreviewSettings& s,
-                                   const openvdb::FloatGrid* ids)
+                                   const openvdb::FloatGrid* ids, PreviewStats* stats)
 {
     s.validate();
     requireLevelSet(grid, "preview input");
     using Vec3R = openvdb::Vec3R;
     std::vector<uint8_t> rgb(size_t(s.width) * size_t(s.height) * 3);
+    // What each pixel shows: kSky, kSurface (no id) or the id.
+    constexpr int32_t kSky = -2, kSurface = -1;
+    std::vector<int32_t> shown(size_t(s.width) * size_t(s.height), kSky);
     const openvdb::CoordBBox ibox = grid.evalActiveVoxelBoundingBox();
     auto sky = [&](double t) {
         // Vertical gradient background.
@@ -83,16 +117,24 @@ std::vector<uint8_t> renderPreview(const openvdb::FloatGrid& grid, const Preview
                 if (inter.intersectsWS(ray, hit, normal)) {
                     const Vec3R n = normal.lengthSqr() > 0 ? normal.unit() : -dir;
                     Vec3R albedo(0.62, 0.58, 0.53);
+                    int32_t what = kSurface;
                     if (idAcc) {
                         const auto ijk = ids->transform().worldToIndexCellCentered(hit);
                         const float id = idAcc->getValue(ijk);
                         if (id >= 0) {
-                            const uint64_t h = random::hash(0, 7, uint64_t(int64_t(id)));
-                            albedo = Vec3R(0.35 + 0.5 * random::toUnit(h),
-                                           0.35 + 0.5 * random::toUnit(random::mix64(h)),
-                                           0.35 + 0.5 * random::toUnit(random::mix64(h + 1)));
+                            what = int32_t(id);
+                            const auto known = s.palette.find(what);
+                            if (known != s.palette.end()) {
+                                albedo = Vec3R(known->second[0], known->second[1], known->second[2]);
+                            } else {
+                                const uint64_t h = random::hash(0, 7, uint64_t(int64_t(id)));
+                                albedo = Vec3R(0.35 + 0.5 * random::toUnit(h),
+                                               0.35 + 0.5 * random::toUnit(random::mix64(h)),
+                                               0.35 + 0.5 * random::toUnit(random::mix64(h + 1)));
+                            }
                         }
                     }
+                    shown[size_t(j) * size_t(s.width) + size_t(i)] = what;
                     const double diffuse = std::max(0.0, n.dot(key));
                     const double skyFill = 0.5 + 0.5 * n[2];
                     const double rim = std::pow(1 - std::max(0.0, n.dot(-dir)), 3) * 0.15;
@@ -107,13 +149,22 @@ std::vector<uint8_t> renderPreview(const openvdb::FloatGrid& grid, const Preview
             }
         }
     });
+    if (stats) {
+        *stats = PreviewStats();
+        stats->pixels = shown.size();
+        for (const int32_t w : shown) {
+            if (w == kSky) continue;
+            ++stats->surfacePixels;
+            if (w >= 0) ++stats->idPixels[w];
+        }
+    }
     return rgb;
 }
 
 void writePreview(const openvdb::FloatGrid& grid, const std::string& path,
-                  const PreviewSettings& s, const openvdb::FloatGrid* ids)
+                  const PreviewSettings& s, const openvdb::FloatGrid* ids, PreviewStats* stats)
 {
-    const auto rgb = renderPreview(grid, s, ids);
+    const auto rgb = renderPreview(grid, s, ids, stats);
     writeFileAtomic(path, encodePngRgb8(s.width, s.height, rgb));
 }
 

@@ -5,6 +5,7 @@
 #include <openvdb/io/File.h>
 #include <openvdb/io/Stream.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -103,12 +104,27 @@ void writeStdout(const std::string& bytes)
     if (!std::cout) fail<IoError>("cannot write to stdout");
 }
 
+/// Grids in file order: attribute grids first, level sets after them, 'surface' last. Tools
+/// that act on the most recently read grid (vdb_tool's -ls2mesh, -ls2fog with their default
+/// age 0) then find the level set; readers by name are unaffected.
+openvdb::GridCPtrVec fileOrder(const openvdb::GridCPtrVec& grids)
+{
+    auto rank = [](const openvdb::GridBase::ConstPtr& g) {
+        if (!g || g->getGridClass() != openvdb::GRID_LEVEL_SET) return 0;
+        return g->getName() == "surface" ? 2 : 1;
+    };
+    openvdb::GridCPtrVec out(grids);
+    std::stable_sort(out.begin(), out.end(),
+                     [&](const auto& a, const auto& b) { return rank(a) < rank(b); });
+    return out;
+}
+
 std::string serialise(const openvdb::GridCPtrVec& grids)
 {
     std::ostringstream os(std::ios_base::binary);
     openvdb::io::Stream stream(os);
     stream.setCompression(openvdb::io::COMPRESS_BLOSC | openvdb::io::COMPRESS_ACTIVE_MASK);
-    stream.write(grids);
+    stream.write(fileOrder(grids));
     return os.str();
 }
 
@@ -221,6 +237,28 @@ void requireLevelSet(const openvdb::GridBase& grid, const std::string& what)
 openvdb::FloatGrid::Ptr findLevelSet(const openvdb::GridPtrVec& grids, const std::string& name,
                                      const std::string& source)
 {
+    if (name.empty()) {
+        // The default: 'surface', else the only level set of the file.
+        openvdb::GridBase::Ptr only;
+        int levelSets = 0;
+        for (const auto& g : grids) {
+            if (!g) continue;
+            if (g->getName() == "surface") return findLevelSet(grids, "surface", source);
+            if (g->isType<openvdb::FloatGrid>() && g->getGridClass() == openvdb::GRID_LEVEL_SET) {
+                only = g;
+                ++levelSets;
+            }
+        }
+        if (levelSets == 1) return findLevelSet(grids, only->getName(), source);
+        std::string names;
+        for (const auto& g : grids) {
+            if (g) names += (names.empty() ? "" : ", ") + ("'" + g->getName() + "'");
+        }
+        fail<ValueError>("'", source, "' has no grid 'surface' and ",
+                         levelSets ? "several level sets" : "no float level set", " (it has ",
+                         names.empty() ? std::string("no grids") : names,
+                         "): name the grid to use");
+    }
     std::string names;
     for (const auto& g : grids) {
         if (!g) continue;

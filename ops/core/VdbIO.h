@@ -28,6 +28,8 @@ std::optional<Provenance> provenance(const openvdb::GridBase& grid);
 
 /// @brief Write @a grids to @a path atomically (temporary file in the same folder, then
 /// rename), Blosc + active-mask compressed. "-" writes to stdout (refused on a terminal).
+/// Attribute grids are written first and level sets last ('surface' the very last), so tools
+/// that take the most recently read grid (vdb_tool) find the level set.
 /// @throw IoError when the folder is missing or unwritable; nothing is left behind.
 void writeGrids(const std::string& path, const openvdb::GridCPtrVec& grids);
 
@@ -35,7 +37,8 @@ void writeGrids(const std::string& path, const openvdb::GridCPtrVec& grids);
 /// @throw IoError for a missing, non-VDB, truncated or corrupt file.
 openvdb::GridPtrVecPtr readGrids(const std::string& path);
 
-/// @brief Find grid @a name in @a grids and check it is a float level set.
+/// @brief Find grid @a name in @a grids and check it is a float level set. An empty @a name
+/// takes 'surface', or else the file's only float level set.
 /// @throw ValueError naming the grids present, the grid type or the class found.
 openvdb::FloatGrid::Ptr findLevelSet(const openvdb::GridPtrVec& grids, const std::string& name,
                                      const std::string& source);

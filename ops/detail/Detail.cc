@@ -574,6 +574,7 @@ DetailParams DetailParams::fromJson(const nlohmann::json& j)
 
 void DetailParams::validate(double voxelSize) const
 {
+    if (gabor.frequency == 0 && gabor.amplitude > 0) return resolved().validate(voxelSize);
     const char* op = "detail";
     require(std::isfinite(warp.amplitude) && warp.amplitude >= 0, op, "warp amplitude", ">= 0 m",
             warp.amplitude);
@@ -667,8 +668,18 @@ double DetailParams::reach(double halfWidthMetres) const
     return 1.5 * halfWidthMetres + maxWarp() + maxGabor();
 }
 
-FieldPtr detailField(FieldPtr input, const DetailParams& p, double gradientStep)
+DetailParams DetailParams::resolved() const
 {
+    DetailParams r = *this;
+    if (r.gabor.frequency == 0 && r.gabor.amplitude > 0) {
+        r.gabor.frequency = 1.0 / (kDefaultWavelengthPerAmplitude * r.gabor.amplitude);
+    }
+    return r;
+}
+
+FieldPtr detailField(FieldPtr input, const DetailParams& params, double gradientStep)
+{
+    const DetailParams p = params.resolved();
     if (!input) fail<ValueError>("detail: the input is required");
     FieldPtr f = input;
     const BlendParams* blend = p.blend && p.blendMask ? p.blend.get() : nullptr;
@@ -695,9 +706,10 @@ FieldPtr detailField(FieldPtr input, const DetailParams& p, double gradientStep)
     return f;
 }
 
-BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams& p,
+BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams& params,
                           const BakeSettings& settings, openvdb::util::NullInterrupter* interrupt)
 {
+    const DetailParams p = params.resolved();
     if (!grid) fail<ValueError>("detail: the input grid is null");
     requireLevelSet(*grid, "detail input");
     const double dx = grid->voxelSize()[0];
@@ -793,7 +805,9 @@ openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
                 if (len < 1e-9 || std::abs(f) < 0.5 * dx) break;
                 q -= g * (double(f) / len);
             }
-            // The nearest id voxel holding an id (the surface point lies in the id band).
+            // The nearest active id voxel (the surface point lies in the id band). An active
+            // -1 is a value (bare terrain in block_id), not a hole: skipping it let block ids
+            // bleed onto the terrain round every block, out of step with 'material'.
             const openvdb::Coord c = openvdb::Coord::round(ids.worldToIndex(q));
             float v = ids.background();
             float best = std::numeric_limits<float>::max();
@@ -803,7 +817,7 @@ openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
                     for (int b = -r; b <= r; ++b)
                         for (int k = -r; k <= r; ++k) {
                             float w;
-                            if (!id.probeValue(c.offsetBy(a, b, k), w) || w < 0) continue;
+                            if (!id.probeValue(c.offsetBy(a, b, k), w)) continue;
                             const float d2 = float(a * a + b * b + k * k);
                             if (d2 < best) {
                                 best = d2;

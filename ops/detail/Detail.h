@@ -53,7 +53,7 @@ enum class Singular { Auto, Cancel, Isotropic };
 struct GaborParams
 {
     double amplitude = 0.0;      ///< A (m): largest surface displacement; 0 disables
-    double frequency = 0.0;      ///< F0 (cycles per metre)
+    double frequency = 0.0;      ///< F0 (cycles per metre); 0 = 1/(10·A) (see resolved())
     double bandwidth = 0.0;      ///< a (1/m); 0 = F0 / 2
     double orientationDeg = 0.0; ///< ω: angle of the frequency direction from t towards b
     double impulses = 16.0;      ///< expected impulses per kernel ball
@@ -102,6 +102,11 @@ struct DetailParams
     /// names for warp_amplitude, gabor_amplitude, gabor_frequency, gabor_orientation,
     /// gabor_falloff, tilt} (all optional; the blend mask grid is set separately).
     static DetailParams fromJson(const nlohmann::json& j);
+    /// Gabor ridges default to ten times as wide as they are high: F0 = 1/(10·A).
+    static constexpr double kDefaultWavelengthPerAmplitude = 10.0;
+    /// @brief A copy with defaults that depend on other parameters filled in (a Gabor
+    /// frequency of 0 becomes 1/(10·A)); the bake entry points call it.
+    DetailParams resolved() const;
     /// Largest warp / Gabor amplitude over the base and blend sets.
     double maxWarp() const;
     double maxGabor() const;

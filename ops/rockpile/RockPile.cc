@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <openvdb/points/PointConversion.h>
 #include <openvdb/tools/SignedFloodFill.h>
+#include <openvdb/tree/LeafManager.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -76,12 +77,13 @@ FieldPtr levelSetSupport(openvdb::FloatGrid::ConstPtr grid, const TileSet& set)
     return levelSetField(std::move(grid), supportDepth(set));
 }
 
-FieldPtr loadSupport(const std::string& path, const TileSet& set, uint64_t seed)
+FieldPtr loadSupport(const std::string& path, const TileSet& set, uint64_t seed,
+                     const SupportOptions& options)
 {
     std::string ext = path.substr(path.find_last_of('.') == std::string::npos ? path.size()
                                                                                : path.find_last_of('.'));
     for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-    if (ext == ".vdb") return levelSetSupport(readLevelSet(path, ""), set);
+    if (ext == ".vdb") return levelSetSupport(readLevelSet(path, options.grid), set);
     if (ext == ".json") {
         ExpressionContext ctx;
         const auto slash = path.find_last_of('/');
@@ -90,7 +92,7 @@ FieldPtr loadSupport(const std::string& path, const TileSet& set, uint64_t seed)
         return fieldFromJson(readJsonFile(path), ctx);
     }
     if (ext == ".obj" || ext == ".stl" || ext == ".ply") {
-        const Mesh mesh = readMesh(path);
+        const Mesh mesh = readMesh(path, options.up);
         requireClosed(mesh, "rockpile: support " + path);
         openvdb::BBoxd box;
         for (const auto& q : mesh.points) box.expand(openvdb::Vec3d(q));
@@ -108,6 +110,8 @@ void PileParams::validate() const
             threshold);
     require(halfWidth >= 1 && halfWidth <= 16, "rockpile", "half width (voxels)", "in [1, 16]",
             halfWidth);
+    require(material >= -1 && material < (1 << 24), "rockpile", "material id",
+            "-1 (none) or in [0, 2^24)", material);
 }
 
 Vec3d voxelToWorld(const TileSet& set, const Vec3d& v)
@@ -329,6 +333,15 @@ Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PilePa
         pile.rockId->tree().addLeaf(idLeaves[g]);
     }
     openvdb::tools::signedFloodFill(pile.surface->tree());
+    if (p.material >= 0) {
+        pile.material = pile.rockId->deepCopy();
+        pile.material->setName("material");
+        const float id = float(p.material);
+        openvdb::tree::LeafManager<openvdb::FloatTree> leaves(pile.material->tree());
+        leaves.foreach([id](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+            for (auto it = leaf.beginValueOn(); it; ++it) it.setValue(id);
+        });
+    }
     pile.stats.placed = count;
     pile.stats.levelSetSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
     return pile;

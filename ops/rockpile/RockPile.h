@@ -11,6 +11,7 @@
 #include "RockTiles.h"
 
 #include <core/Field.h>
+#include <core/Mesh.h>
 
 #include <openvdb/openvdb.h>
 
@@ -26,6 +27,9 @@ struct PileParams
     bool dropDeep = true;    ///< drop rocks deeper than 2 × the largest embedding radius
     uint64_t seed = 0;       ///< lattice colours
     double halfWidth = 3.0;  ///< of the output level set, voxels
+    /// Material id written on every rock voxel (grid 'material', for uniting the pile with
+    /// other stages' material grids); −1 = no material grid.
+    int material = -1;
 
     void validate() const;
 };
@@ -51,6 +55,7 @@ struct Pile
     std::vector<Instance> instances;
     openvdb::FloatGrid::Ptr surface; ///< union of the placed rocks (level set)
     openvdb::FloatGrid::Ptr rockId;  ///< instance index per band voxel (class unknown, bg −1)
+    openvdb::FloatGrid::Ptr material; ///< PileParams::material on rockId's voxels (or null)
     PileStats stats;
 };
 
@@ -66,11 +71,19 @@ double maxRockRadius(const TileSet& set);
 /// deep-rock test reads: twice the largest rock radius and a little.
 FieldPtr levelSetSupport(openvdb::FloatGrid::ConstPtr grid, const TileSet& set);
 
+/// How a support file is read.
+struct SupportOptions
+{
+    std::string grid;        ///< level set in a .vdb ("" = 'surface', else the only level set)
+    UpAxis up = UpAxis::Z;   ///< up axis of a mesh file (y: Blender's OBJ default, Houdini)
+};
+
 /// @brief A support from a file: a level set .vdb, a JSON expression of primitives (.json,
 /// relative paths from its folder, @a seed for its noise) or a closed mesh (.obj, .stl,
 /// .ply; converted by tools::meshToLevelSet at the tile voxel size or 1/256 of its extent).
 /// @throw ValueError for other extensions or an open mesh.
-FieldPtr loadSupport(const std::string& path, const TileSet& set, uint64_t seed = 0);
+FieldPtr loadSupport(const std::string& path, const TileSet& set, uint64_t seed = 0,
+                     const SupportOptions& options = {});
 
 /// @brief Choose the rocks of @a set that fill @a support (negative inside, metres).
 std::vector<Instance> selectRocks(const TileSet& set, const Field& support, const PileParams& p,

@@ -7,26 +7,361 @@ Fields compose like fogleman/sdf and bake to pyopenvdb grids:
     grid = f.warp(0.05, frequency=2, seed=3).bake(voxel_size=0.02)
     rockvdb.write("rock.vdb", [grid])
 
-Units are metres, values are signed distances (negative inside), z is up.
+Units are metres, values are signed distances (negative inside), z is up; angles are degrees.
+Grids are pyopenvdb.FloatGrid objects: level sets named 'surface', id grids ('block_id',
+'rock_id', 'material') holding integer ids (background -1). Every grid carries provenance
+(rockvdb:version, rockvdb:generator, rockvdb:params).
+
+Fields: sphere, box, capsule, plane, polytope, expression -> Field (| & -, union, transform,
+warp, tag, bake). Grids: heightfield, csg, detail, read, write, mesh, preview, provenance,
+write_heightfield, read_image. Stages: block_tile / load_tile -> BlockTile (implicit-blocks
+§4), amplify (§5), detail (§4.2 and the Gabor details paper), rock_tiles / rock_library /
+rock_pile (aperiodic rock piles, arches §5).
+
+Errors: ValueError for bad values, TypeError (naming the parameter and the type expected) for
+wrong types, IOError for files, KeyboardInterrupt when interrupted.
 """
+import json as _json
+import numbers as _numbers
+import os as _os
+
 import pyopenvdb  # noqa: F401  (registers the grid converters used by the extension)
 
-import json as _json
-
 from . import _rockvdb
-from ._rockvdb import (Field, __version__, box, capsule, csg, expression, heightfield, mesh,
-                       plane, polytope, preview, provenance, read, sphere, write,
-                       write_heightfield)
+
+__version__ = _rockvdb.__version__
 
 __all__ = ["BlockTile", "Field", "amplify", "block_tile", "box", "capsule", "csg", "detail",
-           "expression",
-           "heightfield", "load_tile", "mesh", "plane", "polytope", "preview", "provenance",
-           "read", "sphere", "write", "write_heightfield", "__version__"]
+           "expression", "heightfield", "load_tile", "mesh", "plane", "polytope", "preview",
+           "provenance", "read", "read_image", "rock_library", "rock_pile", "rock_tiles",
+           "sphere", "write", "write_heightfield", "__version__"]
 
+
+# ---------------------------------------------------------------------------------------------
+# Argument checks: a wrong type is a TypeError naming the function, the parameter and the type
+# expected, never a binding's signature dump.
+
+def _type_error(fn, name, expected, value):
+    return TypeError(f"rockvdb.{fn}(): {name} must be {expected}, got {type(value).__name__}")
+
+
+def _grid(value, name, fn):
+    if not isinstance(value, pyopenvdb.FloatGrid):
+        raise _type_error(fn, name, "a pyopenvdb.FloatGrid", value)
+    return value
+
+
+def _grids(values, name, fn):
+    if isinstance(values, pyopenvdb.FloatGrid) or not hasattr(values, "__iter__"):
+        raise _type_error(fn, name, "a list of pyopenvdb.FloatGrid", values)
+    values = list(values)
+    for i, g in enumerate(values):
+        _grid(g, f"{name}[{i}]", fn)
+    return values
+
+
+def _float(value, name, fn):
+    if isinstance(value, bool) or not isinstance(value, _numbers.Real):
+        raise _type_error(fn, name, "a number", value)
+    return float(value)
+
+
+def _int(value, name, fn):
+    if isinstance(value, bool) or not isinstance(value, _numbers.Integral):
+        raise _type_error(fn, name, "an integer", value)
+    return int(value)
+
+
+def _bool(value, name, fn):
+    if not isinstance(value, (bool, _numbers.Integral)):
+        raise _type_error(fn, name, "a bool", value)
+    return bool(value)
+
+
+def _str(value, name, fn):
+    if not isinstance(value, str):
+        raise _type_error(fn, name, "a str", value)
+    return value
+
+
+def _path(value, name, fn):
+    if not isinstance(value, (str, _os.PathLike)):
+        raise _type_error(fn, name, "a path (str or os.PathLike)", value)
+    return _os.fspath(value)
+
+
+def _floats(value, n, name, fn):
+    """A sequence of n numbers as a list of floats."""
+    try:
+        items = list(value)
+    except TypeError:
+        raise _type_error(fn, name, f"a sequence of {n} numbers", value) from None
+    if len(items) != n or any(isinstance(v, bool) or not isinstance(v, _numbers.Real)
+                              for v in items):
+        raise TypeError(f"rockvdb.{fn}(): {name} must be a sequence of {n} numbers, got "
+                        f"{value!r}")
+    return [float(v) for v in items]
+
+
+def _ints(value, n, name, fn):
+    items = _floats(value, n, name, fn)
+    if any(v != int(v) for v in items):
+        raise TypeError(f"rockvdb.{fn}(): {name} must be {n} integers, got {value!r}")
+    return [int(v) for v in items]
+
+
+def _opt(value, check, *args):
+    return None if value is None else check(value, *args)
+
+
+# ---------------------------------------------------------------------------------------------
+# Fields
+
+class Field:
+    """A signed-distance field (metres, negative inside) that composes before baking.
+
+    Operators: ``a | b`` union, ``a & b`` intersection, ``a - b`` difference; ``union``,
+    ``intersection`` and ``difference`` take a smooth blend radius. ``bake`` turns it into a
+    narrow-band level set. Made by sphere, box, capsule, plane, polytope, expression and
+    BlockTile.field."""
+
+    __slots__ = ("_f",)
+
+    def __init__(self, native):
+        self._f = native
+
+    def eval(self, p):
+        """Signed distance (m) at world point p = (x, y, z) in metres."""
+        return self._f.eval(_floats(p, 3, "p", "Field.eval"))
+
+    def bounds(self):
+        """((xmin, ymin, zmin), (xmax, ymax, zmax)) in metres (infinite for unbounded fields)."""
+        return self._f.bounds()
+
+    @property
+    def lipschitz(self):
+        """Bound on |grad f| (1 for exact distances)."""
+        return self._f.lipschitz
+
+    @property
+    def exact(self):
+        """True when the values are exact Euclidean distances."""
+        return self._f.exact
+
+    @property
+    def expression(self):
+        """The JSON expression (as vdb_primitive expr reads it) that rebuilds this field."""
+        return self._f.expression
+
+    def _other(self, other, fn):
+        if not isinstance(other, Field):
+            raise _type_error(fn, "other", "a rockvdb.Field", other)
+        return other._f
+
+    def union(self, other, smooth=0.0):
+        """Union with other; smooth > 0 blends within that radius (m; default 0 = hard)."""
+        return Field(self._f.union(self._other(other, "Field.union"),
+                                   _float(smooth, "smooth", "Field.union")))
+
+    def intersection(self, other, smooth=0.0):
+        """Intersection with other; smooth: blend radius (m; default 0 = hard)."""
+        return Field(self._f.intersection(self._other(other, "Field.intersection"),
+                                          _float(smooth, "smooth", "Field.intersection")))
+
+    def difference(self, other, smooth=0.0):
+        """This minus other; smooth: blend radius (m; default 0 = hard)."""
+        return Field(self._f.difference(self._other(other, "Field.difference"),
+                                        _float(smooth, "smooth", "Field.difference")))
+
+    def __or__(self, other):
+        return self.union(other)
+
+    def __and__(self, other):
+        return self.intersection(other)
+
+    def __sub__(self, other):
+        return self.difference(other)
+
+    def transform(self, translate=(0, 0, 0), rotate=(0, 0, 0), scale=1.0):
+        """Scale (a number or (sx, sy, sz)), rotate (XYZ Euler angles, degrees), then
+        translate (m). Defaults: no change."""
+        fn = "Field.transform"
+        s = (_float(scale, "scale", fn) if isinstance(scale, _numbers.Real)
+             else _floats(scale, 3, "scale", fn))
+        return Field(self._f.transform(_floats(translate, 3, "translate", fn),
+                                       _floats(rotate, 3, "rotate", fn), s))
+
+    def warp(self, amplitude, frequency=1.0, octaves=3, seed=0):
+        """Domain warp by vector fBm noise: amplitude (m), frequency (cycles per metre,
+        default 1), octaves (default 3), seed (default 0)."""
+        fn = "Field.warp"
+        return Field(self._f.warp(_float(amplitude, "amplitude", fn),
+                                  _float(frequency, "frequency", fn),
+                                  _int(octaves, "octaves", fn), _int(seed, "seed", fn)))
+
+    def tag(self, id):
+        """Tag with an integer id, baked into an attribute grid (bake(attribute=...))."""
+        return Field(self._f.tag(_int(id, "id", "Field.tag")))
+
+    def bake(self, voxel_size=0.05, half_width=3.0, renormalize="auto", tracker_steps=0,
+             region=None, attribute=None):
+        """Bake to a narrow-band level set named 'surface' (pyopenvdb.FloatGrid).
+
+        voxel_size: metres (default 0.05); half_width: band half width in voxels (default 3);
+        renormalize: 'auto' (default: only fields that are not exact distances), 'first-order',
+        'tracker' or 'none'; tracker_steps: extra LevelSetTracker normalise steps (default 0);
+        region: (xmin, ymin, zmin, xmax, ymax, zmax) in metres to bake only that box (default:
+        the field's bounds); attribute: a grid name (e.g. 'block_id') to also bake the ids set
+        with tag(), returned as (surface, ids)."""
+        fn = "Field.bake"
+        return self._f.bake(_float(voxel_size, "voxel_size", fn),
+                            _float(half_width, "half_width", fn),
+                            _str(renormalize, "renormalize", fn),
+                            _int(tracker_steps, "tracker_steps", fn),
+                            _opt(region, _floats, 6, "region", fn),
+                            _opt(attribute, _str, "attribute", fn))
+
+    def __repr__(self):
+        return f"<rockvdb.Field {self._f.expression[:60]}>"
+
+
+def sphere(radius=1.0, center=(0, 0, 0)):
+    """A sphere: radius (m, default 1) at center (m, default the origin). Exact distance."""
+    return Field(_rockvdb.sphere(_float(radius, "radius", "sphere"),
+                                 _floats(center, 3, "center", "sphere")))
+
+
+def box(size=(1, 1, 1), center=(0, 0, 0), rounding=0.0):
+    """An axis-aligned box of full size (m, default 1 x 1 x 1) at center (m), edges rounded
+    by rounding (m, default 0)."""
+    return Field(_rockvdb.box(_floats(size, 3, "size", "box"),
+                              _floats(center, 3, "center", "box"),
+                              _float(rounding, "rounding", "box")))
+
+
+def capsule(a, b, radius):
+    """A capsule: the points within radius (m) of the segment from a to b (m)."""
+    return Field(_rockvdb.capsule(_floats(a, 3, "a", "capsule"), _floats(b, 3, "b", "capsule"),
+                                  _float(radius, "radius", "capsule")))
+
+
+def plane(point=(0, 0, 0), normal=(0, 0, 1)):
+    """The half-space below a plane through point (m) with outward normal (default +z).
+    Unbounded: intersect it with a bounded field before baking."""
+    return Field(_rockvdb.plane(_floats(point, 3, "point", "plane"),
+                                _floats(normal, 3, "normal", "plane")))
+
+
+def polytope(planes, smooth=0.0):
+    """A convex polytope: the intersection of half-spaces n.p <= d, planes given as
+    [(nx, ny, nz, d), ...] (d in metres); smooth: blend radius of its edges (m, default 0)."""
+    try:
+        rows = [_floats(p, 4, f"planes[{i}]", "polytope") for i, p in enumerate(planes)]
+    except TypeError as e:
+        if "planes[" in str(e):
+            raise
+        raise _type_error("polytope", "planes", "a list of (nx, ny, nz, d)", planes) from None
+    return Field(_rockvdb.polytope(rows, _float(smooth, "smooth", "polytope")))
+
+
+def expression(json):
+    """A field from a JSON expression (a str, or a dict / list), the language vdb_primitive
+    expr reads: sphere, box, capsule, plane, polytope, union / intersection / difference
+    (smooth), transform, warp, heightfield, noise_terrain, sea_cliff; "id" tags a node."""
+    if isinstance(json, (dict, list)):
+        json = _json.dumps(json)
+    return Field(_rockvdb.expression(_str(json, "json", "expression")))
+
+
+# ---------------------------------------------------------------------------------------------
+# Grids
+
+def heightfield(path, cell_size=1.0, height_scale=1.0, base_depth=1.0, voxel_size=0.05,
+                half_width=3.0):
+    """A heightfield image (float EXR, metres; or 16-bit PNG, 0..65535 -> 0..1) as the level
+    set of the terrain solid. Pixel column i, row j (row 0 = first row stored) sits at
+    x = i * cell_size, y = j * cell_size (m, default 1), height = value * height_scale (default
+    1); the solid's floor is base_depth (m, default 1) below the lowest sample. voxel_size:
+    metres (default 0.05), half_width: voxels (default 3)."""
+    fn = "heightfield"
+    return _rockvdb.heightfield(_path(path, "path", fn), _float(cell_size, "cell_size", fn),
+                                _float(height_scale, "height_scale", fn),
+                                _float(base_depth, "base_depth", fn),
+                                _float(voxel_size, "voxel_size", fn),
+                                _float(half_width, "half_width", fn))
+
+
+def write_heightfield(path, array):
+    """Write a 2D array (rows = y, row 0 first) as a float EXR (.exr) or a 16-bit PNG (.png,
+    values in 0..1), atomically."""
+    import numpy as np
+    if not hasattr(array, "__array__") and not isinstance(array, (list, tuple)):
+        raise _type_error("write_heightfield", "array", "a 2D numpy array", array)
+    _rockvdb.write_heightfield(_path(path, "path", "write_heightfield"),
+                               np.asarray(array, dtype=np.float32))
+
+
+def read_image(path):
+    """A float EXR or 16-bit PNG (0..1) as a 2D float32 numpy array (row 0 = first row)."""
+    return _rockvdb.read_image(_path(path, "path", "read_image"), "image")
+
+
+def csg(op, grids, smooth=0.0):
+    """Fold 'union', 'intersection' or 'difference' (the first minus the others) over
+    level-set grids, left to right; smooth: blend radius (m, default 0 = hard CSG). Grids on
+    another voxel size are resampled onto the first. Inputs are left untouched; returns a new
+    grid."""
+    return _rockvdb.csg(_str(op, "op", "csg"), _grids(grids, "grids", "csg"),
+                        _float(smooth, "smooth", "csg"))
+
+
+def read(path, grid=None):
+    """Read a float level set from a .vdb: grid names it (default: 'surface', else the file's
+    only level set)."""
+    return _rockvdb.read(_path(path, "path", "read"), _opt(grid, _str, "grid", "read") or "")
+
+
+def write(path, grids):
+    """Write grids to a .vdb atomically (temporary file + rename, Blosc compressed); grids
+    without rockvdb provenance are written stamped generator 'rockvdb.write' (the caller's
+    grids are left as they are). Level sets are written last, so tools that take the last
+    grid read (vdb_tool) find 'surface'."""
+    _rockvdb.write(_path(path, "path", "write"), _grids(grids, "grids", "write"))
+
+
+def mesh(grid, path, isovalue=0.0, adaptivity=0.0, up="z"):
+    """Mesh a level set (tools::volumeToMesh) to an .obj or .ply file with outward faces.
+    isovalue: metres (default 0); adaptivity: 0 (uniform, default) .. 1; up: the file's up
+    axis, 'z' (rockvdb, default) or 'y' (Blender's OBJ import default, Houdini)."""
+    fn = "mesh"
+    _rockvdb.mesh(_grid(grid, "grid", fn), _path(path, "path", fn),
+                  _float(isovalue, "isovalue", fn), _float(adaptivity, "adaptivity", fn),
+                  _str(up, "up", fn))
+
+
+def preview(grid, path, width=960, height=540, azimuth=35.0, elevation=30.0, ids=None):
+    """Render a shaded PNG of a level set (OpenVDB ray intersector), framing its active
+    voxels: width x height pixels (default 960 x 540), camera azimuth around z from +x and
+    elevation above the ground (degrees, default 35 / 30); ids: an id grid (e.g. block_id) to
+    tint surfaces by id."""
+    fn = "preview"
+    _rockvdb.preview(_grid(grid, "grid", fn), _path(path, "path", fn), _int(width, "width", fn),
+                     _int(height, "height", fn), _float(azimuth, "azimuth", fn),
+                     _float(elevation, "elevation", fn), _opt(ids, _grid, "ids", fn))
+
+
+def provenance(grid):
+    """(version, generator, params JSON text) of a grid rockvdb wrote, or None."""
+    return _rockvdb.provenance(_grid(grid, "grid", "provenance"))
+
+
+# ---------------------------------------------------------------------------------------------
+# Block tiles and terrain amplification (implicit-blocks-rocky-scenery §4-§5)
 
 class BlockTile:
-    """A fractured block tile: ``params``, ``blocks`` and ``stats`` (dicts as in the tile
-    file), and after a bake ``surface`` / ``block_id`` (pyopenvdb.FloatGrid)."""
+    """A fractured block tile (implicit-blocks §4): ``params``, ``blocks``, ``discs`` and
+    ``stats`` (dicts as in the tile file), and after a bake ``surface`` / ``block_id``
+    (pyopenvdb.FloatGrid)."""
 
     def __init__(self, tile):
         self._tile = tile
@@ -39,17 +374,24 @@ class BlockTile:
         self.block_id = None
 
     def bake(self, voxel_size=0.05, half_width=3.0, periods=(1, 1, 1)):
-        """Bake the tile; sets and returns (surface, block_id)."""
-        self.surface, self.block_id = self._tile.bake(voxel_size, half_width, list(periods))
+        """Bake the tile at voxel_size (m, default 0.05), half_width (voxels, default 3) over
+        periods (tiles along x, y, z; default one); sets and returns (surface, block_id)."""
+        fn = "BlockTile.bake"
+        self.surface, self.block_id = self._tile.bake(_float(voxel_size, "voxel_size", fn),
+                                                      _float(half_width, "half_width", fn),
+                                                      _ints(periods, 3, "periods", fn))
         return self.surface, self.block_id
 
     def field(self, periods=(1, 1, 1), periodic=False):
-        """The tile as a rockvdb.Field (periodic=True: the infinite tiling)."""
-        return self._tile.field(list(periods), periodic)
+        """The tile as a rockvdb.Field: the union of its blocks over periods (default one
+        tile), or with periodic=True the infinite tiling of space."""
+        fn = "BlockTile.field"
+        return Field(self._tile.field(_ints(periods, 3, "periods", fn),
+                                      _bool(periodic, "periodic", fn)))
 
     def save(self, path):
-        """Write the tile file (JSON 'rockvdb-tile')."""
-        self._tile.save(str(path))
+        """Write the tile file (JSON 'rockvdb-tile'), atomically."""
+        self._tile.save(_path(path, "path", "BlockTile.save"))
 
     def __repr__(self):
         return (f"<BlockTile {self.params['type']} {self.params['tile_size']} m: "
@@ -66,19 +408,28 @@ _RELIEF_KEYS = {"warp_amplitude": "amplitude", "relief_scale": "scale",
 
 def block_tile(type="equidimensional", seed=1, voxel_size=0.05, periods=(1, 1, 1),
                half_width=3.0, bake=True, **params):
-    """Generate a block tile (vdb_blocks' parameters as keyword arguments: tile_size,
-    point_radius, disc_count, disc_radius=(min, max), axis, fractures=[{center, normal,
-    radius}], authored=[{type: box|polytope, ...}], warp_amplitude, relief_image, ...).
-    With bake=True (default) the grids are baked at voxel_size over ``periods``."""
-    spec = {"type": type, "seed": int(seed)}
+    """Generate a fractured block tile (vdb_blocks from Python; implicit-blocks §4).
+
+    type: equidimensional (default), prismatic, polyhedral, rhombohedral, tabular or
+    columnar; seed (default 1). Further keywords, as vdb_blocks' options: tile_size (m,
+    default 20), point_radius (m, default 0.034 * tile_size), neighbour_radius, disc_count,
+    disc_spacing, disc_radius=(min, max) (m), jitter, irregular_fraction, axis, oblique_angle
+    (degrees), min_points, smooth_radius (m, default 0.25), fractures=[{center, normal,
+    radius}], authored=[{type: box|polytope, ...}], warp_amplitude (m), relief_scale,
+    relief_octaves, relief_image (path), relief_sharpness. With bake=True (default) the grids
+    are baked at voxel_size (m, default 0.05) and half_width (voxels, default 3) over periods.
+    Returns a BlockTile."""
+    fn = "block_tile"
+    spec = {"type": _str(type, "type", fn), "seed": _int(seed, "seed", fn)}
     relief = {}
     for key, value in params.items():
         if key in _TILE_KEYS:
             spec[key] = list(value) if isinstance(value, tuple) else value
         elif key in _RELIEF_KEYS:
-            relief[_RELIEF_KEYS[key]] = value
+            relief[_RELIEF_KEYS[key]] = (_os.fspath(value) if isinstance(value, _os.PathLike)
+                                         else value)
         else:
-            raise TypeError(f"block_tile() got an unexpected keyword argument '{key}'")
+            raise TypeError(f"rockvdb.block_tile() got an unexpected keyword argument '{key}'")
     if relief:
         spec["relief"] = relief
     tile = BlockTile(_rockvdb.generate_tile(_json.dumps(spec)))
@@ -89,55 +440,73 @@ def block_tile(type="equidimensional", seed=1, voxel_size=0.05, periods=(1, 1, 1
 
 def load_tile(path):
     """Read a tile file (.tile) or a vdb_blocks .vdb; returns an unbaked BlockTile."""
-    return BlockTile(_rockvdb.load_tile(str(path)))
-
+    return BlockTile(_rockvdb.load_tile(_path(path, "path", "load_tile")))
 
 
 def amplify(terrain, tiles, strata=None, max_slope=0.5, distance_range=(-1.0, 0.5), anchors=8,
             fraction=0.5, voxel_size=0.1, half_width=3.0, region=None, roi=None, mask=None,
             mask_cell_size=0.0, carve=0.0, mixed_tile_sizes=False, cell_size=1.0,
             height_scale=1.0, base_depth=1.0, stats=None):
-    """Amplify a terrain with block tiles (implicit-blocks §5); vdb_amplify from Python.
+    """Amplify a terrain with block tiles (vdb_amplify from Python; implicit-blocks §5).
 
-    terrain: a pyopenvdb.FloatGrid level set, or a heightfield image path (cell_size,
-    height_scale, base_depth apply). tiles: BlockTile objects or tile paths (.tile / .vdb);
-    strata: a dict or JSON file (see vdb_amplify --strata) naming tiles by file stem or
-    index, required for several tiles. region: the bake box (xmin, ymin, zmin, xmax, ymax, zmax) for chunked
+    terrain: a pyopenvdb.FloatGrid level set, or a heightfield image path (cell_size (m,
+    default 1), height_scale (default 1), base_depth (m, default 1) apply). tiles: BlockTile
+    objects or tile paths (.tile / .vdb). strata: a dict or JSON file path (see vdb_amplify
+    --strata) naming tiles by file stem or index, required for several tiles. A copy of a block
+    is kept when more than fraction (default 0.5) of its anchors (default 8) lie within
+    distance_range (m, default (-1, 0.5)) of the terrain on ground steeper than max_slope
+    (|g.z| < max_slope, default 0.5). voxel_size: metres (default 0.1); half_width: voxels
+    (default 3); region: the bake box (xmin, ymin, zmin, xmax, ymax, zmax, m) for chunked
     baking; roi: the box anchors must lie in; mask: an image path or a 2D array (row j at
-    y = j * mask_cell_size, 0 = cell_size) where blocks are allowed (>= 0.5); carve > 0: the
-    carving variant with that gap (m). stats: a dict to fill with #R ("replicated"), block
-    field bytes, active voxels and the time per phase.
-    Returns (surface, block_id, material) pyopenvdb grids."""
-    import os
-    if terrain is None:
-        raise TypeError("amplify(): terrain must be a pyopenvdb.FloatGrid or a heightfield path")
+    y = j * mask_cell_size; 0 = cell_size) where blocks are allowed (>= 0.5); carve > 0: the
+    carving variant with that gap (m); mixed_tile_sizes: allow tiles of different sizes.
+    stats: a dict to fill with #R ('replicated'), block field bytes, active voxels and the
+    time per phase. Returns (surface, block_id, material): material is 0 on bare terrain and
+    1 + the tile's index on its blocks."""
+    fn = "amplify"
+    if not isinstance(terrain, (pyopenvdb.FloatGrid, str, _os.PathLike)):
+        raise _type_error(fn, "terrain", "a pyopenvdb.FloatGrid or a heightfield path", terrain)
+    if isinstance(tiles, (BlockTile, str, _os.PathLike)) or not hasattr(tiles, "__iter__"):
+        raise _type_error(fn, "tiles", "a list of BlockTile objects or tile paths", tiles)
     loaded, names = [], []
     for i, t in enumerate(tiles):
         if isinstance(t, BlockTile):
             loaded.append(t._tile)
             names.append(str(i))
         else:
-            loaded.append(_rockvdb.load_tile(str(t)))
-            names.append(os.path.splitext(os.path.basename(str(t)))[0])
-    if isinstance(strata, (str, os.PathLike)):
+            p = _path(t, f"tiles[{i}]", fn)
+            loaded.append(_rockvdb.load_tile(p))
+            names.append(_os.path.splitext(_os.path.basename(p))[0])
+    if isinstance(strata, (str, _os.PathLike)):
         with open(strata) as f:
             strata = _json.load(f)
+    elif strata is not None and not isinstance(strata, dict):
+        raise _type_error(fn, "strata", "a dict or a JSON file path", strata)
     mask_array = None
-    if isinstance(mask, (str, os.PathLike)):
-        mask_array = _rockvdb.read_image(str(mask), "mask")
+    if isinstance(mask, (str, _os.PathLike)):
+        mask_array = _rockvdb.read_image(_os.fspath(mask), "mask")
     elif mask is not None:
+        if not hasattr(mask, "__array__"):
+            raise _type_error(fn, "mask", "an image path or a 2D numpy array", mask)
         mask_array = mask
-    options = {"strata": strata, "max_slope": float(max_slope),
-               "distance_range": [float(v) for v in distance_range], "anchors": int(anchors),
-               "fraction": float(fraction), "voxel_size": float(voxel_size),
-               "half_width": float(half_width),
-               "region": [float(v) for v in region] if region is not None else None,
-               "roi": [float(v) for v in roi] if roi is not None else None,
-               "mask_cell_size": float(mask_cell_size), "carve": float(carve),
-               "mixed_tile_sizes": bool(mixed_tile_sizes), "cell_size": float(cell_size),
-               "height_scale": float(height_scale), "base_depth": float(base_depth)}
-    if isinstance(terrain, os.PathLike):
-        terrain = str(terrain)
+    options = {"strata": strata, "max_slope": _float(max_slope, "max_slope", fn),
+               "distance_range": _floats(distance_range, 2, "distance_range", fn),
+               "anchors": _int(anchors, "anchors", fn),
+               "fraction": _float(fraction, "fraction", fn),
+               "voxel_size": _float(voxel_size, "voxel_size", fn),
+               "half_width": _float(half_width, "half_width", fn),
+               "region": _opt(region, _floats, 6, "region", fn),
+               "roi": _opt(roi, _floats, 6, "roi", fn),
+               "mask_cell_size": _float(mask_cell_size, "mask_cell_size", fn),
+               "carve": _float(carve, "carve", fn),
+               "mixed_tile_sizes": _bool(mixed_tile_sizes, "mixed_tile_sizes", fn),
+               "cell_size": _float(cell_size, "cell_size", fn),
+               "height_scale": _float(height_scale, "height_scale", fn),
+               "base_depth": _float(base_depth, "base_depth", fn)}
+    if stats is not None and not isinstance(stats, dict):
+        raise _type_error(fn, "stats", "a dict", stats)
+    if not isinstance(terrain, pyopenvdb.FloatGrid):
+        terrain = _os.fspath(terrain)
     surface, block_id, material, st = _rockvdb.amplify(terrain, loaded, names, mask_array,
                                                        _json.dumps(options))
     if stats is not None:
@@ -145,90 +514,158 @@ def amplify(terrain, tiles, strata=None, max_slope=0.5, distance_range=(-1.0, 0.
     return surface, block_id, material
 
 
+# ---------------------------------------------------------------------------------------------
+# Surface detail (implicit-blocks §4.2, gabor-details-implicit-surfaces §3-§4)
+
 def detail(grid, warp_amplitude=0.0, warp_relief="turbulence", warp_scale=1.5, warp_octaves=4,
            warp_sharpness=8.0, gabor_amplitude=0.0, gabor_frequency=0.0, gabor_bandwidth=0.0,
            gabor_orientation=0.0, gabor_impulses=16.0, gabor_falloff=0.0,
            gabor_isotropic=False, tilt=(0.0, 0.0), direction_axis=None,
            direction_skeleton=None, direction_curvature=False, singular="auto", seed=0,
            voxel_size=None, half_width=None, blend=None, blend_mask=None):
-    """Surface detail on a level set (vdb_detail from Python): gradient warp (implicit-blocks
-    §4.2) and Gabor details (gabor-details §3-§4). grid: a pyopenvdb.FloatGrid level set;
-    amplitudes in metres (0 disables), frequency in cycles per metre, angles in degrees;
-    direction_skeleton: a dict {"segments": [...]} or a JSON file path. voxel_size and
-    half_width default to the input's. blend: a dict of the parameters that may vary in space
-    (warp_amplitude, gabor_amplitude, gabor_frequency, gabor_orientation, gabor_falloff, tilt)
-    reached where blend_mask (a pyopenvdb.FloatGrid of weights in [0, 1]) reads 1; the
-    parameters are interpolated (gabor §4), so blends do not blur the details.
-    Returns a new pyopenvdb.FloatGrid (input untouched)."""
-    import os
-    if isinstance(direction_skeleton, os.PathLike):
-        direction_skeleton = str(direction_skeleton)
-    options = {"warp_amplitude": float(warp_amplitude), "warp_relief": str(warp_relief),
-               "warp_scale": float(warp_scale), "warp_octaves": int(warp_octaves),
-               "warp_sharpness": float(warp_sharpness), "gabor_amplitude": float(gabor_amplitude),
-               "gabor_frequency": float(gabor_frequency), "gabor_bandwidth": float(gabor_bandwidth),
-               "gabor_orientation": float(gabor_orientation),
-               "gabor_impulses": float(gabor_impulses), "gabor_falloff": float(gabor_falloff),
-               "gabor_isotropic": bool(gabor_isotropic), "tilt": [float(t) for t in tilt],
-               "direction_axis": ([float(a) for a in direction_axis]
-                                  if direction_axis is not None else None),
+    """Surface detail on a level set (vdb_detail from Python). Returns a new, re-baked and
+    renormalised level set (the input is untouched), named like the input ('surface' when the
+    input has no name).
+
+    Gradient warp (implicit-blocks §4.2): warp_amplitude (m, default 0 = off), warp_relief
+    ('turbulence' (default) or an EXR / 16-bit PNG path), warp_scale (m per relief tile,
+    default 1.5), warp_octaves (default 4), warp_sharpness (exponent p of the triplanar
+    weights, default 8; 1 = the blocks paper's).
+    Gabor details (gabor §3-§4): gabor_amplitude (m, default 0 = off), gabor_frequency F0
+    (cycles per metre; default 0 = 1 / (10 * gabor_amplitude), ridges ten times as wide as
+    they are high), gabor_bandwidth a (1/m; default 0 = F0 / 4), gabor_orientation (degrees
+    from the frame direction, default 0), gabor_impulses per kernel cell (default 16),
+    gabor_falloff R (m; default 0 = 12 * amplitude), gabor_isotropic (default False), tilt
+    (alpha, theta) in degrees (default (0, 0)). Frames: direction_axis (x, y, z),
+    direction_skeleton (a dict {"segments": [...]} or a JSON path) or direction_curvature=True;
+    singular: 'auto' (default), 'cancel' or 'isotropic' near W parallel to n. seed (default 0).
+    voxel_size (m) and half_width (voxels) default to the input's.
+    blend: a dict of the parameters that may vary in space (warp_amplitude, gabor_amplitude,
+    gabor_frequency, gabor_orientation, gabor_falloff, tilt), reached where blend_mask (a
+    pyopenvdb.FloatGrid of weights in [0, 1]) reads 1; the parameters are interpolated
+    (gabor §4), so blends do not blur the details."""
+    fn = "detail"
+    _grid(grid, "grid", fn)
+    if isinstance(direction_skeleton, _os.PathLike):
+        direction_skeleton = _os.fspath(direction_skeleton)
+    if direction_skeleton is not None and not isinstance(direction_skeleton, (str, dict)):
+        raise _type_error(fn, "direction_skeleton", "a dict or a JSON file path",
+                          direction_skeleton)
+    if isinstance(warp_relief, _os.PathLike):
+        warp_relief = _os.fspath(warp_relief)
+    options = {"warp_amplitude": _float(warp_amplitude, "warp_amplitude", fn),
+               "warp_relief": _str(warp_relief, "warp_relief", fn),
+               "warp_scale": _float(warp_scale, "warp_scale", fn),
+               "warp_octaves": _int(warp_octaves, "warp_octaves", fn),
+               "warp_sharpness": _float(warp_sharpness, "warp_sharpness", fn),
+               "gabor_amplitude": _float(gabor_amplitude, "gabor_amplitude", fn),
+               "gabor_frequency": _float(gabor_frequency, "gabor_frequency", fn),
+               "gabor_bandwidth": _float(gabor_bandwidth, "gabor_bandwidth", fn),
+               "gabor_orientation": _float(gabor_orientation, "gabor_orientation", fn),
+               "gabor_impulses": _float(gabor_impulses, "gabor_impulses", fn),
+               "gabor_falloff": _float(gabor_falloff, "gabor_falloff", fn),
+               "gabor_isotropic": _bool(gabor_isotropic, "gabor_isotropic", fn),
+               "tilt": _floats(tilt, 2, "tilt", fn),
+               "direction_axis": _opt(direction_axis, _floats, 3, "direction_axis", fn),
                "direction_skeleton": direction_skeleton,
-               "direction_curvature": bool(direction_curvature), "singular": str(singular),
-               "seed": int(seed)}
+               "direction_curvature": _bool(direction_curvature, "direction_curvature", fn),
+               "singular": _str(singular, "singular", fn), "seed": _int(seed, "seed", fn)}
     if blend is not None:
+        if not isinstance(blend, dict):
+            raise _type_error(fn, "blend", "a dict", blend)
         options["blend"] = blend
     if blend is not None and blend_mask is None:
         raise ValueError("detail: blend needs blend_mask (the weights)")
-    return _rockvdb.detail(grid, _json.dumps(options), voxel_size, half_width, blend_mask)
+    return _rockvdb.detail(grid, _json.dumps(options),
+                           _opt(voxel_size, _float, "voxel_size", fn),
+                           _opt(half_width, _float, "half_width", fn),
+                           _opt(blend_mask, _grid, "blend_mask", fn))
 
+
+# ---------------------------------------------------------------------------------------------
+# Rock tiles and rock piles (aperiodic-rock-piles, arches-material-stacks §5)
 
 def rock_tiles(n=5, seeds_per_cell=(1, 1), anisotropy=(1.0, 1.0, 1.0), anisotropy_jitter=0.25,
                g_max=2.0, voxels_per_cell=10, cube_size=1.0, contact_radii=(0.08, 0.3),
                erosion_steps=6, erosion_rate=0.5, tiling="aperiodic", poisson_radius=0.0,
                seed=0, path=None):
     """A rock tile set (vdb_rockpile tiles from Python; aperiodic-rock-piles §2-§5, arches §5).
+
+    n: cells per cube edge (default 5, >= 4 for corner cubes); seeds_per_cell (min, max)
+    (default (1, 1)); anisotropy: the relative extents (alpha, beta, gamma) of the rocks along
+    each seed's random frame (default (1, 1, 1); (5, 5, 1) makes flat rocks),
+    anisotropy_jitter (default 0.25); g_max: largest weight g_k (default 2); voxels_per_cell m
+    (default 10); cube_size (m, default 1; the voxel is cube_size / (n * m)); contact_radii
+    (a, b) in cells (default (0.08, 0.3)); erosion_steps (default 6), erosion_rate (default
+    0.5); tiling 'aperiodic' (corner cubes, default) or 'periodic' (arches §5);
+    poisson_radius (cells; 0 = half the seed spacing); seed (default 0).
     Returns the tile set as a pyopenvdb.FloatGrid 'rho' (each rock's erosion state in its own
-    slot, the description in metadata 'rockvdb:tiles'); path also writes it. Lengths in cells
-    (cube_size / n metres). anisotropy: the relative extents (alpha, beta, gamma) of the rocks
-    along each seed's random frame; (5, 5, 1) makes flat rocks."""
-    options = {"tiling": str(tiling), "n": int(n),
-               "seeds_per_cell": [int(s) for s in seeds_per_cell],
-               "anisotropy": [float(a) for a in anisotropy],
-               "anisotropy_jitter": float(anisotropy_jitter), "g_max": float(g_max),
-               "voxels_per_cell": int(voxels_per_cell), "cube_size": float(cube_size),
-               "contact_radii": [float(r) for r in contact_radii],
-               "erosion_steps": int(erosion_steps), "erosion_rate": float(erosion_rate),
-               "poisson_radius": float(poisson_radius), "seed": int(seed)}
+    slot, the description in metadata 'rockvdb:tiles'); path also writes it (atomically)."""
+    fn = "rock_tiles"
+    options = {"tiling": _str(tiling, "tiling", fn), "n": _int(n, "n", fn),
+               "seeds_per_cell": _ints(seeds_per_cell, 2, "seeds_per_cell", fn),
+               "anisotropy": _floats(anisotropy, 3, "anisotropy", fn),
+               "anisotropy_jitter": _float(anisotropy_jitter, "anisotropy_jitter", fn),
+               "g_max": _float(g_max, "g_max", fn),
+               "voxels_per_cell": _int(voxels_per_cell, "voxels_per_cell", fn),
+               "cube_size": _float(cube_size, "cube_size", fn),
+               "contact_radii": _floats(contact_radii, 2, "contact_radii", fn),
+               "erosion_steps": _int(erosion_steps, "erosion_steps", fn),
+               "erosion_rate": _float(erosion_rate, "erosion_rate", fn),
+               "poisson_radius": _float(poisson_radius, "poisson_radius", fn),
+               "seed": _int(seed, "seed", fn)}
+    target = _opt(path, _path, "path", fn)
     grid = _rockvdb.rock_tiles(_json.dumps(options))
-    if path is not None:
-        pyopenvdb.write(str(path), [grid])
+    if target is not None:
+        _rockvdb.write(target, [grid])
     return grid
 
 
-def _tile_grid(tiles):
-    import os
-    if isinstance(tiles, (str, os.PathLike)):
-        return pyopenvdb.read(str(tiles), "rho")
+def _tile_grid(tiles, fn):
+    if isinstance(tiles, (str, _os.PathLike)):
+        return pyopenvdb.read(_os.fspath(tiles), "rho")
+    if not isinstance(tiles, pyopenvdb.FloatGrid):
+        raise _type_error(fn, "tiles", "a tile set grid ('rho') or a tile file path", tiles)
     return tiles
 
 
 def rock_library(tiles):
     """Every rock of a tile set (a 'rho' grid or a tile file path) as a level set 'library',
     each rock in its own slot (offsets in metadata 'rockvdb:library_offsets')."""
-    return _rockvdb.rock_library(_tile_grid(tiles))
+    return _rockvdb.rock_library(_tile_grid(tiles, "rock_library"))
 
 
-def rock_pile(tiles, support, threshold=0.5, keep_deep=False, seed=0, stats=None):
-    """Fill a support with a tile set's rocks (vdb_rockpile pile from Python; §6). tiles: a
-    'rho' grid or a tile file path; support: a pyopenvdb.FloatGrid level set, a rockvdb Field
-    (e.g. rockvdb.sphere(...)), or a path (.vdb, .json expression, closed .obj/.stl/.ply).
-    Returns (surface, rock_id) grids; stats (a dict) receives counts, times, and each placed
-    rock's library index and seed position."""
-    import os
-    if isinstance(support, os.PathLike):
-        support = str(support)
-    options = {"threshold": float(threshold), "keep_deep": bool(keep_deep), "seed": int(seed)}
-    surface, rock_id, info = _rockvdb.rock_pile(_tile_grid(tiles), support, _json.dumps(options))
+def rock_pile(tiles, support, threshold=0.5, keep_deep=False, seed=0, material=-1,
+              support_grid=None, up="z", stats=None):
+    """Fill a support with a tile set's rocks (vdb_rockpile pile from Python; rock piles §6).
+
+    tiles: a 'rho' grid or a tile file path. support: a pyopenvdb.FloatGrid level set, a
+    rockvdb.Field (e.g. rockvdb.sphere(2)), or a path (.vdb level set, .json expression,
+    closed .obj / .stl / .ply mesh); support_grid names the level set in a .vdb (default
+    'surface', else its only level set); up: a mesh file's up axis, 'z' (default) or 'y'
+    (Blender's OBJ export default, Houdini). A rock is placed when threshold (default 0.5) of
+    its anchors are inside; rocks deeper than twice the largest embedding radius are dropped
+    unless keep_deep. seed (default 0) colours the lattice. material >= 0 also returns a
+    'material' grid holding that id on every rock voxel (default -1 = none).
+    Returns (surface, rock_id), or (surface, rock_id, material) with material >= 0; stats (a
+    dict) receives counts, times, and each placed rock's library index and seed position."""
+    fn = "rock_pile"
+    if isinstance(support, Field):
+        support = support._f
+    elif isinstance(support, (str, _os.PathLike)):
+        support = _os.fspath(support)
+    elif not isinstance(support, pyopenvdb.FloatGrid):
+        raise _type_error(fn, "support", "a pyopenvdb.FloatGrid level set, a rockvdb.Field or "
+                          "a file path", support)
+    if stats is not None and not isinstance(stats, dict):
+        raise _type_error(fn, "stats", "a dict", stats)
+    options = {"threshold": _float(threshold, "threshold", fn),
+               "keep_deep": _bool(keep_deep, "keep_deep", fn), "seed": _int(seed, "seed", fn),
+               "material": _int(material, "material", fn),
+               "support_grid": _opt(support_grid, _str, "support_grid", fn) or "",
+               "up": _str(up, "up", fn)}
+    surface, rock_id, mat, info = _rockvdb.rock_pile(_tile_grid(tiles, fn), support,
+                                                     _json.dumps(options))
     if stats is not None:
         stats.update(info)
-    return surface, rock_id
+    return (surface, rock_id) if mat is None else (surface, rock_id, mat)

@@ -377,7 +377,7 @@ PYBIND11_MODULE(_rockvdb, m)
         BakeSettings s;
         s.voxelSize = voxelSize ? *voxelSize : grid->voxelSize()[0];
         s.halfWidth = halfWidth ? *halfWidth : double(grid->background()) / grid->voxelSize()[0];
-        s.gridName = grid->getName();
+        s.gridName = grid->getName().empty() ? "surface" : grid->getName();
         BakeResult r;
         {
             py::gil_scoped_release release;
@@ -428,12 +428,16 @@ PYBIND11_MODULE(_rockvdb, m)
         pp.threshold = o.at("threshold");
         pp.dropDeep = !o.at("keep_deep").get<bool>();
         pp.seed = o.at("seed");
+        pp.material = o.at("material");
         pp.validate();
+        rockpile::SupportOptions so;
+        so.grid = o.at("support_grid");
+        so.up = upAxisFromString(o.at("up"), "rockpile: up");
         FieldPtr field;
         json params = o;
         params["tiles"] = set.params.toJson();
         if (py::isinstance<py::str>(support)) {
-            field = rockpile::loadSupport(support.cast<std::string>(), set, pp.seed);
+            field = rockpile::loadSupport(support.cast<std::string>(), set, pp.seed, so);
             params["support"] = support.cast<std::string>();
         } else if (py::isinstance<PyField>(support)) {
             const PyField& f = support.cast<const PyField&>();
@@ -462,6 +466,7 @@ PYBIND11_MODULE(_rockvdb, m)
         }
         stampProvenance(*pile.surface, "rockvdb.rock_pile", params.dump());
         stampProvenance(*pile.rockId, "rockvdb.rock_pile", params.dump());
+        if (pile.material) stampProvenance(*pile.material, "rockvdb.rock_pile", params.dump());
         py::dict stats;
         stats["placed"] = st.placed;
         stats["candidates"] = st.candidates;
@@ -476,7 +481,7 @@ PYBIND11_MODULE(_rockvdb, m)
         }
         stats["rocks"] = rocks;
         stats["positions"] = positions;
-        return py::make_tuple(Grid(pile.surface), Grid(pile.rockId), stats);
+        return py::make_tuple(Grid(pile.surface), Grid(pile.rockId), Grid(pile.material), stats);
     }, py::arg("tiles"), py::arg("support"), py::arg("options"));
 
     m.def("read_image", [](const std::string& path, const std::string& op) {
@@ -522,10 +527,18 @@ PYBIND11_MODULE(_rockvdb, m)
         writeGrids(path, v);
     }, py::arg("path"), py::arg("grids"), "Write grids atomically (Blosc compressed); grids "
        "without rockvdb provenance are stamped generator 'rockvdb.write'");
-    m.def("mesh", [](Grid grid, const std::string& path, double isovalue, double adaptivity) {
+    m.def("mesh", [](Grid grid, const std::string& path, double isovalue, double adaptivity,
+                     const std::string& up) {
         requireLevelSet(*grid, "mesh input");
-        writeMesh(meshLevelSet(*grid, isovalue, adaptivity), path);
-    }, py::arg("grid"), py::arg("path"), py::arg("isovalue") = 0.0, py::arg("adaptivity") = 0.0);
+        const UpAxis axis = upAxisFromString(up, "mesh: up");
+        Mesh mesh;
+        {
+            py::gil_scoped_release release;
+            mesh = meshLevelSet(*grid, isovalue, adaptivity);
+        }
+        writeMesh(mesh, path, axis);
+    }, py::arg("grid"), py::arg("path"), py::arg("isovalue") = 0.0, py::arg("adaptivity") = 0.0,
+       py::arg("up") = "z");
     m.def("preview", [](Grid grid, const std::string& path, int width, int height, double azimuth,
                         double elevation, std::optional<Grid> ids) {
         PreviewSettings s;

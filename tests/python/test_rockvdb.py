@@ -251,7 +251,7 @@ def test_amplify_grids_in_and_out(tmp_path):
     assert mat.name == "material"
     assert s.activeVoxelCount() == ids.activeVoxelCount() == mat.activeVoxelCount()
     mats = {it.value for it in mat.citerOnValues()}
-    assert mats == {-1.0, 0.0, 1.0}
+    assert mats == {0.0, 1.0, 2.0}  # bare terrain, tile 0's blocks, tile 1's
     # The same from the heightfield path; bad input raises.
     s2, _, _ = rockvdb.amplify(str(png), [eq], cell_size=0.25, height_scale=5.0, voxel_size=0.1)
     assert s2.activeVoxelCount() > 0

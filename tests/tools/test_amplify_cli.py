@@ -33,7 +33,7 @@ def amplify(inputs, terrain, out, *extra):
 
 
 def test_cliff_gets_blocks_plateau_and_floor_stay_bare(inputs, tmp_path):
-    out = tmp_path / "cliff.vdb"
+    out = tmp_path / "amplify_cliff.vdb"
     p = amplify(inputs, inputs["cliff"], out)
     assert p.returncode == 0, p.stderr
     assert "#R " in p.stderr
@@ -55,7 +55,8 @@ def test_cliff_gets_blocks_plateau_and_floor_stay_bare(inputs, tmp_path):
         assert 14 - 3.5 < x < 18 + 3.5, x
         count += 1
     assert count > 500
-    assert {it.value for it in mat.citerOnValues()} == {0.0, -1.0}
+    # Material: 0 on bare terrain, 1 + the tile index on blocks.
+    assert {it.value for it in mat.citerOnValues()} == {0.0, 1.0}
 
 
 def test_flat_terrain_writes_the_bare_terrain(inputs, tmp_path):
@@ -169,16 +170,16 @@ def test_sample_03_strata_order_on_the_cliff(tmp_path):
     sample = os.path.join(os.path.dirname(__file__), "..", "..", "samples", "03_amplify.sh")
     p = run(["bash", sample, BUILD, str(tmp_path), "0.25"])
     assert p.returncode == 0, p.stderr
-    assert (tmp_path / "cliff.png").stat().st_size > 10000
-    grids, _ = vdb.readAll(str(tmp_path / "cliff.vdb"))
+    assert (tmp_path / "amplify_cliff.png").stat().st_size > 10000
+    grids, _ = vdb.readAll(str(tmp_path / "amplify_cliff.vdb"))
     mat = {g.name: g for g in grids}["material"]
     dx = 0.25
     elev = {0: [], 1: []}
     for it in mat.citerOnValues():
-        if it.value < 0:
-            continue
+        if it.value < 1:
+            continue  # bare terrain (material 0)
         x, y, z = (c * dx for c in it.min)
-        elev[int(it.value)].append(z + 0.2 * x)  # the strata's n·p (unnormalised normal)
+        elev[int(it.value) - 1].append(z + 0.2 * x)  # the strata's n·p (unnormalised normal)
         # The cliff (steeper than the rule) lies within 24..36 ± 4 m in x: the plateau and
         # the sea floor beyond it stay bare (blocks reach ~2 m past their anchors).
         assert 17 < x < 43, (x, y, z)

@@ -32,7 +32,7 @@ def test_statistics_like_table_1(tile):
     points, discs, blocks, mean = int(m[1]), int(m[2]), int(m[3]), float(m[4])
     assert 4000 < points < 5500 and discs == 30 and blocks > 10
     assert mean * blocks <= points  # dropped clusters lose points, never gain
-    g = re.findall(r"^generation: (\d+\.\d{3}) s$", err, re.M)
+    g = re.findall(r"^vdb_blocks: generation: (\d+\.\d{3}) s$", err, re.M)
     assert len(g) == 1 and 0 < float(g[0]) < 5
 
 

@@ -1,0 +1,90 @@
+"""The flagship demo (samples/01_demo.sh) at draft quality: every method's part is in the one
+file, where the scene puts it, with consistent id grids, visible in the preview, summarised."""
+import os
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pyopenvdb as vdb
+import pytest
+
+from conftest import BUILD, run
+
+DEMO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "samples",
+                    "01_demo.sh")
+TERRAIN, EQUI, TABULAR, ROCKS = 0.0, 1.0, 2.0, 3.0
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo")
+    p = run(["bash", DEMO, BUILD, str(out), "--quality", "draft"])
+    assert p.returncode == 0, p.stderr
+    return out, p.stderr
+
+
+def test_one_file_with_every_part_and_consistent_ids(demo):
+    out, _ = demo
+    grids = {g.name: g for g in vdb.readAll(str(out / "demo.vdb"))[0]}
+    assert set(grids) == {"surface", "material", "block_id", "rock_id"}
+    s = grids["surface"]
+    assert s.gridClass == vdb.GridClass.LEVEL_SET and s.transform.voxelSize()[0] == 0.25
+    for g in grids.values():
+        assert g.activeVoxelCount() == s.activeVoxelCount()
+    mat, bid, rid = (grids[n].getConstAccessor() for n in ("material", "block_id", "rock_id"))
+    where = {m: [] for m in (TERRAIN, EQUI, TABULAR, ROCKS)}
+    for it in s.citerOnValues():
+        if it.count != 1 or abs(it.value) > 0.25:
+            continue  # voxels next to the surface only
+        m, b, r = mat.getValue(it.min), bid.getValue(it.min), rid.getValue(it.min)
+        assert m in where, m
+        # Block ids exactly on block materials, rock ids exactly on rocks.
+        assert (b >= 0) == (m in (EQUI, TABULAR)), (it.min, m, b)
+        assert (r >= 0) == (m == ROCKS), (it.min, m, r)
+        where[m].append([c * 0.25 for c in it.min])
+    for m, pts in where.items():
+        assert len(pts) > 500, (m, len(pts))
+    p = {m: np.array(v) for m, v in where.items()}
+    # Strata: tabular blocks above the equidimensional ones (boundary near 15 m, tilted).
+    e = {m: p[m][:, 2] + 0.15 * p[m][:, 0] for m in (EQUI, TABULAR)}
+    assert np.median(e[EQUI]) + 4 < np.median(e[TABULAR])
+    # Blocks only on the cliff face (the coast at x = 36 +- 5 m, the face 9 m wide).
+    for m in (EQUI, TABULAR):
+        assert 24 < p[m][:, 0].min() and p[m][:, 0].max() < 48
+    # The scree lies at the cliff foot, inside the wedge: 28 < x < 53, 9 < y < 53, low.
+    r = p[ROCKS]
+    assert 27 < r[:, 0].min() and r[:, 0].max() < 54 and 8 < r[:, 1].min() and r[:, 1].max() < 54
+    assert r[:, 2].max() < 13 and np.median(r[:, 2]) < 6
+
+
+def test_preview_shows_each_part_and_the_summary_reports_each_stage(demo):
+    out, err = demo
+    png = (out / "demo.png").read_bytes()
+    assert png[:4] == b"\x89PNG" and int.from_bytes(png[16:20], "big") == 1280
+    shown = re.search(r"by material: (.*) \(material ids\)", err)
+    assert shown, err
+    share = {float(a): float(b) for a, b in re.findall(r"(\d+) ([\d.]+)%", shown[1])}
+    assert set(share) == {TERRAIN, EQUI, TABULAR, ROCKS}, share
+    assert all(v >= 0.8 for v in share.values()), share
+    for stage in ("block tiles", "cliff (vdb_amplify | detail)", "rock tiles", "scree", "preview",
+                  "total"):
+        assert re.search(re.escape(stage) + r".*\d+\.\d s", err), (stage, err)
+    assert re.search(r"demo\.vdb\s+[\d.]+ MB\s+surface \d+", err), err
+    # A pipeline people copy: tools joined by pipes.
+    assert len(re.findall(r"-o -\s*\|", open(DEMO).read())) >= 2
+
+
+@pytest.mark.skipif(not shutil.which("vdb_tool"), reason="libopenvdb-tools not installed")
+def test_vdb_tool_meshes_the_demo_with_its_defaults(demo, tmp_path):
+    out, _ = demo
+    p = subprocess.run(["vdb_tool", "-read", str(out / "demo.vdb"), "-ls2mesh", "-write",
+                        str(tmp_path / "demo.obj")], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "demo.obj").stat().st_size > 1_000_000
+
+
+def test_bad_quality_is_a_usage_error(tmp_path):
+    p = run(["bash", DEMO, BUILD, str(tmp_path), "--quality", "ultra"])
+    assert p.returncode == 2 and "draft, default or high" in p.stderr
+    assert not (tmp_path / "demo.vdb").exists()
