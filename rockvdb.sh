@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # rockvdb set-up, build and run.
-#   ./rockvdb.sh demo   install missing Debian packages, build (Release, -j2), bake the demo
-#                       scene to out/demo.vdb and render out/demo.png
+#   ./rockvdb.sh demo [--quality draft|default|high]
+#                       install missing Debian packages, build (Release, -j2), bake the demo
+#                       scene to out/demo.vdb and render out/demo.png (ROCKVDB_QUALITY works too)
 #   ./rockvdb.sh test   same set-up, then run every test (C++, Python, CLI, real clients) via CTest
 #   ./rockvdb.sh build  set-up and build only
 set -euo pipefail
@@ -35,7 +36,7 @@ cmake --build build -j2
 case "$MODE" in
     demo)
         mkdir -p out
-        ./samples/01_demo.sh build out
+        ./samples/01_demo.sh build out "${@:2}"
         echo "rockvdb: wrote out/demo.vdb and out/demo.png" >&2
         ;;
     test)
