@@ -306,13 +306,25 @@ def read_image(path):
     return _rockvdb.read_image(_path(path, "path", "read_image"), "image")
 
 
-def csg(op, grids, smooth=0.0):
+def csg(op, grids, smooth=0.0, ids=None):
     """Fold 'union', 'intersection' or 'difference' (the first minus the others) over
     level-set grids, left to right; smooth: blend radius (m, default 0 = hard CSG). Grids on
     another voxel size are resampled onto the first. Inputs are left untouched; returns a new
-    grid."""
-    return _rockvdb.csg(_str(op, "op", "csg"), _grids(grids, "grids", "csg"),
-                        _float(smooth, "smooth", "csg"))
+    grid. ids: one list of id grids (block_id, rock_id, material, ...) per input (default
+    None); then returns (surface, [id grids]) with each name carried as vdb_csg carries it: a
+    voxel takes the id of the input whose surface the result follows there (in a difference,
+    the first input's), -1 where that input has no such grid."""
+    fn = "csg"
+    grids = _grids(grids, "grids", fn)
+    lists = []
+    if ids is not None:
+        if not hasattr(ids, "__iter__"):
+            raise _type_error(fn, "ids", "a list with one list of id grids per input", ids)
+        lists = [_grids(v, f"ids[{i}]", fn) for i, v in enumerate(ids)]
+        if len(lists) != len(grids):
+            raise ValueError(f"csg: ids needs one list of id grids per input grid (got "
+                             f"{len(lists)} for {len(grids)})")
+    return _rockvdb.csg(_str(op, "op", fn), grids, _float(smooth, "smooth", fn), lists)
 
 
 def read(path, grid=None):
@@ -339,15 +351,24 @@ def mesh(grid, path, isovalue=0.0, adaptivity=0.0, up="z"):
                   _str(up, "up", fn))
 
 
-def preview(grid, path, width=960, height=540, azimuth=35.0, elevation=30.0, ids=None):
+def preview(grid, path, width=960, height=540, azimuth=35.0, elevation=30.0, zoom=1.0, ids=None,
+            palette=None):
     """Render a shaded PNG of a level set (OpenVDB ray intersector), framing its active
     voxels: width x height pixels (default 960 x 540), camera azimuth around z from +x and
-    elevation above the ground (degrees, default 35 / 30); ids: an id grid (e.g. block_id) to
-    tint surfaces by id."""
+    elevation above the ground (degrees, default 35 / 30), zoom > 1 moves closer (default 1);
+    ids: an id grid (e.g. material) to tint surfaces by id, palette: {id: "#rrggbb"} colours
+    (other ids get a colour hashed from the id; default None).
+    Returns what the image shows: {"surface": share of pixels on the surface, "ids": {id:
+    share}} (shares in [0, 1])."""
     fn = "preview"
-    _rockvdb.preview(_grid(grid, "grid", fn), _path(path, "path", fn), _int(width, "width", fn),
-                     _int(height, "height", fn), _float(azimuth, "azimuth", fn),
-                     _float(elevation, "elevation", fn), _opt(ids, _grid, "ids", fn))
+    if palette is not None and not isinstance(palette, dict):
+        raise _type_error(fn, "palette", "a dict {id: '#rrggbb'}", palette)
+    text = ",".join(f"{_int(k, 'palette key', fn)}={_str(v, 'palette colour', fn)}"
+                    for k, v in (palette or {}).items())
+    return _rockvdb.preview(_grid(grid, "grid", fn), _path(path, "path", fn),
+                            _int(width, "width", fn), _int(height, "height", fn),
+                            _float(azimuth, "azimuth", fn), _float(elevation, "elevation", fn),
+                            _float(zoom, "zoom", fn), _opt(ids, _grid, "ids", fn), text)
 
 
 def provenance(grid):

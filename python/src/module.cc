@@ -24,6 +24,8 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
+
 namespace py = pybind11;
 using namespace rockvdb;
 using nlohmann::json;
@@ -492,12 +494,37 @@ PYBIND11_MODULE(_rockvdb, m)
     }, py::arg("path"), py::arg("op") = "image",
        "Read a float EXR / 16-bit PNG (0..1) as a 2D array (row 0 first)");
 
-    m.def("csg", [](const std::string& op, const std::vector<Grid>& grids, double smooth) {
+    m.def("csg", [](const std::string& op, const std::vector<Grid>& grids, double smooth,
+                    const std::vector<std::vector<Grid>>& ids) -> py::object {
         std::vector<openvdb::FloatGrid::ConstPtr> in(grids.begin(), grids.end());
+        if (!ids.empty() && ids.size() != grids.size()) {
+            throw ValueError("csg: ids needs one list of id grids per input grid");
+        }
+        // Id grids by name, in order of first appearance (as vdb_csg carries them).
+        std::vector<std::string> names;
+        for (const auto& list : ids) {
+            for (const auto& g : list) {
+                if (std::find(names.begin(), names.end(), g->getName()) == names.end()) {
+                    names.push_back(g->getName());
+                }
+            }
+        }
         Grid g;
+        std::vector<Grid> carried;
         {
             py::gil_scoped_release release;
             g = csgGrids(csgOpFromString(op), in, smooth);
+            for (const auto& name : names) {
+                std::vector<openvdb::FloatGrid::ConstPtr> per;
+                for (const auto& list : ids) {
+                    openvdb::FloatGrid::ConstPtr found;
+                    for (const auto& x : list) {
+                        if (x->getName() == name && !found) found = x;
+                    }
+                    per.push_back(found);
+                }
+                carried.push_back(csgAttribute(csgOpFromString(op), in, per, *g, name));
+            }
         }
         json sources = json::array();
         for (const auto& in : grids) {
@@ -506,10 +533,17 @@ PYBIND11_MODULE(_rockvdb, m)
                                        {"params", json::parse(p->params, nullptr, false)}}
                                 : json(nullptr));
         }
-        stampProvenance(*g, "rockvdb.csg",
-                        json({{"op", op}, {"smooth", smooth}, {"sources", sources}}).dump());
-        return g;
+        const std::string prov = json({{"op", op}, {"smooth", smooth}, {"sources", sources}}).dump();
+        stampProvenance(*g, "rockvdb.csg", prov);
+        if (ids.empty()) return py::cast(g);
+        py::list out;
+        for (const auto& c : carried) {
+            stampProvenance(*c, "rockvdb.csg", prov);
+            out.append(py::cast(c));
+        }
+        return py::make_tuple(py::cast(g), out);
     }, py::arg("op"), py::arg("grids"), py::arg("smooth") = 0.0,
+       py::arg("ids") = std::vector<std::vector<Grid>>{},
        "union / intersection / difference of level-set grids (inputs untouched)");
 
     m.def("read", [](const std::string& path, const std::string& name) { return readLevelSet(path, name); },
@@ -540,16 +574,29 @@ PYBIND11_MODULE(_rockvdb, m)
     }, py::arg("grid"), py::arg("path"), py::arg("isovalue") = 0.0, py::arg("adaptivity") = 0.0,
        py::arg("up") = "z");
     m.def("preview", [](Grid grid, const std::string& path, int width, int height, double azimuth,
-                        double elevation, std::optional<Grid> ids) {
+                        double elevation, double zoom, std::optional<Grid> ids,
+                        const std::string& palette) {
         PreviewSettings s;
         s.width = width;
         s.height = height;
         s.azimuth = azimuth;
         s.elevation = elevation;
-        py::gil_scoped_release release;
-        writePreview(*grid, path, s, ids ? ids->get() : nullptr);
+        s.zoom = zoom;
+        if (!palette.empty()) s.palette = parsePalette(palette, "preview: palette");
+        PreviewStats st;
+        {
+            py::gil_scoped_release release;
+            writePreview(*grid, path, s, ids ? ids->get() : nullptr, &st);
+        }
+        py::dict out;
+        out["surface"] = double(st.surfacePixels) / double(st.pixels);
+        py::dict byId;
+        for (const auto& [id, n] : st.idPixels) byId[py::int_(id)] = double(n) / double(st.pixels);
+        out["ids"] = byId;
+        return out;
     }, py::arg("grid"), py::arg("path"), py::arg("width") = 960, py::arg("height") = 540,
-       py::arg("azimuth") = 35.0, py::arg("elevation") = 30.0, py::arg("ids") = py::none());
+       py::arg("azimuth") = 35.0, py::arg("elevation") = 30.0, py::arg("zoom") = 1.0,
+       py::arg("ids") = py::none(), py::arg("palette") = "");
     m.def("provenance", [](Grid grid) -> py::object {
         auto p = provenance(*grid);
         if (!p) return py::none();

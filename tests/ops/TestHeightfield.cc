@@ -142,3 +142,48 @@ TEST(Heightfield, BadImagesGiveClearErrors)
         EXPECT_NE(std::string(e.what()).find("8-bit RGB"), std::string::npos) << e.what();
     }
 }
+
+TEST(Heightfield, SeaCliffProfile)
+{
+    // Plateau at small x, floor beyond the coast, the face's steepest slope at its mid-line
+    // (1.5·(height − floor)/width for the smoothstep), bays and headlands of about ±waviness.
+    SeaCliff c;
+    c.nx = 161;
+    c.ny = 121;
+    c.cellSize = 0.5;
+    c.height = 28;
+    c.floor = 2;
+    c.coast = 40;
+    c.width = 10;
+    c.waviness = 5;
+    c.roughness = 0;
+    const Heightfield hf = seaCliffHeightfield(c);
+    ASSERT_EQ(hf.nx, 161);
+    ASSERT_EQ(hf.ny, 121);
+    double lo = 1e9, hi = -1e9, steepest = 0;
+    for (int j = 0; j < hf.ny; ++j) {
+        EXPECT_FLOAT_EQ(hf.at(0, j), 28.0f);     // plateau (x = 0 is > 12 m from any coast)
+        EXPECT_FLOAT_EQ(hf.at(160, j), 2.0f);    // sea floor at x = 80 m
+        int cross = -1;
+        for (int i = 1; i < hf.nx; ++i) {
+            steepest = std::max(steepest, double(hf.at(i - 1, j) - hf.at(i, j)) / c.cellSize);
+            if (cross < 0 && hf.at(i, j) < 15.0f) cross = i;
+        }
+        lo = std::min(lo, cross * c.cellSize);
+        hi = std::max(hi, cross * c.cellSize);
+    }
+    EXPECT_NEAR(steepest, 1.5 * 26 / 10, 0.1);
+    // The mid-height line wanders with the coastline: both bays and headlands, within reach.
+    EXPECT_GT(hi - lo, 5.0);
+    EXPECT_LT(hi - lo, 2 * (1.0 + 0.5) * 5 + 1);
+    EXPECT_GT(lo, 40 - 8.5);
+    EXPECT_LT(hi, 40 + 8.5);
+    // Same parameters, same heights; another seed, another coastline.
+    EXPECT_EQ(seaCliffHeightfield(c).z, hf.z);
+    SeaCliff d = c;
+    d.seed = 2;
+    EXPECT_NE(seaCliffHeightfield(d).z, hf.z);
+    SeaCliff bad = c;
+    bad.height = 1;
+    EXPECT_THROW(seaCliffHeightfield(bad), ValueError);
+}

@@ -109,3 +109,44 @@ TEST(Mesh, SphereMeshIsOutwardAndClosed)
     EXPECT_EQ(first.rfind("# rockvdb", 0), 0u);
     EXPECT_THROW(writeMesh(m, tmp("s.stl")), ValueError);
 }
+
+TEST(VdbIO, DefaultLevelSetAndFileOrder)
+{
+    initialize();
+    auto ls = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0), 0.1f);
+    ls->setName("blob");
+    auto ids = openvdb::FloatGrid::create(-1.0f);
+    ids->setName("block_id");
+    ids->tree().setValueOn(openvdb::Coord(0), 3.0f);
+    // '' takes 'surface', else the only level set; several level sets need a name.
+    EXPECT_EQ(findLevelSet({ids, ls}, "", "x")->getName(), "blob");
+    auto surface = ls->deepCopy();
+    surface->setName("surface");
+    EXPECT_EQ(findLevelSet({ls, ids, surface}, "", "x")->getName(), "surface");
+    EXPECT_THROW(findLevelSet({ls, ids, ls->deepCopy()}, "", "x"), ValueError);
+    EXPECT_THROW(findLevelSet({ids}, "", "x"), ValueError);
+    // Written: attribute grids first, level sets after them, 'surface' last (vdb_tool takes
+    // the last grid read); the order given does not matter.
+    const std::string path = ::testing::TempDir() + "rockvdb_order.vdb";
+    writeGrids(path, {surface, ls, ids});
+    auto back = readGrids(path);
+    ASSERT_EQ(back->size(), 3u);
+    EXPECT_EQ((*back)[0]->getName(), "block_id");
+    EXPECT_EQ((*back)[1]->getName(), "blob");
+    EXPECT_EQ((*back)[2]->getName(), "surface");
+    std::remove(path.c_str());
+}
+
+TEST(Mesh, UpAxisRotatesAndRoundTrips)
+{
+    Mesh m;
+    m.points = {openvdb::Vec3s(1, 2, 3)};
+    fromZUp(m, UpAxis::Y);   // ours (x, y, z) -> y-up file (x, z, -y)
+    EXPECT_EQ(m.points[0], openvdb::Vec3s(1, 3, -2));
+    toZUp(m, UpAxis::Y);
+    EXPECT_EQ(m.points[0], openvdb::Vec3s(1, 2, 3));
+    toZUp(m, UpAxis::Z);
+    EXPECT_EQ(m.points[0], openvdb::Vec3s(1, 2, 3));
+    EXPECT_EQ(upAxisFromString("y"), UpAxis::Y);
+    EXPECT_THROW(upAxisFromString("x"), ValueError);
+}

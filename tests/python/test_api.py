@@ -103,3 +103,40 @@ def test_rock_pile_material_grid_and_default_support_grid(tmp_path):
     assert len(rockvdb.rock_pile(tiles, tmp_path / "ball.vdb")) == 2
     with pytest.raises(ValueError, match="material id"):
         rockvdb.rock_pile(tiles, rockvdb.sphere(0.8), material=-5)
+
+
+def test_preview_palette_and_what_the_image_shows(tmp_path):
+    f = rockvdb.sphere(0.6, (-0.7, 0, 0)).tag(1) | rockvdb.sphere(0.6, (0.7, 0, 0)).tag(2)
+    surface, ids = f.bake(voxel_size=0.05, attribute="material")
+    shown = rockvdb.preview(surface, tmp_path / "p.png", width=160, height=90, ids=ids,
+                            palette={1: "#ff0000", 2: "#0000ff"})
+    assert (tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
+    assert set(shown["ids"]) == {1, 2}
+    # Two equal spheres side by side, seen from the default azimuth: similar shares.
+    a, b = shown["ids"][1], shown["ids"][2]
+    assert a > 0.02 and b > 0.02 and 0.5 < a / b < 2
+    assert a + b == pytest.approx(shown["surface"], abs=1e-9)
+    with pytest.raises(ValueError, match="ID=#rrggbb"):
+        rockvdb.preview(surface, tmp_path / "q.png", ids=ids, palette={1: "red"})
+
+
+def test_csg_carries_ids_like_the_cli(tmp_path):
+    import numpy as np
+    from conftest import dense, run, tool
+    a = rockvdb.sphere(1.0, (-0.6, 0, 0)).tag(1)
+    b = rockvdb.sphere(1.0, (0.6, 0, 0)).tag(2)
+    sa, ia = a.bake(voxel_size=0.05, attribute="block_id")
+    sb, ib = b.bake(voxel_size=0.05, attribute="block_id")
+    surface, (ids,) = rockvdb.csg("union", [sa, sb], ids=[[ia], [ib]])
+    assert ids.name == "block_id" and {it.value for it in ids.citerOnValues()} == {1.0, 2.0}
+    rockvdb.write(str(tmp_path / "a.vdb"), [sa, ia])
+    rockvdb.write(str(tmp_path / "b.vdb"), [sb, ib])
+    run([tool("vdb_csg"), "-q", "union", str(tmp_path / "a.vdb"), str(tmp_path / "b.vdb"),
+         "-o", str(tmp_path / "u.vdb")], check=True)
+    cli = {g.name: g for g in vdb.readAll(str(tmp_path / "u.vdb"))[0]}
+    for ours, theirs in ((surface, cli["surface"]), (ids, cli["block_id"])):
+        (la, da), (lb, db) = dense(ours), dense(theirs)
+        assert la == lb and np.array_equal(da, db)
+    assert isinstance(rockvdb.csg("union", [sa, sb]), vdb.FloatGrid)
+    with pytest.raises(ValueError, match="one list of id grids per input"):
+        rockvdb.csg("union", [sa, sb], ids=[[ia]])
