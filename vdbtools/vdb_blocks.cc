@@ -64,7 +64,17 @@ int main(int argc, char** argv)
     app.add_option("--authored", authored,
                    "JSON file of authored blocks: [{\"type\":\"box\",\"center\":[..],\"size\":[..],"
                    "\"rotate\":[..]} or {\"type\":\"polytope\",\"planes\":[[nx,ny,nz,d],...]}, ...]");
-    app.add_option("--min-points", p.minPoints, "Drop clusters with fewer points")->capture_default_str();
+    app.add_option("--min-points", p.minPoints,
+                   "Clusters with fewer points are dropped (with --fill: join the neighbour "
+                   "they share most graph edges with)")->capture_default_str();
+    app.add_flag("--fill,!--no-fill", p.fill,
+                 "Grow each block to its fractures: neighbours share a separating plane (the "
+                 "disc's own where it separates them) and stand --fracture-width apart; without, "
+                 "the hull-only reading (neighbours about a point spacing apart)")
+        ->capture_default_str();
+    app.add_option("--fracture-width", p.fractureWidth,
+                   "With --fill: gap between neighbouring blocks (m; -1 = 0.002 x tile size)")
+        ->capture_default_str();
     app.add_option("--smooth-radius", p.smoothRadius,
                    "R of the smooth intersection of the hull planes (m)")->capture_default_str();
     app.add_option("--warp-amplitude", p.relief.amplitude,
@@ -139,10 +149,10 @@ int main(int argc, char** argv)
             std::snprintf(line, sizeof line,
                           "%s tile %g m: #P %zu points, #D %zu discs, #B %zu blocks, mean #Pi %.1f "
                           "(%zu edges, %zu cut; %zu visibility splits, %zu wrap cuts; dropped %zu "
-                          "clusters, %zu points)",
+                          "clusters, %zu points; merged %zu)",
                           blockTypeName(tile->params.type), tile->size(), s.points, s.discs,
                           s.blocks, s.meanPoints, s.edges, s.cutEdges, s.visibilitySplits,
-                          s.wrapCuts, s.droppedClusters, s.droppedPoints);
+                          s.wrapCuts, s.droppedClusters, s.droppedPoints, s.mergedClusters);
             tool.info(line);
             std::snprintf(line, sizeof line,
                           "sampling %.3f s, graph %.3f s, fracturing %.3f s, clustering %.3f s, "

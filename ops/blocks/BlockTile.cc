@@ -18,6 +18,7 @@
 #include <cstdlib>
 #include <tuple>
 #include <deque>
+#include <map>
 #include <fstream>
 #include <numeric>
 #include <sstream>
@@ -256,6 +257,14 @@ public:
     // Does segment pq (|pq| <= margin, midpoint anywhere) cross any disc image?
     bool cuts(const Vec3d& p, const Vec3d& q) const
     {
+        Vec3d centre;
+        return cutter(p, q, centre) >= 0;
+    }
+
+    // Every disc image crossing segment pq: (disc, image centre in pq's frame).
+    std::vector<std::pair<int, Vec3d>> cutters(const Vec3d& p, const Vec3d& q) const
+    {
+        std::vector<std::pair<int, Vec3d>> out;
         const Vec3d m = (p + q) * 0.5;
         Vec3d shift;
         int idx[3];
@@ -266,9 +275,31 @@ public:
         }
         for (const auto& e : mCells[(size_t(idx[0]) * mN + idx[1]) * mN + idx[2]]) {
             const Disc& D = mDiscs[size_t(e.disc)];
-            if (crosses(p, q, e.center + shift, D.normal, D.radius)) return true;
+            if (crosses(p, q, e.center + shift, D.normal, D.radius)) out.emplace_back(e.disc, e.center + shift);
         }
-        return false;
+        return out;
+    }
+
+    // The first disc (in bucket order) whose image crosses segment pq, or -1; @a centre gets
+    // that image's centre in pq's frame.
+    int cutter(const Vec3d& p, const Vec3d& q, Vec3d& centre) const
+    {
+        const Vec3d m = (p + q) * 0.5;
+        Vec3d shift;
+        int idx[3];
+        for (int a = 0; a < 3; ++a) {
+            const double w = std::floor(m[a] / mSize);
+            shift[a] = w * mSize;
+            idx[a] = std::min(mN - 1, std::max(0, int((m[a] - shift[a]) / mCell)));
+        }
+        for (const auto& e : mCells[(size_t(idx[0]) * mN + idx[1]) * mN + idx[2]]) {
+            const Disc& D = mDiscs[size_t(e.disc)];
+            if (crosses(p, q, e.center + shift, D.normal, D.radius)) {
+                centre = e.center + shift;
+                return e.disc;
+            }
+        }
+        return -1;
     }
 
 private:
@@ -569,6 +600,306 @@ Block makeBlock(const std::vector<Vec3d>& P, double thickness, double smoothRadi
     return b;
 }
 
+// ---- filling the tile up to the fractures --------------------------------------------------
+//
+// The paper's blocks are the hulls of their clusters' points, so two neighbours stand about a
+// point spacing apart: with its r ≈ 10 cm points the gaps are thin, with the ≈ 0.68 m points a
+// 20 m tile can afford (Table 1's counts, see resolveDefaults) a hull-only tile is half empty.
+// We keep the construction (hull planes, smooth intersection, warp) and move the planes to
+// the fractures before smoothing. Each pair of neighbouring clusters (a graph edge joins
+// them) shares one separating plane, and each block gets that plane's side, w/2 from it:
+//  - the plane of a disc (image) that cuts edges between the two, when it leaves every point
+//    of one cluster on one side and every point of the other on the other side — the
+//    fracture itself;
+//  - otherwise (a disc whose rim the clusters wrap around, a visibility split) a plane that
+//    separates the two point sets (the hulls were disjoint, so one exists), found by moving
+//    the normal towards the pair of support points that violate it, placed mid-gap.
+// The pair's plane is computed once, from the lower block index, so the two sides mirror it
+// exactly: the gap across it is w, and neighbours never overlap. The hull planes (for the
+// paper's primitives, the box of the point or segment) move out by one neighbour radius
+// (halfway to a foreign point without a pair plane, if nearer) and bound the block where no
+// neighbour does. The faces' polytope is the intersection of the half-spaces; its vertices
+// (for the bounds) come from the convex hull of the dual points n/(d − n·c), c the centroid,
+// which also drops the planes that do not touch it.
+
+// A graph neighbour of a cluster point that lies in another cluster, in the cluster's
+// unwrapped frame: its cluster (-1: an authored block or a dropped cluster) and the offset
+// from that cluster's frame to this one, with the disc image that cut the edge (or -1).
+struct Foreign
+{
+    Vec3d q;
+    int cluster;
+    Vec3d offset;
+    int disc;
+    Vec3d centre;
+};
+
+// Vertices of {x : n_k·x <= d_k} (bounded, c inside) and which planes touch it; false when
+// c is not strictly inside or the polytope is unbounded.
+bool polytopeOf(const std::vector<std::array<double, 4>>& planes, const Vec3d& c,
+                std::vector<Vec3d>& vertices, std::vector<bool>& used)
+{
+    std::vector<Vec3d> dual;
+    dual.reserve(planes.size());
+    for (const auto& q : planes) {
+        const double h = q[3] - (q[0] * c[0] + q[1] * c[1] + q[2] * c[2]);
+        if (!(h > 1e-9)) return false;
+        dual.emplace_back(q[0] / h, q[1] / h, q[2] / h);
+    }
+    const Hull hull = convexHull(dual, 1e-12);
+    if (hull.dimension < 3) return false;
+    vertices.clear();
+    for (const auto& f : hull.planes) {
+        if (!(f[3] > 1e-12)) return false; // the centre is not inside the dual hull: unbounded
+        vertices.push_back(c + Vec3d(f[0], f[1], f[2]) / f[3]);
+    }
+    used.assign(planes.size(), false);
+    for (const auto& v : hull.vertices) {
+        for (size_t k = 0; k < dual.size(); ++k) {
+            if (dual[k] == v) used[k] = true;
+        }
+    }
+    return true;
+}
+
+Vec3d meanOf(const std::vector<Vec3d>& P)
+{
+    Vec3d c(0);
+    for (const auto& p : P) c += p;
+    return c / double(P.size());
+}
+
+// A unit n and m with n·x < m < n·y for every x in X, y in Y (m mid-gap); false if the
+// search does not find one. Deterministic for given X, Y.
+bool separatingPlane(const std::vector<Vec3d>& X, const std::vector<Vec3d>& Y, Vec3d& n,
+                     double& m)
+{
+    n = meanOf(Y) - meanOf(X);
+    if (n.length() < 1e-12) return false;
+    n = n.unit();
+    for (int it = 0; it < 96; ++it) {
+        double hx = -1e300, hy = 1e300;
+        size_t ix = 0, iy = 0;
+        for (size_t i = 0; i < X.size(); ++i) {
+            const double h = n.dot(X[i]);
+            if (h > hx) { hx = h; ix = i; }
+        }
+        for (size_t i = 0; i < Y.size(); ++i) {
+            const double h = n.dot(Y[i]);
+            if (h < hy) { hy = h; iy = i; }
+        }
+        if (hx < hy - 1e-9) {
+            m = 0.5 * (hx + hy);
+            return true;
+        }
+        // Turn towards the violating support pair.
+        const Vec3d d = Y[iy] - X[ix];
+        if (d.length() < 1e-12) return false;
+        n = (n + d.unit()).unit();
+    }
+    return false;
+}
+
+// The plane separating clusters a and b (b's points moved by offset into a's frame), as
+// (outward normal from a, position) in a's frame; computed from the lower index so both
+// sides get the same plane. Candidates, in order: a cutting disc whose plane separates the
+// two (the fracture itself); else the widest gap along a cutting disc's normal, a hull
+// face normal of either cluster (a separating axis of two disjoint convex hulls is among
+// them or their edges' cross products) or the search of separatingPlane, placed mid-gap.
+bool pairPlane(const std::vector<std::vector<Vec3d>>& clusters,
+               const std::vector<std::vector<Vec3d>>& hullNormals, int a, int b,
+               const Vec3d& offset, const std::vector<std::pair<int, Vec3d>>& cutDiscs,
+               const std::vector<Disc>& discs, Vec3d& n, double& m)
+{
+    const bool flip = b < a;
+    const int lo = flip ? b : a, hi = flip ? a : b;
+    const Vec3d off = flip ? -offset : offset; // hi's frame → lo's frame
+    const std::vector<Vec3d>& X = clusters[size_t(lo)];
+    std::vector<Vec3d> Y = clusters[size_t(hi)];
+    for (auto& y : Y) y += off;
+    bool found = false;
+    for (const auto& [d, centreA] : cutDiscs) {
+        const Vec3d c = flip ? centreA - offset : centreA; // in lo's frame
+        const Vec3d& u = discs[size_t(d)].normal;
+        double xlo = 1e300, xhi = -1e300, ylo = 1e300, yhi = -1e300;
+        for (const auto& x : X) { const double h = u.dot(x - c); xlo = std::min(xlo, h); xhi = std::max(xhi, h); }
+        for (const auto& y : Y) { const double h = u.dot(y - c); ylo = std::min(ylo, h); yhi = std::max(yhi, h); }
+        if (xhi < -1e-9 && ylo > 1e-9) { n = u; m = u.dot(c); found = true; break; }
+        if (xlo > 1e-9 && yhi < -1e-9) { n = -u; m = -u.dot(c); found = true; break; }
+    }
+    if (!found) {
+        // The widest gap over the candidate axes (either orientation).
+        double bestGap = 1e-9;
+        auto tryAxis = [&](Vec3d u) {
+            if (u.length() < 1e-12) return;
+            u = u.unit();
+            for (int sgn = 0; sgn < 2; ++sgn, u = -u) {
+                double hx = -1e300, hy = 1e300;
+                for (const auto& x : X) hx = std::max(hx, u.dot(x));
+                for (const auto& y : Y) hy = std::min(hy, u.dot(y));
+                if (hy - hx > bestGap) {
+                    bestGap = hy - hx;
+                    n = u;
+                    m = 0.5 * (hx + hy);
+                    found = true;
+                }
+            }
+        };
+        for (const auto& cd : cutDiscs) tryAxis(discs[size_t(cd.first)].normal);
+        for (const auto& u : hullNormals[size_t(lo)]) tryAxis(u);
+        for (const auto& u : hullNormals[size_t(hi)]) tryAxis(u);
+        Vec3d ps;
+        double pm;
+        if (separatingPlane(X, Y, ps, pm)) tryAxis(ps);
+    }
+    if (!found) return false;
+    if (flip) {
+        // Computed in b's frame with b below: n·x_b = m. In a's frame x_b = x_a − offset, so
+        // the plane is n·x_a = m + n·offset, and a's outward normal is −n.
+        m = -(m + n.dot(offset));
+        n = -n;
+    }
+    return true;
+}
+
+// b becomes the polytope of @a all (the first @a leading planes are fractures, folded first),
+// its vertices and bounds from it; unchanged when the polytope is not bounded around c.
+bool setPolytope(Block& b, const std::vector<std::array<double, 4>>& all, size_t leading,
+                 const Vec3d& c)
+{
+    std::vector<Vec3d> verts;
+    std::vector<bool> used;
+    if (!polytopeOf(all, c, verts, used)) return false;
+    Block out = b;
+    out.kind = BlockKind::Polytope;
+    out.planes.clear();
+    out.areas.clear();
+    for (size_t k = 0; k < all.size(); ++k) {
+        if (!used[k]) continue;
+        out.planes.push_back({float(all[k][0]), float(all[k][1]), float(all[k][2]), float(all[k][3])});
+        out.areas.push_back(k < leading ? 1e30f : 0.0f);
+    }
+    out.vertices.clear();
+    Vec3d lo = verts[0], hi = verts[0];
+    for (const auto& v : verts) {
+        out.vertices.push_back(f3(v));
+        lo = minComponent(lo, v);
+        hi = maxComponent(hi, v);
+    }
+    // The smooth intersection only shrinks and the tile field adds the warp's amplitude to
+    // the bounds: the vertices bound the block.
+    out.boundsMin = f3(lo);
+    out.boundsMax = f3(hi);
+    b = std::move(out);
+    return true;
+}
+
+// Does polytope a (planes, vertices) meet polytope b moved by @a shift? A vertex of either
+// inside the other (with a tolerance): the overlaps growing leaves are of that kind.
+bool meets(const Block& a, const Block& b, const Vec3d& shift, double tol)
+{
+    auto inside = [&](const Block& P, const Vec3d& x) {
+        for (const auto& q : P.planes) {
+            if (q[0] * x[0] + q[1] * x[1] + q[2] * x[2] - q[3] > -tol) return false;
+        }
+        return true;
+    };
+    for (const auto& v : a.vertices) if (inside(b, Vec3d(v[0], v[1], v[2]) - shift)) return true;
+    for (const auto& v : b.vertices) if (inside(a, Vec3d(v[0], v[1], v[2]) + shift)) return true;
+    return false;
+}
+
+// Grow block b (cluster index c, from makeBlock, home frame of its points) to its fractures;
+// see the comment above.
+void growToFractures(Block& b, int c, const std::vector<std::vector<Vec3d>>& clusters,
+                     const std::vector<std::vector<Vec3d>>& hullNormals,
+                     const std::vector<Foreign>& F, const std::vector<Disc>& discs, double w,
+                     double cap)
+{
+    const std::vector<Vec3d>& P = clusters[size_t(c)];
+    const Vec3d centroid = meanOf(P);
+    std::vector<std::array<double, 4>> hullPlanes;
+    if (b.kind == BlockKind::Polytope) {
+        for (const auto& q : b.planes) hullPlanes.push_back({q[0], q[1], q[2], q[3]});
+    } else {
+        // A point or a segment (the paper's primitives): its thickened box.
+        for (int a = 0; a < 3; ++a) {
+            const double lo = std::min(b.a[size_t(a)], b.b[size_t(a)]) - b.radius;
+            const double hi = std::max(b.a[size_t(a)], b.b[size_t(a)]) + b.radius;
+            std::array<double, 4> up{0, 0, 0, hi}, down{0, 0, 0, -lo};
+            up[size_t(a)] = 1;
+            down[size_t(a)] = -1;
+            hullPlanes.push_back(up);
+            hullPlanes.push_back(down);
+        }
+    }
+    // 1. One plane per neighbouring cluster (image): group the foreign points by it.
+    auto key = [&](const Foreign& f) {
+        return std::make_tuple(f.cluster, std::llround(f.offset[0] / 1e-3),
+                               std::llround(f.offset[1] / 1e-3), std::llround(f.offset[2] / 1e-3));
+    };
+    std::vector<size_t> order(F.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](size_t x, size_t y) { return key(F[x]) < key(F[y]); });
+    std::vector<std::array<double, 4>> pairPlanes;
+    std::vector<Vec3d> loose;
+    for (size_t g = 0; g < order.size();) {
+        size_t e = g;
+        while (e < order.size() && key(F[order[e]]) == key(F[order[g]])) ++e;
+        const Foreign& f = F[order[g]];
+        bool found = false;
+        if (f.cluster >= 0) {
+            std::vector<std::pair<int, Vec3d>> cut;
+            for (size_t k = g; k < e; ++k) {
+                if (F[order[k]].disc >= 0) cut.emplace_back(F[order[k]].disc, F[order[k]].centre);
+            }
+            std::sort(cut.begin(), cut.end(), [](const auto& x, const auto& y) {
+                return std::make_tuple(x.first, x.second[0], x.second[1], x.second[2]) <
+                       std::make_tuple(y.first, y.second[0], y.second[1], y.second[2]);
+            });
+            Vec3d n;
+            double m;
+            if (pairPlane(clusters, hullNormals, c, f.cluster, f.offset, cut, discs, n, m)) {
+                pairPlanes.push_back({n[0], n[1], n[2], m - 0.5 * w});
+                found = true;
+            }
+        }
+        if (!found) {
+            for (size_t k = g; k < e; ++k) loose.push_back(F[order[k]].q);
+        }
+        g = e;
+    }
+    // 2. Hull planes move out by the cap, or halfway to a loose foreign point in front.
+    for (auto& q : hullPlanes) {
+        const Vec3d n(q[0], q[1], q[2]);
+        double push = cap;
+        for (const auto& f : loose) {
+            const double h = n.dot(f) - q[3];
+            if (h > 1e-9) push = std::min(push, 0.5 * (h - w));
+        }
+        q[3] += std::max(0.0, push);
+    }
+    // 3. The polytope: pair planes first (the fractures, the largest faces), then the hull's
+    //    in its fold order.
+    std::vector<std::array<double, 4>> all;
+    // One plane per direction: several neighbours across one fracture give the same plane,
+    // and a doubled plane would make the smooth intersection shrink the whole face (by R/6).
+    auto addPlane = [&](const std::array<double, 4>& q) {
+        for (auto& o : all) {
+            if (std::abs(o[0] - q[0]) < 1e-4 && std::abs(o[1] - q[1]) < 1e-4 &&
+                std::abs(o[2] - q[2]) < 1e-4 && std::abs(o[3] - q[3]) < 1e-3) {
+                o[3] = std::min(o[3], q[3]);
+                return;
+            }
+        }
+        all.push_back(q);
+    };
+    for (const auto& q : pairPlanes) addPlane(q);
+    const size_t pairCount = all.size();
+    for (const auto& q : hullPlanes) addPlane(q);
+    setPolytope(b, all, pairCount, centroid);
+}
+
 // An authored block's planes (normalised) and geometry; its vertices by plane triples.
 Block makeAuthored(const AuthoredBlock& a, const std::vector<Vec3d>& inside)
 {
@@ -713,6 +1044,7 @@ void TileParams::resolveDefaults()
     if (discRadiusMax <= 0) discRadiusMax = std::max(discRadiusMin, d.rmax * s);
     if (jitterDeg < 0) jitterDeg = d.jitter;
     if (irregularFraction < 0) irregularFraction = d.irregular;
+    if (fractureWidth < 0) fractureWidth = 0.002 * s;
 }
 
 void TileParams::validate() const
@@ -744,6 +1076,8 @@ void TileParams::validate() const
     require(std::isfinite(obliqueDeg) && obliqueDeg >= 30 && obliqueDeg <= 90, op,
             "oblique angle", "in [30, 90] degrees", obliqueDeg);
     require(minPoints >= 1 && minPoints <= 100000, op, "min points", "in [1, 100000]", minPoints);
+    require(std::isfinite(fractureWidth) && fractureWidth >= 0 && fractureWidth < pointRadius, op,
+            "fracture width", "in [0, point radius) m", fractureWidth);
     require(std::isfinite(smoothRadius) && smoothRadius >= 0 && smoothRadius < tileSize / 4, op,
             "smooth radius", "in [0, tile size / 4)", smoothRadius);
     require(std::isfinite(relief.amplitude) && relief.amplitude >= 0 &&
@@ -841,6 +1175,8 @@ json TileParams::toJson() const
     j["oblique_angle"] = obliqueDeg;
     j["min_points"] = minPoints;
     j["smooth_radius"] = smoothRadius;
+    j["fill"] = fill;
+    j["fracture_width"] = fractureWidth;
     j["seed"] = seed;
     j["relief"] = {{"amplitude", relief.amplitude}, {"scale", relief.scale},
                    {"octaves", relief.octaves}, {"image", relief.image},
@@ -931,7 +1267,7 @@ TileParams TileParams::fromJson(const json& j)
               {"type", "tile_size", "point_radius", "neighbour_radius", "disc_count",
                "disc_spacing", "disc_radius", "jitter", "irregular_fraction", "axis",
                "oblique_angle", "min_points", "smooth_radius", "seed", "relief", "fractures",
-               "authored"});
+               "authored", "fill", "fracture_width"});
     TileParams p;
     if (j.contains("type")) {
         if (!j["type"].is_string()) fail<ValueError>("blocks: type must be a string");
@@ -958,6 +1294,11 @@ TileParams TileParams::fromJson(const json& j)
     if (j.contains("axis")) p.axis = vecFrom(j["axis"], "axis");
     num("oblique_angle", p.obliqueDeg);
     num("smooth_radius", p.smoothRadius);
+    num("fracture_width", p.fractureWidth);
+    if (j.contains("fill")) {
+        if (!j["fill"].is_boolean()) fail<ValueError>("blocks: fill must be true or false");
+        p.fill = j["fill"].get<bool>();
+    }
     if (j.contains("seed")) {
         if (!j["seed"].is_number_integer()) fail<ValueError>("blocks: seed must be an integer");
         p.seed = j["seed"].get<uint64_t>();
@@ -990,7 +1331,8 @@ json TileStats::toJson() const
             {"cut_edges", cutEdges},      {"discs", discs},
             {"blocks", blocks},           {"dropped_clusters", droppedClusters},
             {"dropped_points", droppedPoints}, {"visibility_splits", visibilitySplits},
-            {"wrap_cuts", wrapCuts},      {"mean_points", meanPoints},
+            {"wrap_cuts", wrapCuts},      {"merged_clusters", mergedClusters},
+            {"mean_points", meanPoints},
             {"seconds", {{"sampling", sampling}, {"graph", graph}, {"fracturing", fracturing},
                          {"clustering", clustering}, {"hulls", hulls},
                          {"generation", generation}}}};
@@ -1042,11 +1384,29 @@ BlockTile generateTile(const TileParams& in)
     st.discs = tile.discs.size();
     const DiscGrid discGrid(tile.discs, s, p.neighbourRadius);
     std::vector<std::vector<Adjacent>> adj(pts.size());
+    // The cut edges, both ways, with the disc image that cut them (relative to the point).
+    struct Cut { int to; Vec3d step; int disc; Vec3d centre; };
+    std::vector<std::vector<Cut>> cuts(p.fill ? pts.size() : 0);
     for (const auto& e : edges) {
-        if (owner[size_t(e.a)] >= 0 || owner[size_t(e.b)] >= 0) { ++st.cutEdges; continue; }
         const Vec3d pa = pts[size_t(e.a)];
         const Vec3d pb = pts[size_t(e.b)] + Vec3d(e.shift[0], e.shift[1], e.shift[2]) * s;
-        if (discGrid.cuts(pa, pb)) { ++st.cutEdges; continue; }
+        int disc = -1;
+        Vec3d centre(0);
+        const bool cut = owner[size_t(e.a)] >= 0 || owner[size_t(e.b)] >= 0 ||
+                         (disc = discGrid.cutter(pa, pb, centre)) >= 0;
+        if (cut) {
+            ++st.cutEdges;
+            if (p.fill) {
+                // Every disc across the edge: any of them may be the pair's fracture.
+                auto all = disc >= 0 ? discGrid.cutters(pa, pb) : std::vector<std::pair<int, Vec3d>>{};
+                if (all.empty()) all.emplace_back(-1, Vec3d(0));
+                for (const auto& [d, c] : all) {
+                    cuts[size_t(e.a)].push_back({e.b, pb - pa, d, c - pa});
+                    cuts[size_t(e.b)].push_back({e.a, pa - pb, d, c - pb});
+                }
+            }
+            continue;
+        }
         adj[size_t(e.a)].push_back({e.b, pb - pa});
         adj[size_t(e.b)].push_back({e.a, pa - pb});
     }
@@ -1062,6 +1422,9 @@ BlockTile generateTile(const TileParams& in)
     std::deque<std::vector<int>> queue;
     for (auto& c : components(free, adj, label, nextLabel)) queue.push_back(std::move(c));
     std::vector<std::vector<Vec3d>> clusters;
+    std::vector<std::vector<int>> members; // the clusters' point indices, as in clusters
+    std::vector<std::vector<int>> small;   // with fill: clusters under min points, to merge
+    std::vector<std::vector<Vec3d>> smallP;
     std::vector<Vec3d> pos(pts.size());
     std::vector<int> stamp(pts.size(), -1);
     int visit = 0;
@@ -1105,11 +1468,65 @@ BlockTile generateTile(const TileParams& in)
             continue;
         }
         if (int(comp.size()) < p.minPoints) {
-            ++st.droppedClusters;
-            st.droppedPoints += comp.size();
+            if (p.fill) {
+                small.push_back(std::move(comp));
+                smallP.push_back(std::move(P));
+            } else {
+                ++st.droppedClusters;
+                st.droppedPoints += comp.size();
+            }
             continue;
         }
         clusters.push_back(std::move(P));
+        members.push_back(std::move(comp));
+    }
+    // With fill, a cluster under min points (a sliver between a fracture and its neighbour's
+    // end, a corner cut off by two discs) joins the neighbour it shares the most graph edges
+    // with, so it neither leaves a void nor becomes a block of its own that the smooth
+    // intersection would erode away (and Table 1's counts stay the paper's). A small cluster
+    // with no large neighbour stays a block.
+    std::vector<int> clusterOf(p.fill ? pts.size() : 0, -1);
+    std::vector<int> indexIn(p.fill ? pts.size() : 0, -1); // position within its cluster
+    auto enrol = [&](size_t c) {
+        for (size_t i = 0; i < members[c].size(); ++i) {
+            clusterOf[size_t(members[c][i])] = int(c);
+            indexIn[size_t(members[c][i])] = int(i);
+        }
+    };
+    for (size_t c = 0; p.fill && c < clusters.size(); ++c) enrol(c);
+    for (size_t k = 0; k < small.size(); ++k) {
+        // Edges (cut or not) from the small cluster's points to each large cluster.
+        std::map<int, std::pair<int, Vec3d>> votes; // cluster → (edges, this frame → its frame)
+        for (size_t i = 0; i < small[k].size(); ++i) {
+            const int m = small[k][i];
+            auto vote = [&](int to, const Vec3d& step) {
+                const int c = clusterOf[size_t(to)];
+                if (c < 0) return;
+                auto& v = votes[c];
+                if (v.first++ == 0) {
+                    v.second = clusters[size_t(c)][size_t(indexIn[size_t(to)])] - step - smallP[k][i];
+                }
+            };
+            for (const auto& e : cuts[size_t(m)]) vote(e.to, e.step);
+            for (const auto& e : adj[size_t(m)]) vote(e.to, e.step);
+        }
+        int best = -1, most = 0;
+        Vec3d shift(0);
+        for (const auto& [c, v] : votes) {
+            if (v.first > most) { best = c; most = v.first; shift = v.second; }
+        }
+        if (best < 0) {
+            clusters.push_back(std::move(smallP[k]));
+            members.push_back(std::move(small[k]));
+            enrol(clusters.size() - 1);
+            continue;
+        }
+        ++st.mergedClusters;
+        for (size_t i = 0; i < small[k].size(); ++i) {
+            clusters[size_t(best)].push_back(smallP[k][i] + shift);
+            members[size_t(best)].push_back(small[k][i]);
+        }
+        enrol(size_t(best));
     }
     st.clustering = since(t0);
 
@@ -1120,8 +1537,69 @@ BlockTile generateTile(const TileParams& in)
         tile.blocks.push_back(makeAuthored(p.authored[a], authoredPts[a]));
     }
     std::vector<Block> made(clusters.size());
+    std::vector<std::vector<Vec3d>> hullNormals(clusters.size()); // before any block grows
     for (size_t c = 0; c < clusters.size(); ++c) {
         made[c] = makeBlock(clusters[c], p.pointRadius, p.smoothRadius);
+        for (const auto& q : made[c].planes) hullNormals[c].emplace_back(q[0], q[1], q[2]);
+    }
+    // Blocks grow at most `cap` past their points.
+    const double cap = p.neighbourRadius;
+    for (size_t c = 0; p.fill && c < clusters.size(); ++c) {
+        // Foreign neighbours: across cut edges, and uncut edges to points that visibility
+        // splits or wrap cuts put in another cluster.
+        std::vector<Foreign> foreign;
+        const std::vector<int>& mem = members[c];
+        auto add = [&](const Vec3d& q, int to, int disc, const Vec3d& centre) {
+            const int k = clusterOf[size_t(to)];
+            const Vec3d off = k >= 0 ? q - clusters[size_t(k)][size_t(indexIn[size_t(to)])] : Vec3d(0);
+            foreign.push_back({q, k, off, disc, centre});
+        };
+        for (size_t i = 0; i < mem.size(); ++i) {
+            const Vec3d& at = clusters[c][i];
+            for (const auto& e : cuts[size_t(mem[i])]) add(at + e.step, e.to, e.disc, at + e.centre);
+            for (const auto& e : adj[size_t(mem[i])]) {
+                if (clusterOf[size_t(e.to)] != int(c)) add(at + e.step, e.to, -1, Vec3d(0));
+            }
+        }
+        growToFractures(made[c], int(c), clusters, hullNormals, foreign, tile.discs,
+                        p.fractureWidth, cap);
+    }
+    if (p.fill) {
+        // Grown blocks that still meet (clusters that are not graph neighbours, reaching into
+        // the same corner) get their pair's separating plane too, both sides mirrored.
+        std::vector<std::vector<std::array<double, 4>>> extra(made.size());
+        for (size_t c = 0; c < made.size(); ++c) {
+            const Block& A = made[c];
+            for (size_t k = c; k < made.size(); ++k) {
+                const Block& B = made[k];
+                for (int i = -1; i <= 1; ++i)
+                    for (int j = -1; j <= 1; ++j)
+                        for (int l = -1; l <= 1; ++l) {
+                            if (k == c) continue;
+                            const Vec3d off = Vec3d(i, j, l) * s; // k's frame → c's
+                            bool near = true;
+                            for (int a = 0; a < 3 && near; ++a) {
+                                near = B.boundsMin[size_t(a)] + off[a] < A.boundsMax[size_t(a)] &&
+                                       A.boundsMin[size_t(a)] < B.boundsMax[size_t(a)] + off[a];
+                            }
+                            if (!near || !meets(A, B, off, 1e-6)) continue;
+                            Vec3d n;
+                            double m;
+                            if (!pairPlane(clusters, hullNormals, int(c), int(k), off, {}, tile.discs, n, m)) continue;
+                            extra[c].push_back({n[0], n[1], n[2], m - 0.5 * p.fractureWidth});
+                            Vec3d nk;
+                            double mk;
+                            pairPlane(clusters, hullNormals, int(k), int(c), -off, {}, tile.discs, nk, mk);
+                            extra[k].push_back({nk[0], nk[1], nk[2], mk - 0.5 * p.fractureWidth});
+                        }
+            }
+        }
+        for (size_t c = 0; c < made.size(); ++c) {
+            if (extra[c].empty()) continue;
+            std::vector<std::array<double, 4>> all = extra[c];
+            for (const auto& q : made[c].planes) all.push_back({q[0], q[1], q[2], q[3]});
+            setPolytope(made[c], all, extra[c].size(), meanOf(clusters[c]));
+        }
     }
     std::vector<size_t> order(made.size());
     std::iota(order.begin(), order.end(), 0);

@@ -5,6 +5,10 @@
 // connected clusters G_i — split further until no disc separates two of their points — become
 // the blocks B_i: the smooth intersection of the planes of each cluster's convex hull,
 // warped by the gradient-based triplanar relief of §4.2, b_i(p) = c_i(ω⁻¹(p)).
+// With fill (TileParams::fill) each hull is grown to its fractures before that: every pair
+// of neighbouring clusters shares one separating plane (the fracture disc's own plane where it
+// separates them), and each block takes its side of it w/2 away, so neighbours meet across
+// gaps of width w and never overlap (see BlockTile.cc).
 //
 // This header is the stage's public face: the tile description (what the tile file stores),
 // its generation, its file I/O, and the tile Field. vdb_amplify consumes tiles through it.
@@ -62,8 +66,14 @@ struct TileParams
     double obliqueDeg = 60.0;      ///< rhombohedral: angle between the three set normals
     std::vector<Disc> extraDiscs;  ///< user fractures
     std::vector<AuthoredBlock> authored;
-    int minPoints = 8;             ///< clusters with fewer points are dropped
+    int minPoints = 8;             ///< smaller clusters join a neighbour (fill) or are dropped
     double smoothRadius = 0.25;    ///< R of the smooth intersection of the hull planes
+    /// Blocks fill their tile up to the fractures (the gap between two neighbours is
+    /// fractureWidth; clusters under minPoints join a neighbour); false (for now the
+    /// default): the hull-only reading (each block is its points' hull, neighbours stand
+    /// about a point spacing apart, clusters under minPoints are dropped).
+    bool fill = false;
+    double fractureWidth = -1.0;   ///< w (m) of the gaps between blocks (default 0.002·s)
     ReliefParams relief;
     uint64_t seed = 1;
 
@@ -99,6 +109,7 @@ struct TileStats
 {
     size_t points = 0, edges = 0, cutEdges = 0, discs = 0, blocks = 0;
     size_t droppedClusters = 0, droppedPoints = 0, visibilitySplits = 0, wrapCuts = 0;
+    size_t mergedClusters = 0; ///< with fill: small clusters joined to a neighbour
     double meanPoints = 0;
     double sampling = 0, graph = 0, fracturing = 0, clustering = 0, hulls = 0;
     double generation = 0; ///< sampling through hulls, seconds

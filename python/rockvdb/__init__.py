@@ -421,7 +421,7 @@ class BlockTile:
 
 _TILE_KEYS = ("tile_size", "point_radius", "neighbour_radius", "disc_count", "disc_spacing",
               "disc_radius", "jitter", "irregular_fraction", "axis", "oblique_angle",
-              "min_points", "smooth_radius", "fractures", "authored")
+              "min_points", "smooth_radius", "fractures", "authored", "fill", "fracture_width")
 _RELIEF_KEYS = {"warp_amplitude": "amplitude", "relief_scale": "scale",
                 "relief_octaves": "octaves", "relief_image": "image",
                 "relief_sharpness": "sharpness"}
@@ -435,7 +435,9 @@ def block_tile(type="equidimensional", seed=1, voxel_size=0.05, periods=(1, 1, 1
     columnar; seed (default 1). Further keywords, as vdb_blocks' options: tile_size (m,
     default 20), point_radius (m, default 0.034 * tile_size), neighbour_radius, disc_count,
     disc_spacing, disc_radius=(min, max) (m), jitter, irregular_fraction, axis, oblique_angle
-    (degrees), min_points, smooth_radius (m, default 0.25), fractures=[{center, normal,
+    (degrees), min_points (default 8), smooth_radius (m, default 0.25), fill (default False,
+    the hull-only reading; True: blocks grow to their fractures), fracture_width (m, default
+    0.002 * tile_size), fractures=[{center, normal,
     radius}], authored=[{type: box|polytope, ...}], warp_amplitude (m), relief_scale,
     relief_octaves, relief_image (path), relief_sharpness. With bake=True (default) the grids
     are baked at voxel_size (m, default 0.05) and half_width (voxels, default 3) over periods.

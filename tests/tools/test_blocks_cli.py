@@ -127,3 +127,23 @@ def test_bad_input(tmp_path):
     one_line_error(run(base + ["--tile", "/nonexistent/dir/t.tile"]), 1, "does not exist")
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.json", "rgb.png"]
+
+
+def test_fill_grows_blocks_to_their_fractures(tmp_path):
+    """--fill: the same tile's blocks grown to their fractures hold much more rock than the
+    hull-only reading; the tile file and provenance keep the mode and the width."""
+    def solid(args, name):
+        out = tmp_path / f"{name}.vdb"
+        run([tool("vdb_blocks"), "-q", "--type", "polyhedral", "--tile-size", "8",
+             "--point-radius", "0.4", "--voxel-size", "0.1", "--seed", "2", "-o", str(out),
+             "--tile", str(tmp_path / f"{name}.tile")] + args, check=True)
+        g = vdb.read(str(out), "surface")
+        n = sum(it.count for it in g.citerAllValues() if it.value < 0)
+        return n * 0.1 ** 3, g
+    hull, _ = solid([], "hull")
+    grown, g = solid(["--fill", "--fracture-width", "0.03"], "fill")
+    assert grown > 1.25 * hull, (grown, hull)
+    params = json.loads(g["rockvdb:params"])
+    assert params["fill"] is True and params["fracture-width"] == 0.03
+    tile = json.loads((tmp_path / "fill.tile").read_text())
+    assert tile["params"]["fill"] is True and tile["params"]["fracture_width"] == 0.03
