@@ -7,6 +7,7 @@
 #include <core/Bake.h>
 #include <core/Combinators.h>
 #include <core/Primitives.h>
+#include <core/Random.h>
 #include <core/VdbIO.h>
 #include <detail/Detail.h>
 #include <rockpile/RockPile.h>
@@ -301,6 +302,47 @@ void rockpileGroup(bool quick)
                 double(instances.size()) / (st.selectSeconds + build), ref, ours, ref / ours);
 }
 
+// Issue 14: blocks grown to their fractures (--fill) beside the hull-only reading, same run:
+// the share of the 20 m tile inside a block (the periodic tile field at uniform samples, warp
+// and rounding included) and the generation time. Targets: fill >= 0.85, generation <= 0.5 s.
+void fillGroup(bool quick)
+{
+    using namespace rockvdb::blocks;
+    std::printf("\n## blocks: filling the tile (--fill) vs the hull-only reading (20 m tiles, seed 7)\n\n");
+    std::printf("| type | blocks | hull-only fill | generation | --fill fill | generation |\n");
+    std::printf("|---|---|---|---|---|---|\n");
+    const int samples = quick ? 2000 : 20000;
+    for (int t = 0; t < 6; ++t) {
+        double share[2], seconds[2];
+        size_t blocks = 0;
+        for (int fill = 0; fill < 2; ++fill) {
+            TileParams p;
+            p.type = BlockType(t);
+            p.seed = 7;
+            p.fill = fill == 1;
+            std::shared_ptr<const BlockTile> tile;
+            seconds[fill] = bestOf(quick ? 1 : 3, [&] {
+                tile = std::make_shared<const BlockTile>(generateTile(p));
+            });
+            blocks = tile->blocks.size();
+            TileFieldOptions o;
+            o.periodic = true;
+            const FieldPtr f = tileField(tile, o);
+            int inside = 0;
+            for (int k = 0; k < samples; ++k) {
+                const Vec3d q(random::uniform(11, 1, uint64_t(k), 0, 20), random::uniform(11, 2, uint64_t(k), 0, 20),
+                              random::uniform(11, 3, uint64_t(k), 0, 20));
+                inside += f->eval(q) < 0;
+            }
+            share[fill] = double(inside) / samples;
+        }
+        std::printf("| %s | %zu | %.2f | %.3f s | %.2f | %.3f s |\n", blockTypeName(BlockType(t)),
+                    blocks, share[0], seconds[0], share[1], seconds[1]);
+        std::printf("ratio fill %s vs hull-only: %.2fx\n", blockTypeName(BlockType(t)),
+                    share[1] / share[0]);
+    }
+}
+
 int main(int argc, char** argv)
 {
     initialize();
@@ -309,18 +351,20 @@ int main(int argc, char** argv)
     std::printf("allocator: %s (both sides of every ratio run in this process with it)\n\n",
                 ROCKVDB_ALLOCATOR);
     bool all = true, wantFoundation = false, wantBlocks = false, wantAmplify = false,
-         wantDetail = false, wantRockpile = false;
+         wantDetail = false, wantRockpile = false, wantFill = false;
     for (int i = 1; i < argc; ++i) {
         if (std::strcmp(argv[i], "foundation") == 0) { wantFoundation = true; all = false; }
         if (std::strcmp(argv[i], "blocks") == 0) { wantBlocks = true; all = false; }
         if (std::strcmp(argv[i], "amplify") == 0) { wantAmplify = true; all = false; }
         if (std::strcmp(argv[i], "detail") == 0) { wantDetail = true; all = false; }
         if (std::strcmp(argv[i], "rockpile") == 0) { wantRockpile = true; all = false; }
+        if (std::strcmp(argv[i], "fill") == 0) { wantFill = true; all = false; }
     }
     if (all || wantFoundation) foundation(quick);
     if (all || wantBlocks) blocksGroup(quick);
     if (all || wantAmplify) amplifyGroup(quick);
     if (all || wantDetail) detailGroup(quick);
     if (all || wantRockpile) rockpileGroup(quick);
+    if (all || wantFill) fillGroup(quick);
     return 0;
 }

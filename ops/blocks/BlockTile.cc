@@ -257,32 +257,22 @@ public:
     // Does segment pq (|pq| <= margin, midpoint anywhere) cross any disc image?
     bool cuts(const Vec3d& p, const Vec3d& q) const
     {
-        Vec3d centre;
-        return cutter(p, q, centre) >= 0;
+        return visit(p, q, [](int, const Vec3d&) { return true; });
     }
 
     // Every disc image crossing segment pq: (disc, image centre in pq's frame).
     std::vector<std::pair<int, Vec3d>> cutters(const Vec3d& p, const Vec3d& q) const
     {
         std::vector<std::pair<int, Vec3d>> out;
-        const Vec3d m = (p + q) * 0.5;
-        Vec3d shift;
-        int idx[3];
-        for (int a = 0; a < 3; ++a) {
-            const double w = std::floor(m[a] / mSize);
-            shift[a] = w * mSize;
-            idx[a] = std::min(mN - 1, std::max(0, int((m[a] - shift[a]) / mCell)));
-        }
-        for (const auto& e : mCells[(size_t(idx[0]) * mN + idx[1]) * mN + idx[2]]) {
-            const Disc& D = mDiscs[size_t(e.disc)];
-            if (crosses(p, q, e.center + shift, D.normal, D.radius)) out.emplace_back(e.disc, e.center + shift);
-        }
+        visit(p, q, [&](int d, const Vec3d& c) { out.emplace_back(d, c); return false; });
         return out;
     }
 
-    // The first disc (in bucket order) whose image crosses segment pq, or -1; @a centre gets
-    // that image's centre in pq's frame.
-    int cutter(const Vec3d& p, const Vec3d& q, Vec3d& centre) const
+private:
+    // Calls f(disc, image centre in pq's frame) for each disc image crossing pq, in bucket
+    // order, until f returns true; returns whether it did.
+    template<typename F>
+    bool visit(const Vec3d& p, const Vec3d& q, F&& f) const
     {
         const Vec3d m = (p + q) * 0.5;
         Vec3d shift;
@@ -294,15 +284,13 @@ public:
         }
         for (const auto& e : mCells[(size_t(idx[0]) * mN + idx[1]) * mN + idx[2]]) {
             const Disc& D = mDiscs[size_t(e.disc)];
-            if (crosses(p, q, e.center + shift, D.normal, D.radius)) {
-                centre = e.center + shift;
-                return e.disc;
+            if (crosses(p, q, e.center + shift, D.normal, D.radius) && f(e.disc, e.center + shift)) {
+                return true;
             }
         }
-        return -1;
+        return false;
     }
 
-private:
     struct Entry { int disc; Vec3d center; };
     const std::vector<Disc>& mDiscs;
     double mSize, mCell;
@@ -1384,23 +1372,24 @@ BlockTile generateTile(const TileParams& in)
     st.discs = tile.discs.size();
     const DiscGrid discGrid(tile.discs, s, p.neighbourRadius);
     std::vector<std::vector<Adjacent>> adj(pts.size());
-    // The cut edges, both ways, with the disc image that cut them (relative to the point).
+    // With fill: the cut edges, both ways, with each disc image across them (relative to the
+    // point; disc -1 for edges into authored blocks).
     struct Cut { int to; Vec3d step; int disc; Vec3d centre; };
     std::vector<std::vector<Cut>> cuts(p.fill ? pts.size() : 0);
     for (const auto& e : edges) {
         const Vec3d pa = pts[size_t(e.a)];
         const Vec3d pb = pts[size_t(e.b)] + Vec3d(e.shift[0], e.shift[1], e.shift[2]) * s;
-        int disc = -1;
-        Vec3d centre(0);
-        const bool cut = owner[size_t(e.a)] >= 0 || owner[size_t(e.b)] >= 0 ||
-                         (disc = discGrid.cutter(pa, pb, centre)) >= 0;
+        // With fill, every disc across a cut edge is kept: any of them may be the fracture
+        // between the two clusters (one pass over the discs either way).
+        const bool authored = owner[size_t(e.a)] >= 0 || owner[size_t(e.b)] >= 0;
+        std::vector<std::pair<int, Vec3d>> across;
+        if (p.fill && !authored) across = discGrid.cutters(pa, pb);
+        const bool cut = authored || (p.fill ? !across.empty() : discGrid.cuts(pa, pb));
         if (cut) {
             ++st.cutEdges;
             if (p.fill) {
-                // Every disc across the edge: any of them may be the pair's fracture.
-                auto all = disc >= 0 ? discGrid.cutters(pa, pb) : std::vector<std::pair<int, Vec3d>>{};
-                if (all.empty()) all.emplace_back(-1, Vec3d(0));
-                for (const auto& [d, c] : all) {
+                if (across.empty()) across.emplace_back(-1, Vec3d(0));
+                for (const auto& [d, c] : across) {
                     cuts[size_t(e.a)].push_back({e.b, pb - pa, d, c - pa});
                     cuts[size_t(e.b)].push_back({e.a, pa - pb, d, c - pb});
                 }

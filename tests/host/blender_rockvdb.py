@@ -6,30 +6,19 @@ import json
 import os
 import sys
 
-import bpy
-
 argv = sys.argv[sys.argv.index("--") + 1:]
-sys.path[:0] = [argv[0], os.path.dirname(os.path.abspath(__file__))]
+here = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [argv[0], here, os.path.join(here, "..", "clients")]
 out = argv[1]
 
 import host_calls  # noqa: E402  (needs the paths above)
+from blender_mesh import mesh_surface  # noqa: E402
 
 report = host_calls.run(out)
-bpy.ops.object.volume_import(filepath=os.path.join(out, "host.vdb"))
-vol = [o for o in bpy.context.scene.objects if o.type == "VOLUME"][0]
-vol.data.grids.load()
-report["blender_grids"] = sorted(g.name for g in vol.data.grids)
-bpy.ops.mesh.primitive_cube_add()
-obj = bpy.context.active_object
-mod = obj.modifiers.new("v2m", "VOLUME_TO_MESH")
-mod.object = vol
-mod.grid_name = "surface"
-mod.threshold = 0.0
-mod.resolution_mode = "GRID"
-mesh = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
-co = [obj.matrix_world @ v.co for v in mesh.vertices]
-report["blender_vertices"] = len(co)
-report["blender_min"] = [min(c[a] for c in co) for a in range(3)] if co else None
-report["blender_max"] = [max(c[a] for c in co) for a in range(3)] if co else None
+m = mesh_surface(os.path.join(out, "host.vdb"))
+report["blender_grids"] = sorted(m["grids"])
+report["blender_vertices"] = m["vertices"]
+report["blender_min"] = m["min"] if m["vertices"] else None
+report["blender_max"] = m["max"] if m["vertices"] else None
 with open(os.path.join(out, "host.json"), "w") as f:
     json.dump(report, f)
