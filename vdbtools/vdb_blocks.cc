@@ -69,8 +69,9 @@ int main(int argc, char** argv)
                    "they share most graph edges with)")->capture_default_str();
     app.add_flag("--fill,!--no-fill", p.fill,
                  "Grow each block to its fractures: neighbours share a separating plane (the "
-                 "disc's own where it separates them) and stand --fracture-width apart; without, "
-                 "the hull-only reading (neighbours about a point spacing apart)")
+                 "disc's own where it separates them) and stand --fracture-width apart; "
+                 "--no-fill: the paper's hull-only reading (neighbours about a point spacing "
+                 "apart, small clusters dropped)")
         ->capture_default_str();
     app.add_option("--fracture-width", p.fractureWidth,
                    "With --fill: gap between neighbouring blocks (m; -1 = 0.002 x tile size)")
@@ -149,10 +150,11 @@ int main(int argc, char** argv)
             std::snprintf(line, sizeof line,
                           "%s tile %g m: #P %zu points, #D %zu discs, #B %zu blocks, mean #Pi %.1f "
                           "(%zu edges, %zu cut; %zu visibility splits, %zu wrap cuts; dropped %zu "
-                          "clusters, %zu points; merged %zu)",
+                          "clusters, %zu points; merged %zu, %zu small blocks)",
                           blockTypeName(tile->params.type), tile->size(), s.points, s.discs,
                           s.blocks, s.meanPoints, s.edges, s.cutEdges, s.visibilitySplits,
-                          s.wrapCuts, s.droppedClusters, s.droppedPoints, s.mergedClusters);
+                          s.wrapCuts, s.droppedClusters, s.droppedPoints, s.mergedClusters,
+                          s.smallBlocks);
             tool.info(line);
             std::snprintf(line, sizeof line,
                           "sampling %.3f s, graph %.3f s, fracturing %.3f s, clustering %.3f s, "

@@ -5,10 +5,11 @@
 // connected clusters G_i — split further until no disc separates two of their points — become
 // the blocks B_i: the smooth intersection of the planes of each cluster's convex hull,
 // warped by the gradient-based triplanar relief of §4.2, b_i(p) = c_i(ω⁻¹(p)).
-// With fill (TileParams::fill) each hull is grown to its fractures before that: every pair
-// of neighbouring clusters shares one separating plane (the fracture disc's own plane where it
+// With fill (TileParams::fill, the default) each hull is grown to its fractures before that:
+// neighbouring clusters share one separating plane (the fracture disc's own plane where it
 // separates them), and each block takes its side of it w/2 away, so neighbours meet across
-// gaps of width w and never overlap (see BlockTile.cc).
+// gaps of width w and never overlap (see BlockTile.cc); without, the paper's hull-only
+// reading.
 //
 // This header is the stage's public face: the tile description (what the tile file stores),
 // its generation, its file I/O, and the tile Field. vdb_amplify consumes tiles through it.
@@ -69,10 +70,10 @@ struct TileParams
     int minPoints = 8;             ///< smaller clusters join a neighbour (fill) or are dropped
     double smoothRadius = 0.25;    ///< R of the smooth intersection of the hull planes
     /// Blocks fill their tile up to the fractures (the gap between two neighbours is
-    /// fractureWidth; clusters under minPoints join a neighbour); false (for now the
-    /// default): the hull-only reading (each block is its points' hull, neighbours stand
-    /// about a point spacing apart, clusters under minPoints are dropped).
-    bool fill = false;
+    /// fractureWidth; clusters under minPoints join a neighbour). false: the paper's
+    /// hull-only reading (each block is its points' hull, neighbours stand about a point
+    /// spacing apart, clusters under minPoints are dropped; half the tile stays empty).
+    bool fill = true;
     double fractureWidth = -1.0;   ///< w (m) of the gaps between blocks (default 0.002·s)
     ReliefParams relief;
     uint64_t seed = 1;
@@ -110,6 +111,7 @@ struct TileStats
     size_t points = 0, edges = 0, cutEdges = 0, discs = 0, blocks = 0;
     size_t droppedClusters = 0, droppedPoints = 0, visibilitySplits = 0, wrapCuts = 0;
     size_t mergedClusters = 0; ///< with fill: small clusters joined to a neighbour
+    size_t smallBlocks = 0;    ///< with fill: small clusters no neighbour could take (blocks)
     double meanPoints = 0;
     double sampling = 0, graph = 0, fracturing = 0, clustering = 0, hulls = 0;
     double generation = 0; ///< sampling through hulls, seconds

@@ -14,7 +14,7 @@ Grids are pyopenvdb.FloatGrid objects: level sets named 'surface', id grids ('bl
 
 Fields: sphere, box, capsule, plane, polytope, expression -> Field (| & -, union, transform,
 warp, tag, bake). Grids: heightfield, csg, detail, read, write, mesh, preview, provenance,
-write_heightfield, read_image. Stages: block_tile / load_tile -> BlockTile (implicit-blocks
+write_heightfield, read_image, coverage. Stages: block_tile / load_tile -> BlockTile (implicit-blocks
 §4), amplify (§5), detail (§4.2 and the Gabor details paper), rock_tiles / rock_library /
 rock_pile (aperiodic rock piles, arches §5).
 
@@ -31,8 +31,8 @@ from . import _rockvdb
 
 __version__ = _rockvdb.__version__
 
-__all__ = ["BlockTile", "Field", "amplify", "block_tile", "box", "capsule", "csg", "detail",
-           "expression", "heightfield", "load_tile", "mesh", "plane", "polytope", "preview",
+__all__ = ["BlockTile", "Field", "amplify", "block_tile", "box", "capsule", "coverage", "csg",
+           "detail", "expression", "heightfield", "load_tile", "mesh", "plane", "polytope", "preview",
            "provenance", "read", "read_image", "rock_library", "rock_pile", "rock_tiles",
            "sphere", "write", "write_heightfield", "__version__"]
 
@@ -435,8 +435,8 @@ def block_tile(type="equidimensional", seed=1, voxel_size=0.05, periods=(1, 1, 1
     columnar; seed (default 1). Further keywords, as vdb_blocks' options: tile_size (m,
     default 20), point_radius (m, default 0.034 * tile_size), neighbour_radius, disc_count,
     disc_spacing, disc_radius=(min, max) (m), jitter, irregular_fraction, axis, oblique_angle
-    (degrees), min_points (default 8), smooth_radius (m, default 0.25), fill (default False,
-    the hull-only reading; True: blocks grow to their fractures), fracture_width (m, default
+    (degrees), min_points (default 8), smooth_radius (m, default 0.25), fill (default True:
+    blocks grow to their fractures; False: the paper's hull-only reading), fracture_width (m, default
     0.002 * tile_size), fractures=[{center, normal,
     radius}], authored=[{type: box|polytope, ...}], warp_amplitude (m), relief_scale,
     relief_octaves, relief_image (path), relief_sharpness. With bake=True (default) the grids
@@ -535,6 +535,52 @@ def amplify(terrain, tiles, strata=None, max_slope=0.5, distance_range=(-1.0, 0.
     if stats is not None:
         stats.update(st)
     return surface, block_id, material
+
+
+def coverage(surface, ids, max_nz=0.6, region=None):
+    """How much of a surface is made of blocks (rocks): the share of its surface voxels that
+    carry an id, on steep ground and on gentle ground.
+
+    surface: a level set; ids: its block_id / rock_id grid (ids >= 0; bare terrain < 0).
+    Surface voxels are the inside voxels next to an outside one; steep where the level set's
+    normal has |n_z| < max_nz (default 0.6). region: (xmin, ymin, xmax, ymax) in metres, the
+    part of the footprint counted (default: all; keep clear of a heightfield's side walls).
+    Returns {"steep": share, "gentle": share, "steep_voxels": n, "gentle_voxels": n}."""
+    import numpy as np
+    fn = "coverage"
+    surface = _grid(surface, "surface", fn)
+    ids = _grid(ids, "ids", fn)
+    max_nz = _float(max_nz, "max_nz", fn)
+    region = _opt(region, _floats, 4, "region", fn)
+    lo, hi = surface.evalActiveVoxelBoundingBox()
+    lo = tuple(int(v) - 1 for v in lo)  # one voxel of margin each side
+    shape = tuple(int(h) + 2 - l for l, h in zip(lo, hi))
+    phi = np.zeros(shape, np.float32)
+    surface.copyToArray(phi, ijk=lo)
+    tag = np.zeros(shape, np.float32)
+    ids.copyToArray(tag, ijk=lo)
+    inside = phi <= 0
+    edge = np.zeros(shape, bool)
+    for axis in range(3):
+        for step in (1, -1):
+            edge |= inside & ~np.roll(inside, step, axis)
+    edge[[0, -1], :, :] = edge[:, [0, -1], :] = edge[:, :, [0, -1]] = False
+    if region is not None:
+        dx = surface.transform.voxelSize()[0]
+        i = np.arange(shape[0]) + lo[0]
+        j = np.arange(shape[1]) + lo[1]
+        keep_x = (i * dx >= region[0]) & (i * dx <= region[2])
+        keep_y = (j * dx >= region[1]) & (j * dx <= region[3])
+        edge &= keep_x[:, None, None] & keep_y[None, :, None]
+    g = np.gradient(phi)
+    norm = np.sqrt(g[0] ** 2 + g[1] ** 2 + g[2] ** 2) + 1e-12
+    steep = edge & (np.abs(g[2]) / norm < max_nz)
+    gentle = edge & ~steep
+    has = tag >= 0
+    ns, ng = int(steep.sum()), int(gentle.sum())
+    return {"steep": float((has & steep).sum()) / max(ns, 1),
+            "gentle": float((has & gentle).sum()) / max(ng, 1),
+            "steep_voxels": ns, "gentle_voxels": ng}
 
 
 # ---------------------------------------------------------------------------------------------
