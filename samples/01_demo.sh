@@ -71,7 +71,7 @@ tiles() {
 cliff() {
     "$B/vdb_amplify" -q --terrain "$OUT/demo_terrain.json" \
         --tiles "$OUT/demo_equi.tile,$OUT/demo_tabular.tile" --strata "$OUT/demo_strata.json" \
-        --max-slope 0.6 --distance-range=-1.5,1 --voxel-size "$VOXEL" -o - |
+        --voxel-size "$VOXEL" -o - |
     "$B/vdb_detail" -q - --warp-amplitude 0.12 --warp-scale 3 \
         --gabor-amplitude 0.08 --gabor-frequency 1.2 --direction-axis 0,0,1 \
         -o "$OUT/demo_cliff.vdb"

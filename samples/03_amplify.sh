@@ -28,7 +28,7 @@ cat > "$OUT/amplify_strata.json" <<'JSON'
  "layers": [{"tile": "amplify_equi", "top": 14}, {"tile": "amplify_tabular"}]}
 JSON
 "$BUILD/vdbtools/vdb_amplify" --terrain "$OUT/amplify_cliff.exr" --cell-size 0.5 --height-scale 1 \
-    --tiles "$OUT/amplify_equi.tile,$OUT/amplify_tabular.tile" --strata "$OUT/amplify_strata.json" --max-slope 0.6 \
-    --distance-range -1.5,1 --voxel-size "$VOXEL" -o "$OUT/amplify_cliff.vdb"
+    --tiles "$OUT/amplify_equi.tile,$OUT/amplify_tabular.tile" --strata "$OUT/amplify_strata.json" \
+    --voxel-size "$VOXEL" -o "$OUT/amplify_cliff.vdb"
 "$BUILD/vdbtools/vdb_preview" "$OUT/amplify_cliff.vdb" --ids material --azimuth -60 --elevation 20 \
     --zoom 1.3 -o "$OUT/amplify_cliff.png"

@@ -148,6 +148,8 @@ FieldPtr heightfieldTerrain(std::shared_ptr<const Heightfield> hf, double baseDe
     hs.baseDepth = baseDepth;
     hs.exactDistance = rules.reach();
     FieldPtr ground = heightfieldField(hf, hs);
+    hs.closed = false;
+    rules.surface = heightfieldField(hf, hs);
     rules.region = BBoxd(Vec3d(1.0, 1.0, -1e30), Vec3d(hf->width() - 1.0, hf->depth() - 1.0, 1e30));
     return ground;
 }
@@ -240,6 +242,7 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
     const auto t0 = std::chrono::steady_clock::now();
     const double s = tile.size();
     const BBoxd tb = terrain.bounds();
+    const Field& ground = rules.surface ? *rules.surface : terrain;
     if (!isBounded(tb)) fail<ValueError>("amplify: the terrain must be bounded");
     // Anchors lie inside their block's home box; a copy can qualify only if an anchor is
     // within [va, vb] of the surface, hence inside the terrain's box widened by max(|va|, |vb|).
@@ -286,11 +289,11 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
                             if (rules.mask->at(int(i), int(j)) < 0.5f) continue;
                         }
                         if (strata && strata->tileAt(w) != tileIndex) continue;
-                        const double d = terrain.eval(w);
+                        const double d = ground.eval(w);
                         if (d < rules.distanceMin || d > rules.distanceMax) continue;
-                        const Vec3d g(terrain.eval(w + Vec3d(h, 0, 0)) - terrain.eval(w - Vec3d(h, 0, 0)),
-                                      terrain.eval(w + Vec3d(0, h, 0)) - terrain.eval(w - Vec3d(0, h, 0)),
-                                      terrain.eval(w + Vec3d(0, 0, h)) - terrain.eval(w - Vec3d(0, 0, h)));
+                        const Vec3d g(ground.eval(w + Vec3d(h, 0, 0)) - ground.eval(w - Vec3d(h, 0, 0)),
+                                      ground.eval(w + Vec3d(0, h, 0)) - ground.eval(w - Vec3d(0, h, 0)),
+                                      ground.eval(w + Vec3d(0, 0, h)) - ground.eval(w - Vec3d(0, 0, h)));
                         const double len = g.length();
                         if (len <= 0) continue;
                         if (std::abs(g[2] / len) < rules.maxSlope) ++pass;

@@ -25,11 +25,15 @@ namespace rockvdb {
 namespace amplify {
 
 /// Placement rules (§5); the paper replicates a block when more than half its anchors pass.
+/// The paper gives no values for [va, vb] and ε; the defaults make cliffs of 10 m tiles'
+/// blocks walls of blocks: 91–94% of the steep surface of four test cliffs carries a block id
+/// (README, "Cliffs made of blocks"), gentle ground staying mostly bare. The range should
+/// reach about a block's size into the terrain: with 20 m tiles, widen it.
 struct PlacementRules
 {
-    double distanceMin = -1.0; ///< va: anchors at terrain distance >= va (m, negative inside)
-    double distanceMax = 0.5;  ///< vb: ... and <= vb
-    double maxSlope = 0.5;     ///< ε: |g·u_z| < ε (0 = nothing qualifies, 1 = any slope)
+    double distanceMin = -3.0; ///< va: anchors at terrain distance >= va (m, negative inside)
+    double distanceMax = 2.0;  ///< vb: ... and <= vb
+    double maxSlope = 0.6;     ///< ε: |g·u_z| < ε (0 = nothing qualifies, 1 = any slope)
     int anchors = 8;           ///< anchors tested per block (the tile stores up to 16)
     double fraction = 0.5;     ///< a copy is present when more than this share passes
     /// Region of interest: anchors outside it fail (default: everywhere). Heightfield
@@ -40,6 +44,10 @@ struct PlacementRules
     /// image they fail too.
     std::shared_ptr<const GrayImage> mask;
     double maskCellSize = 1.0;
+    /// The surface the distance and slope tests read (default: the terrain field itself).
+    /// Heightfield terrains set their open height surface: an anchor inside the plateau near
+    /// the footprint's edge must not see the closed solid's side wall as a steep face.
+    FieldPtr surface;
     void validate() const;
     /// @brief Limit anchors to @a roi as well (intersected with the current region).
     void restrictTo(const BBoxd& roi);

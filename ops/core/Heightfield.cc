@@ -260,6 +260,7 @@ private:
     double eval1(const Vec3d& p, double rho) const
     {
         const double s = surfaceDistance(p, rho);
+        if (!mS.closed) return s;
         // Footprint walls and floor: box [0, W] x [0, D] x [base, zmax + 1].
         const Heightfield& h = *mHf;
         const double qx = std::max(-p[0], p[0] - h.width());

@@ -72,6 +72,10 @@ struct HeightfieldSettings
     /// Distance up to which values are exact (m) when the caller gives no reach; batches from
     /// the baker carry the distance they need (Batch::reach) and are exact within it.
     double exactDistance = 1.0;
+    /// true: the closed solid (footprint walls and floor); false: the open height surface
+    /// alone, what terrain-following rules (amplify's presence) read near the footprint's
+    /// edges, where the solid's side walls are not terrain.
+    bool closed = true;
 };
 
 /// @brief The closed terrain solid as a field (exact distance near the surface).

@@ -466,7 +466,7 @@ def load_tile(path):
     return BlockTile(_rockvdb.load_tile(_path(path, "path", "load_tile")))
 
 
-def amplify(terrain, tiles, strata=None, max_slope=0.5, distance_range=(-1.0, 0.5), anchors=8,
+def amplify(terrain, tiles, strata=None, max_slope=0.6, distance_range=(-3.0, 2.0), anchors=8,
             fraction=0.5, voxel_size=0.1, half_width=3.0, region=None, roi=None, mask=None,
             mask_cell_size=0.0, carve=0.0, mixed_tile_sizes=False, cell_size=1.0,
             height_scale=1.0, base_depth=1.0, stats=None):
@@ -477,8 +477,8 @@ def amplify(terrain, tiles, strata=None, max_slope=0.5, distance_range=(-1.0, 0.
     objects or tile paths (.tile / .vdb). strata: a dict or JSON file path (see vdb_amplify
     --strata) naming tiles by file stem or index, required for several tiles. A copy of a block
     is kept when more than fraction (default 0.5) of its anchors (default 8) lie within
-    distance_range (m, default (-1, 0.5)) of the terrain on ground steeper than max_slope
-    (|g.z| < max_slope, default 0.5). voxel_size: metres (default 0.1); half_width: voxels
+    distance_range (m, default (-3, 2)) of the terrain on ground steeper than max_slope
+    (|g.z| < max_slope, default 0.6). voxel_size: metres (default 0.1); half_width: voxels
     (default 3); region: the bake box (xmin, ymin, zmin, xmax, ymax, zmax, m) for chunked
     baking; roi: the box anchors must lie in; mask: an image path or a 2D array (row j at
     y = j * mask_cell_size; 0 = cell_size) where blocks are allowed (>= 0.5); carve > 0: the

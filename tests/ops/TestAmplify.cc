@@ -262,6 +262,9 @@ TEST(Amplify, CarvingReplacesTheSkinNearBlocksOnly)
     auto terrain = cliffTerrain();
     amplify::PlacementRules rules;
     rules.region = BBoxd(Vec3d(1, 1, -1e30), Vec3d(31, 31, 1e30));
+    // A tight range keeps the blocks near the face, far from the bands checked below.
+    rules.distanceMin = -1.0;
+    rules.distanceMax = 0.5;
     amplify::AmplifyStats a, b;
     auto plain = amplify::amplifiedTerrain(terrain, {smallTile()}, rules, a);
     auto carved = amplify::amplifiedTerrain(terrain, {smallTile()}, rules, b, nullptr, 0.15);

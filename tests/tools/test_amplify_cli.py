@@ -235,3 +235,47 @@ def test_merge_refuses_chunks_of_different_bakes(inputs, tmp_path):
     run([tool("vdb_primitive"), "sphere", "--radius", "1", "-o", str(sphere)], check=True)
     one_line_error(run([tool("vdb_merge"), str(a), str(sphere), "-o", str(out)]), 2, "other grids")
     assert not out.exists()
+
+
+def test_coverage_is_the_share_of_surface_voxels_with_an_id(tmp_path):
+    """rockvdb.coverage on a sphere of radius 3 m with the cap x > 1 m tagged: a sphere's area
+    is uniform along any axis, so steep ground (|n_z| < 0.6, |z| < 1.8 m) is 60% of it and the
+    cap a third; the shares within each part, from uniform points on the sphere."""
+    import numpy as np
+    import rockvdb
+    u = np.random.default_rng(1).normal(size=(400000, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    steep_part, cap = np.abs(u[:, 2]) < 0.6, u[:, 0] > 1 / 3
+    want_steep, want_gentle = cap[steep_part].mean(), cap[~steep_part].mean()
+    g = rockvdb.sphere(3.0).bake(voxel_size=0.1)
+    lo, hi = g.evalActiveVoxelBoundingBox()
+    shape = tuple(h - l + 1 for l, h in zip(lo, hi))
+    tag = np.full(shape, -1.0, np.float32)
+    x = (np.arange(shape[0]) + lo[0]) * 0.1
+    tag[x > 1.0] = 7.0
+    ids = vdb.FloatGrid(-1.0)
+    ids.copyFromArray(tag, ijk=lo)
+    c = rockvdb.coverage(g, ids)
+    total = c["steep_voxels"] + c["gentle_voxels"]
+    assert c["steep_voxels"] / total == pytest.approx(0.6, abs=0.04)
+    assert c["steep"] == pytest.approx(want_steep, abs=0.03)
+    assert c["gentle"] == pytest.approx(want_gentle, abs=0.03)
+    # The region limits what counts: only x > 1 m is all tagged.
+    assert rockvdb.coverage(g, ids, region=(1.05, -9, 9, 9))["steep"] == 1.0
+    with pytest.raises(TypeError, match="coverage.*ids"):
+        rockvdb.coverage(g, "block_id")
+
+
+def test_cliffs_read_as_walls_of_blocks(inputs, tmp_path):
+    """At the default presence rules and with the default filled tile, >= 90% of the steep
+    surface of a cliff carries a block id (2 m clear of the footprint's edges), while gentle
+    ground (plateau, floor) stays mostly bare terrain."""
+    import rockvdb
+    out = tmp_path / "walls.vdb"
+    p = amplify(inputs, inputs["cliff"], out)
+    assert p.returncode == 0, p.stderr
+    g = {x.name: x for x in vdb.readAll(str(out))[0]}
+    c = rockvdb.coverage(g["surface"], g["block_id"], region=(2, 2, 30, 30))
+    assert c["steep_voxels"] > 5000
+    assert c["steep"] >= 0.9, c
+    assert c["gentle"] < 0.5, c
