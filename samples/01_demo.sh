@@ -19,7 +19,7 @@ QUALITY="${ROCKVDB_QUALITY:-default}"
 if [ "${3:-}" = "--quality" ]; then QUALITY="${4:?--quality needs draft, default or high}"; fi
 case "$QUALITY" in
     draft)   VOXEL=0.25; CELLS=4;  HF_CELL=0.5 ;;  # a quick look (tests use it)
-    default) VOXEL=0.1;  CELLS=10; HF_CELL=0.5 ;;  # ~2 minutes on 2 cores
+    default) VOXEL=0.1;  CELLS=10; HF_CELL=0.5 ;;  # ~1.5 minutes on 2 cores
     high)    VOXEL=0.05; CELLS=20; HF_CELL=0.25 ;; # the papers' 5 cm (rocks: 20 voxels/cell)
     *) echo "01_demo.sh: --quality must be draft, default or high (got '$QUALITY')" >&2; exit 2 ;;
 esac

@@ -65,8 +65,8 @@ int main(int argc, char** argv)
                    "JSON file of authored blocks: [{\"type\":\"box\",\"center\":[..],\"size\":[..],"
                    "\"rotate\":[..]} or {\"type\":\"polytope\",\"planes\":[[nx,ny,nz,d],...]}, ...]");
     app.add_option("--min-points", p.minPoints,
-                   "Clusters with fewer points are dropped (with --fill: join the neighbour "
-                   "they share most graph edges with)")->capture_default_str();
+                   "Clusters with fewer points join a neighbour whose joint hull holds no "
+                   "third cluster's point, else stay blocks (with --no-fill: are dropped)")->capture_default_str();
     app.add_flag("--fill,!--no-fill", p.fill,
                  "Grow each block to its fractures: neighbours share a separating plane (the "
                  "disc's own where it separates them) and stand --fracture-width apart; "
@@ -74,7 +74,8 @@ int main(int argc, char** argv)
                  "apart, small clusters dropped)")
         ->capture_default_str();
     app.add_option("--fracture-width", p.fractureWidth,
-                   "With --fill: gap between neighbouring blocks (m; -1 = 0.002 x tile size)")
+                   "Gap between neighbouring blocks across a fracture (m; -1 = 0.002 x tile "
+                   "size; with --no-fill unused)")
         ->capture_default_str();
     app.add_option("--smooth-radius", p.smoothRadius,
                    "R of the smooth intersection of the hull planes (m)")->capture_default_str();
