@@ -804,9 +804,10 @@ bool pairPlane(const ClusterSet& cs, int a, int b, const Vec3d& offset,
     return true;
 }
 
-// b becomes the polytope of @a all, its vertices, facet areas and bounds from it; unchanged when the polytope is unbounded or holds neither
-// the centroid of the cluster's points P nor any of them (a plane of a non-separable pair
-// may leave the centroid outside: then the deepest point is the centre).
+// b becomes the polytope of @a all, its vertices, facet areas and bounds from it; unchanged
+// when the polytope is unbounded or holds neither the centroid of the cluster's points P nor
+// any of them (a plane of a non-separable pair may leave the centroid outside: then the
+// deepest point is the centre).
 bool setPolytope(Block& b, const std::vector<std::array<double, 4>>& all,
                  const std::vector<Vec3d>& P)
 {
@@ -931,8 +932,6 @@ bool meets(const Block& a, const std::vector<std::pair<int, int>>& ea, const Blo
     return false;
 }
 
-// Grow block b (cluster index c, from makeBlock, home frame of its points) to its fractures;
-// see the comment above.
 // A neighbouring cluster (image) whose pair plane waits for the overlap pass: no cutting disc
 // separates the two, and a mid-gap plane would cut corners off both where they do not meet.
 struct Deferred
@@ -941,6 +940,9 @@ struct Deferred
     Vec3d offset; ///< its frame → this cluster's
     std::vector<std::pair<int, Vec3d>> cut;
 };
+
+// Grow block b (cluster index c, from makeBlock, home frame of its points) to its fractures
+// (steps 1 and 2 of the comment above); the pairs for step 3 go to @a deferred.
 
 void growToFractures(Block& b, int c, const ClusterSet& cs, const std::vector<Foreign>& F,
                      const std::vector<Disc>& discs, double w, double cap,
@@ -1674,9 +1676,9 @@ BlockTile generateTile(const TileParams& in)
             const Hull hull = convexHull(joint, 1e-6 * std::max(1.0, p.pointRadius));
             bool clean = true;
             if (hull.dimension == 3) {
+                // Any other cluster's point, an authored block's included.
                 auto third = [&](int to) {
-                    return clusterOf[size_t(to)] != c && smallOf[size_t(to)] != int(k) &&
-                           owner[size_t(to)] < 0;
+                    return clusterOf[size_t(to)] != c && smallOf[size_t(to)] != int(k);
                 };
                 auto inside = [&](const Vec3d& q) {
                     for (const auto& h : hull.planes) {
