@@ -1,7 +1,8 @@
 // rockvdb — the command-line conventions every vdb_* tool follows.
 //
 //   GNU long options (CLI11), --help with defaults and units, --version, -o/--output
-//   ("-" = stdout), --params FILE.json (any option from JSON; command-line values win),
+//   ("-" = stdout), --params FILE.json (any option from JSON; command-line values win;
+//   unknown keys are errors naming the closest option),
 //   --seed, --voxel-size, --half-width, --threads, --quiet, a progress bar on stderr when it
 //   is a terminal. Exit 0 on success, 1 on runtime errors, 2 on usage errors; every error is
 //   one line on stderr: "<tool>: error: <message>".

@@ -234,3 +234,48 @@ def test_csg_resamples_and_smooths(tmp_path, sphere_vdb):
     one_line_error(run([tool("vdb_csg"), "union", str(sphere_vdb), str(other), "--smooth", "1e5",
                         "-o", str(big)]), 2, "refusing smooth radius")
     assert not big.exists()
+
+
+@pytest.mark.parametrize("params, message", [
+    ({"voxle-size": 0.2}, "unknown --params key 'voxle-size' (did you mean 'voxel-size'?)"),
+    ({"voxel_size": 0.2}, "unknown --params key 'voxel_size' (did you mean 'voxel-size'?)"),
+    ({"sphere": {"radius": 1, "radus": 2}}, "unknown --params key 'sphere.radus' (did you mean 'sphere.radius'?)"),
+    ({"spher": {"radius": 1}}, "unknown --params key 'spher' (did you mean 'sphere'?)"),
+    ({"zzzzzz": 1}, "unknown --params key 'zzzzzz'"),
+])
+def test_misspelt_params_keys_are_errors_naming_the_key(tmp_path, params, message):
+    """A --params key that names no option (or subcommand) is an error suggesting the
+    closest name, not silently ignored; nothing is written."""
+    p = tmp_path / "p.json"
+    p.write_text(json.dumps(params))
+    out = tmp_path / "x.vdb"
+    r = run([tool("vdb_primitive"), "--params", str(p), "-o", str(out), "sphere"])
+    one_line_error(r, 2, message)
+    if "did you mean" not in message:
+        assert "did you mean" not in r.stderr
+    assert not out.exists()
+
+
+def test_a_csg_file_replays_from_its_own_provenance(tmp_path, sphere_vdb):
+    """vdb_csg's rockvdb:params (with its inputs' provenance under "sources", which a replay
+    skips) fed back as --params makes the same grid, bit for bit."""
+    import numpy as np
+    import pyopenvdb as vdb
+    out, again = tmp_path / "u.vdb", tmp_path / "again.vdb"
+    run([tool("vdb_csg"), "-q", "union", str(sphere_vdb), str(sphere_vdb), "--smooth", "0.1",
+         "-o", str(out)], check=True)
+    meta = vdb.readAllGridMetadata(str(out))[0]
+    params = json.loads(meta["rockvdb:params"])
+    assert params["sources"] and params["smooth"] == 0.1
+    params["output"] = str(again)
+    p = tmp_path / "replay.json"
+    p.write_text(json.dumps(params))
+    run([tool("vdb_csg"), "--params", str(p)], check=True)
+    a, b = vdb.read(str(out), "surface"), vdb.read(str(again), "surface")
+    assert a.activeVoxelCount() == b.activeVoxelCount()
+    lo, hi = a.evalActiveVoxelBoundingBox()
+    shape = tuple(h - l + 1 for l, h in zip(lo, hi))
+    da, db = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
+    a.copyToArray(da, ijk=lo)
+    b.copyToArray(db, ijk=lo)
+    assert np.array_equal(da.view(np.uint32), db.view(np.uint32))
