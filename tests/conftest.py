@@ -31,6 +31,15 @@ def dense(grid):
     return bb, a
 
 
+def assert_bitwise_equal(a, b):
+    """Two pyopenvdb grids hold the same active voxels with bit-identical values."""
+    import numpy as np
+    assert a.activeVoxelCount() == b.activeVoxelCount()
+    (ba, da), (bb, db) = dense(a), dense(b)
+    assert ba == bb
+    assert np.array_equal(da.view(np.uint32), db.view(np.uint32))
+
+
 def one_line_error(p, code, *needles):
     """A failed run: exit code, exactly one stderr line saying "error:", with each needle."""
     assert p.returncode == code, (p.returncode, p.stderr)

@@ -466,8 +466,8 @@ def load_tile(path):
     return BlockTile(_rockvdb.load_tile(_path(path, "path", "load_tile")))
 
 
-def amplify(terrain, tiles, strata=None, max_slope=0.6, distance_range=(-3.0, 2.0), anchors=8,
-            fraction=0.5, voxel_size=0.1, half_width=3.0, region=None, roi=None, mask=None,
+def amplify(terrain, tiles, strata=None, max_slope=None, distance_range=None, anchors=None,
+            fraction=None, voxel_size=0.1, half_width=3.0, region=None, roi=None, mask=None,
             mask_cell_size=0.0, carve=0.0, mixed_tile_sizes=False, cell_size=1.0,
             height_scale=1.0, base_depth=1.0, stats=None):
     """Amplify a terrain with block tiles (vdb_amplify from Python; implicit-blocks §5).
@@ -476,9 +476,9 @@ def amplify(terrain, tiles, strata=None, max_slope=0.6, distance_range=(-3.0, 2.
     default 1), height_scale (default 1), base_depth (m, default 1) apply). tiles: BlockTile
     objects or tile paths (.tile / .vdb). strata: a dict or JSON file path (see vdb_amplify
     --strata) naming tiles by file stem or index, required for several tiles. A copy of a block
-    is kept when more than fraction (default 0.5) of its anchors (default 8) lie within
-    distance_range (m, default (-3, 2)) of the terrain on ground steeper than max_slope
-    (|g.z| < max_slope, default 0.6). voxel_size: metres (default 0.1); half_width: voxels
+    is kept when more than fraction of its anchors lie within distance_range (m) of the
+    terrain on ground steeper than max_slope (|g.z| < max_slope); left as None (the
+    default), each takes vdb_amplify's default, shown by vdb_amplify --help. voxel_size: metres (default 0.1); half_width: voxels
     (default 3); region: the bake box (xmin, ymin, zmin, xmax, ymax, zmax, m) for chunked
     baking; roi: the box anchors must lie in; mask: an image path or a 2D array (row j at
     y = j * mask_cell_size; 0 = cell_size) where blocks are allowed (>= 0.5); carve > 0: the
@@ -512,10 +512,10 @@ def amplify(terrain, tiles, strata=None, max_slope=0.6, distance_range=(-3.0, 2.
         if not hasattr(mask, "__array__"):
             raise _type_error(fn, "mask", "an image path or a 2D numpy array", mask)
         mask_array = mask
-    options = {"strata": strata, "max_slope": _float(max_slope, "max_slope", fn),
-               "distance_range": _floats(distance_range, 2, "distance_range", fn),
-               "anchors": _int(anchors, "anchors", fn),
-               "fraction": _float(fraction, "fraction", fn),
+    options = {"strata": strata, "max_slope": _opt(max_slope, _float, "max_slope", fn),
+               "distance_range": _opt(distance_range, _floats, 2, "distance_range", fn),
+               "anchors": _opt(anchors, _int, "anchors", fn),
+               "fraction": _opt(fraction, _float, "fraction", fn),
                "voxel_size": _float(voxel_size, "voxel_size", fn),
                "half_width": _float(half_width, "half_width", fn),
                "region": _opt(region, _floats, 6, "region", fn),
@@ -552,6 +552,11 @@ def coverage(surface, ids, max_nz=0.6, region=None):
     ids = _grid(ids, "ids", fn)
     max_nz = _float(max_nz, "max_nz", fn)
     region = _opt(region, _floats, 4, "region", fn)
+    if region is not None and not (region[0] < region[2] and region[1] < region[3]):
+        raise ValueError(f"coverage: region must be (xmin, ymin, xmax, ymax) with min < max, "
+                         f"got {tuple(region)}")
+    if surface.activeVoxelCount() == 0:
+        return {"steep": 0.0, "gentle": 0.0, "steep_voxels": 0, "gentle_voxels": 0}
     lo, hi = surface.evalActiveVoxelBoundingBox()
     lo = tuple(int(v) - 1 for v in lo)  # one voxel of margin each side
     shape = tuple(int(h) + 2 - l for l, h in zip(lo, hi))

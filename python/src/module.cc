@@ -128,12 +128,16 @@ py::tuple amplifyTerrain(py::object terrain, const std::vector<PyTile>& tiles,
                          const std::string& optionsJson)
 {
     const json o = json::parse(optionsJson);
+    // Presence rules the caller leaves out (null) keep PlacementRules' defaults, the ones
+    // vdb_amplify shows: they live there alone.
     amplify::PlacementRules rules;
-    rules.maxSlope = o.at("max_slope");
-    rules.distanceMin = o.at("distance_range").at(0);
-    rules.distanceMax = o.at("distance_range").at(1);
-    rules.anchors = o.at("anchors");
-    rules.fraction = o.at("fraction");
+    if (!o.at("max_slope").is_null()) rules.maxSlope = o.at("max_slope");
+    if (!o.at("distance_range").is_null()) {
+        rules.distanceMin = o.at("distance_range").at(0);
+        rules.distanceMax = o.at("distance_range").at(1);
+    }
+    if (!o.at("anchors").is_null()) rules.anchors = o.at("anchors");
+    if (!o.at("fraction").is_null()) rules.fraction = o.at("fraction");
     rules.validate();
     std::vector<std::shared_ptr<const blocks::BlockTile>> list;
     for (const auto& t : tiles) list.push_back(t.tile);
@@ -146,7 +150,7 @@ py::tuple amplifyTerrain(py::object terrain, const std::vector<PyTile>& tiles,
     }
     FieldPtr ground;
     json p = {{"names", names}, {"strata", o.at("strata")}, {"max_slope", rules.maxSlope},
-              {"distance_range", o.at("distance_range")}, {"anchors", rules.anchors},
+              {"distance_range", {rules.distanceMin, rules.distanceMax}}, {"anchors", rules.anchors},
               {"fraction", rules.fraction}, {"carve", o.at("carve")}};
     if (py::isinstance<py::str>(terrain)) {
         const std::string path = terrain.cast<std::string>();

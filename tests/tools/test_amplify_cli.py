@@ -5,7 +5,7 @@ import os
 import pyopenvdb as vdb
 import pytest
 
-from conftest import one_line_error, run, tool, write_png16
+from conftest import assert_bitwise_equal, one_line_error, run, tool, write_png16
 
 
 
@@ -264,6 +264,11 @@ def test_coverage_is_the_share_of_surface_voxels_with_an_id(tmp_path):
     assert rockvdb.coverage(g, ids, region=(1.05, -9, 9, 9))["steep"] == 1.0
     with pytest.raises(TypeError, match="coverage.*ids"):
         rockvdb.coverage(g, "block_id")
+    with pytest.raises(ValueError, match="coverage: region"):
+        rockvdb.coverage(g, ids, region=(5, 0, 1, 1))
+    empty = vdb.FloatGrid(0.3)
+    assert rockvdb.coverage(empty, ids) == {"steep": 0.0, "gentle": 0.0, "steep_voxels": 0,
+                                            "gentle_voxels": 0}
 
 
 def test_cliffs_read_as_walls_of_blocks(inputs, tmp_path):
@@ -279,3 +284,8 @@ def test_cliffs_read_as_walls_of_blocks(inputs, tmp_path):
     assert c["steep_voxels"] > 5000
     assert c["steep"] >= 0.9, c
     assert c["gentle"] < 0.5, c
+    # Python without presence arguments takes the same defaults: the same grids, bit for bit.
+    s, ids, _ = rockvdb.amplify(str(inputs["cliff"]), [str(inputs["tile"])], cell_size=0.5,
+                                height_scale=10, voxel_size=0.2)
+    assert_bitwise_equal(s, g["surface"])
+    assert_bitwise_equal(ids, g["block_id"])
