@@ -11,6 +11,7 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 #include <mutex>
 #include <unistd.h>
@@ -24,6 +25,42 @@ namespace {
 
 std::atomic<bool> gSigint{false};
 extern "C" void onSigint(int) { gSigint.store(true); }
+
+std::string cliText(const nlohmann::json& v)
+{
+    if (v.is_string()) return v.get<std::string>();
+    if (v.is_boolean()) return v.get<bool>() ? "true" : "false";
+    if (v.is_array()) {
+        std::string s;
+        for (const auto& x : v) s += (s.empty() ? "" : ",") + cliText(x);
+        return s;
+    }
+    return v.dump();
+}
+
+// A command-line word as the JSON value its row expects; what does not parse stays a string
+// and the table's check reports it ("n must be an integer (got "abc")").
+nlohmann::json fromText(ParamType type, const std::string& text)
+{
+    const bool integer = type == ParamType::Int || type == ParamType::Ints;
+    if (type == ParamType::Text) return text;
+    try {
+        size_t pos = 0;
+        if (integer) {
+            if (!text.empty() && text[0] != '-') {
+                const unsigned long long u = std::stoull(text, &pos);
+                if (pos == text.size()) return u;
+            } else {
+                const long long i = std::stoll(text, &pos);
+                if (pos == text.size()) return i;
+            }
+        }
+        const double d = std::stod(text, &pos);
+        if (pos == text.size()) return d;
+    } catch (...) {
+    }
+    return text;
+}
 
 // JSON for CLI11: {"option-name": value, "subcommand": {...}}; arrays give multi-values.
 class ConfigJson : public CLI::Config
@@ -103,37 +140,13 @@ private:
             if (std::count(names.begin(), names.end(), key)) continue;
             // The inputs' own provenance that vdb_csg / vdb_merge record: replays skip it.
             if (where.empty() && key == "sources") continue;
-            std::string best;
-            size_t bestD = size_t(-1);
-            for (const auto* list : {&names, &subs}) {
-                for (const auto& n : *list) {
-                    const size_t d = editDistance(key, n);
-                    if (d < bestD) { bestD = d; best = n; }
-                }
-            }
+            std::vector<std::string> all = names;
+            all.insert(all.end(), subs.begin(), subs.end());
+            const std::string best = closestName(key, all);
             std::string msg = "unknown --params key '" + where + key + "'";
-            if (!best.empty() && bestD <= std::max<size_t>(2, key.size() / 3)) {
-                msg += " (did you mean '" + where + best + "'?)";
-            }
+            if (!best.empty()) msg += " (did you mean '" + where + best + "'?)";
             throw CLI::ConversionError(msg);
         }
-    }
-
-    static size_t editDistance(const std::string& a, const std::string& b)
-    {
-        std::vector<size_t> row(b.size() + 1);
-        for (size_t k = 0; k <= b.size(); ++k) row[k] = k;
-        for (size_t i = 1; i <= a.size(); ++i) {
-            size_t diag = row[0];
-            row[0] = i;
-            for (size_t k = 1; k <= b.size(); ++k) {
-                const size_t up = row[k];
-                const bool same = a[i - 1] == b[k - 1] || (a[i - 1] == '_' && b[k - 1] == '-');
-                row[k] = std::min({row[k] + 1, row[k - 1] + 1, diag + (same ? 0 : 1)});
-                diag = up;
-            }
-        }
-        return row[b.size()];
     }
 
     const CLI::App* mApp = nullptr;
@@ -217,6 +230,31 @@ bool Progress::wasInterrupted(int percent)
     return gSigint.load();
 }
 
+TaskBar::~TaskBar()
+{
+    if (mShown) {
+        std::fprintf(stderr, "\r\033[K");
+        std::fflush(stderr);
+    }
+}
+
+bool TaskBar::cancelled() { return gSigint.load(); }
+
+void TaskBar::progress(const char* phase, double fraction)
+{
+    if (!mEnabled) return;
+    static std::mutex m;
+    std::lock_guard<std::mutex> lock(m);
+    const int percent = std::clamp(int(fraction * 100.0), 0, 100);
+    if (percent <= mLast) return; // only up, whatever order threads report in
+    mLast = percent;
+    mShown = true;
+    const int w = 30, filled = percent * w / 100;
+    std::fprintf(stderr, "\r\033[K%s: %s [%.*s%*s] %3d%%", mTool.c_str(), phase, filled,
+                 "##############################", w - filled, "", percent);
+    std::fflush(stderr);
+}
+
 BakeSettings BakeOptions::settings() const
 {
     BakeSettings s;
@@ -286,6 +324,61 @@ void Tool::addSeed(CLI::App& where)
     where.add_option("--seed", mSeed, "Random seed (same seed, same bits)")->capture_default_str();
 }
 
+void Tool::addParams(CLI::App& where, const SchemaBase& schema)
+{
+    for (const ParamInfo& info : schema.params()) {
+        std::string help = info.help;
+        if (!info.unit.empty()) help += " (" + info.unit + ")";
+        if (!info.choices.empty()) {
+            std::string list;
+            for (const auto& c : info.choices) list += (list.empty() ? "" : "|") + c;
+            help += "; " + list;
+        } else if (info.type != ParamType::Bool && info.type != ParamType::Text &&
+                   (std::isfinite(info.range.min) || std::isfinite(info.range.max))) {
+            help += "; " + info.range.text();
+        }
+        Bound b{&schema, &info, nullptr, std::make_shared<std::vector<std::string>>(),
+                std::make_shared<bool>(false)};
+        if (info.type == ParamType::Bool) {
+            b.option = where.add_flag("--" + info.name + ",!--no-" + info.name, *b.flag, help);
+        } else {
+            b.option = where.add_option("--" + info.name, *b.values, help);
+            if (info.count > 1) b.option->delimiter(',');
+            b.option->expected(int(info.count));
+            static const char* const names[] = {"BOOL", "INT", "FLOAT", "TEXT", "INT", "FLOAT"};
+            std::string type = names[int(info.type)];
+            for (size_t k = 1; k < info.count; ++k) type += std::string(",") + names[int(info.type)];
+            b.option->type_name(type);
+        }
+        if (!info.defaultValue.is_null()) b.option->default_str(cliText(info.defaultValue));
+        mBound.push_back(b);
+    }
+}
+
+nlohmann::json Tool::givenParams(const SchemaBase& schema) const
+{
+    nlohmann::json j = nlohmann::json::object();
+    for (const Bound& b : mBound) {
+        if (b.schema != &schema || b.option->count() == 0) continue;
+        const ParamInfo& info = *b.info;
+        if (info.type == ParamType::Bool) {
+            j[info.name] = *b.flag;
+        } else if (info.type == ParamType::Ints || info.type == ParamType::Reals) {
+            nlohmann::json list = nlohmann::json::array();
+            for (const auto& v : *b.values) list.push_back(fromText(info.type, v));
+            j[info.name] = list;
+        } else {
+            j[info.name] = fromText(info.type, b.values->back());
+        }
+    }
+    return j;
+}
+
+std::unique_ptr<TaskBar> Tool::taskBar() const
+{
+    return std::make_unique<TaskBar>(mName, !mQuiet && ::isatty(STDERR_FILENO));
+}
+
 std::string Tool::paramsJson() const
 {
     return ConfigJson::toJson(&mApp, true).dump();
@@ -309,8 +402,41 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
         std::cerr << mName << ": error: " << one << "\n";
         return code;
     };
+    // A --params file names its subcommand ({"tiles": {...}}): when the command line names
+    // none, take the file's, so a file's own rockvdb:params replays with just
+    // `tool --params FILE -o OUT`.
+    std::vector<std::string> words(argv, argv + argc);
+    auto isSubcommand = [&](const std::string& w) {
+        for (const CLI::App* sub : mApp.get_subcommands({})) {
+            if (sub->get_name() == w) return true;
+        }
+        return false;
+    };
+    if (!mApp.get_subcommands({}).empty()) {
+        bool named = false;
+        std::string paramsFile;
+        for (size_t i = 1; i < words.size(); ++i) {
+            if (isSubcommand(words[i])) named = true;
+            if (words[i] == "--params" && i + 1 < words.size()) paramsFile = words[i + 1];
+            if (words[i].rfind("--params=", 0) == 0) paramsFile = words[i].substr(9);
+        }
+        if (!named && !paramsFile.empty()) {
+            std::ifstream in(paramsFile);
+            const json j = json::parse(in, nullptr, false);
+            if (j.is_object()) {
+                for (auto it = j.begin(); it != j.end(); ++it) {
+                    if (it->is_object() && isSubcommand(it.key())) {
+                        words.insert(words.begin() + 1, it.key());
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    std::vector<char*> args;
+    for (auto& w : words) args.push_back(w.data());
     try {
-        mApp.parse(argc, argv);
+        mApp.parse(int(args.size()), args.data());
     } catch (const CLI::CallForHelp& e) {
         return mApp.exit(e);
     } catch (const CLI::CallForAllHelp& e) {
@@ -323,6 +449,7 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
         return error(std::string(e.what()) + " (see --help)", 2);
     }
     std::signal(SIGINT, onSigint);
+    std::signal(SIGTERM, onSigint);
     std::signal(SIGPIPE, SIG_IGN);
     try {
         initialize();
@@ -339,7 +466,7 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
     } catch (const IoError& e) {
         return error(e.what(), 1);
     } catch (const Interrupted&) {
-        return error("interrupted; nothing written", 1);
+        return error("interrupted; nothing written", 130);
     } catch (const std::bad_alloc&) {
         return error("out of memory; nothing written (try a larger --voxel-size)", 1);
     } catch (const openvdb::Exception& e) {

@@ -4,14 +4,19 @@
 //   ("-" = stdout), --params FILE.json (any option from JSON; command-line values win;
 //   unknown keys are errors naming the closest option),
 //   --seed, --voxel-size, --half-width, --threads, --quiet, a progress bar on stderr when it
-//   is a terminal. Exit 0 on success, 1 on runtime errors, 2 on usage errors; every error is
-//   one line on stderr: "<tool>: error: <message>".
+//   is a terminal. Exit 0 on success, 1 on runtime errors, 2 on usage errors, 130 when
+//   interrupted (Ctrl-C or SIGTERM; nothing written); every error is one line on stderr:
+//   "<tool>: error: <message>".
 #pragma once
 
 #include <core/Bake.h>
+#include <core/Schema.h>
+#include <core/Task.h>
 
 #include <CLI/CLI.hpp>
 #include <openvdb/util/NullInterrupter.h>
+
+#include <nlohmann/json.hpp>
 
 #include <array>
 #include <functional>
@@ -36,6 +41,24 @@ private:
     std::string mLabel;
     bool mEnabled;
     int mLast = -1;
+};
+
+/// @brief A Task's host on the command line: a progress bar on stderr (when it is a terminal
+/// and not --quiet) that only goes up, labelled with the phase; cancelled by Ctrl-C (SIGINT)
+/// or SIGTERM, after which the tool exits 130 having written nothing.
+class TaskBar : public TaskHost
+{
+public:
+    TaskBar(std::string tool, bool enabled) : mTool(std::move(tool)), mEnabled(enabled) {}
+    ~TaskBar() override;
+    bool cancelled() override;
+    void progress(const char* phase, double fraction) override;
+
+private:
+    std::string mTool;
+    bool mEnabled;
+    int mLast = -1;
+    bool mShown = false;
 };
 
 /// @brief Options shared by tools that bake.
@@ -65,7 +88,17 @@ public:
     /// (the tool sets them; --help says so).
     void addBakeOptions(CLI::App& where, bool inputDefaults = false);
     void addSeed(CLI::App& where);
+    /// @brief One option per row of a stage's table, on @a where: --name, help with unit,
+    /// range and default from the table (flags take --name / --no-name).
+    void addParams(CLI::App& where, const SchemaBase& schema);
     /// @}
+
+    /// @brief The values given for @a schema's rows, on the command line or by --params, as
+    /// JSON for Schema::fromJson (which fills in the defaults and checks everything).
+    nlohmann::json givenParams(const SchemaBase& schema) const;
+
+    /// @brief The host of a stage's Task: progress bar and Ctrl-C.
+    std::unique_ptr<TaskBar> taskBar() const;
 
     const BakeOptions& bake() const { return mBake; }
     uint64_t seed() const { return mSeed; }
@@ -85,8 +118,18 @@ public:
     void info(const std::string& line) const;
 
 private:
+    struct Bound
+    {
+        const SchemaBase* schema;
+        const ParamInfo* info;
+        CLI::Option* option;
+        std::shared_ptr<std::vector<std::string>> values;
+        std::shared_ptr<bool> flag;
+    };
+
     std::string mName;
     CLI::App mApp;
+    std::vector<Bound> mBound;
     BakeOptions mBake;
     uint64_t mSeed = 0;
     std::string mOutput;

@@ -25,10 +25,6 @@ namespace rockpile {
 using openvdb::Coord;
 using LeafT = openvdb::FloatTree::LeafNodeType;
 
-// Defined in RockTiles.cc: a rock's level-set leaves shifted by a voxel offset.
-std::vector<LeafT*> rockLeavesShifted(const Rock& rock, double voxelSize, const Coord& offset,
-                                      double halfWidth);
-
 namespace {
 
 constexpr uint64_t kColourStream = 0xc0105;
@@ -104,16 +100,6 @@ FieldPtr loadSupport(const std::string& path, const TileSet& set, uint64_t seed,
                      ".obj/.stl/.ply mesh (got ", path, ")");
 }
 
-void PileParams::validate() const
-{
-    require(threshold > 0 && threshold <= 1, "rockpile", "anchor threshold", "in (0, 1]",
-            threshold);
-    require(halfWidth >= 1 && halfWidth <= 16, "rockpile", "half width (voxels)", "in [1, 16]",
-            halfWidth);
-    require(material >= -1 && material < (1 << 24), "rockpile", "material id",
-            "-1 (none) or in [0, 2^24)", material);
-}
-
 Vec3d voxelToWorld(const TileSet& set, const Vec3d& v)
 {
     return v * set.params.voxelSize();
@@ -121,6 +107,13 @@ Vec3d voxelToWorld(const TileSet& set, const Vec3d& v)
 
 std::vector<Instance> selectRocks(const TileSet& set, const Field& support, const PileParams& p,
                                   PileStats* stats)
+{
+    Task task;
+    return selectRocks(set, support, p, task, stats);
+}
+
+std::vector<Instance> selectRocks(const TileSet& set, const Field& support, const PileParams& p,
+                                  Task& task, PileStats* stats)
 {
     p.validate();
     using Clock = std::chrono::steady_clock;
@@ -203,37 +196,34 @@ std::vector<Instance> selectRocks(const TileSet& set, const Field& support, cons
     }
     std::vector<Instance> found(candidates.size());
     std::vector<uint8_t> keep(candidates.size(), 0), deep(candidates.size(), 0);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates.size(), 64),
-        [&](const tbb::blocked_range<size_t>& range) {
-            for (size_t c = range.begin(); c != range.end(); ++c) {
-                const Feature& f = features[candidates[c].feature];
-                const size_t ri = candidates[c].rock;
-                const Rock& r = set.rocks[ri];
-                const Vec3d seedWorld = voxelToWorld(set, r.seed.p * double(m) - Vec3d(0.5) + f.shift.asVec3d());
-                const double fs = support.eval(seedWorld);
-                // Supports are distances (or bounds of them, beyond a grid's band): a rock
-                // whose seed is farther out than its radius has no anchor inside.
-                if (fs > radius[ri]) continue;
-                if (p.dropDeep && fs < -2.0 * rMax) {
-                    deep[c] = 1;
-                    continue;
+    parallelFor(task, candidates.size(), 64, [&](size_t c) {
+        const Feature& f = features[candidates[c].feature];
+        const size_t ri = candidates[c].rock;
+        const Rock& r = set.rocks[ri];
+        const Vec3d seedWorld = voxelToWorld(set, r.seed.p * double(m) - Vec3d(0.5) + f.shift.asVec3d());
+        const double fs = support.eval(seedWorld);
+        // Supports are distances (or bounds of them, beyond a grid's band): a rock
+        // whose seed is farther out than its radius has no anchor inside.
+        if (fs > radius[ri]) return;
+        if (p.dropDeep && fs < -2.0 * rMax) {
+            deep[c] = 1;
+            return;
+        }
+        size_t inside = fs < 0 ? 1 : 0, total = 1;
+        for (int x = 0; x < r.dims[0]; ++x)
+            for (int y = 0; y < r.dims[1]; ++y)
+                for (int z = 0; z < r.dims[2]; ++z) {
+                    if (r.rho[size_t((x * r.dims[1] + y) * r.dims[2] + z)] <= 0.5f) continue;
+                    const Coord v = r.origin.offsetBy(x, y, z) + f.shift;
+                    inside += support.eval(voxelToWorld(set, v.asVec3d())) < 0;
+                    ++total;
                 }
-                size_t inside = fs < 0 ? 1 : 0, total = 1;
-                for (int x = 0; x < r.dims[0]; ++x)
-                    for (int y = 0; y < r.dims[1]; ++y)
-                        for (int z = 0; z < r.dims[2]; ++z) {
-                            if (r.rho[size_t((x * r.dims[1] + y) * r.dims[2] + z)] <= 0.5f) continue;
-                            const Coord v = r.origin.offsetBy(x, y, z) + f.shift;
-                            inside += support.eval(voxelToWorld(set, v.asVec3d())) < 0;
-                            ++total;
-                        }
-                const double fraction = double(inside) / double(total);
-                if (fraction >= p.threshold) {
-                    keep[c] = 1;
-                    found[c] = {ri, f.region, f.shift, seedWorld, fraction};
-                }
-            }
-        });
+        const double fraction = double(inside) / double(total);
+        if (fraction >= p.threshold) {
+            keep[c] = 1;
+            found[c] = {ri, f.region, f.shift, seedWorld, fraction};
+        }
+    });
     std::vector<Instance> out;
     size_t dropped = 0;
     for (size_t c = 0; c < candidates.size(); ++c) {
@@ -252,6 +242,13 @@ std::vector<Instance> selectRocks(const TileSet& set, const Field& support, cons
 
 Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PileParams& p)
 {
+    Task task;
+    return buildPile(set, std::move(instances), p, task);
+}
+
+Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PileParams& p,
+               Task& task)
+{
     p.validate();
     using Clock = std::chrono::steady_clock;
     const auto t0 = Clock::now();
@@ -261,13 +258,16 @@ Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PilePa
     pile.instances = std::move(instances);
     const size_t count = pile.instances.size();
     std::vector<std::vector<LeafT*>> leaves(count);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 8),
-        [&](const tbb::blocked_range<size_t>& r) {
-            for (size_t i = r.begin(); i != r.end(); ++i) {
-                const Instance& in = pile.instances[i];
-                leaves[i] = rockLeavesShifted(set.rocks[in.rock], dx, in.shift, p.halfWidth);
-            }
+    try {
+        parallelFor(task, count, 8, [&](size_t i) {
+            const Instance& in = pile.instances[i];
+            leaves[i] = rockLeavesShifted(set.rocks[in.rock], dx, in.shift, p.halfWidth);
         });
+    } catch (...) {
+        for (auto& list : leaves)
+            for (LeafT* leaf : list) delete leaf;
+        throw;
+    }
     // Leaves of neighbouring rocks meet: group them by origin and unite (min), the id going
     // to the rock that gives the minimum (the first, on ties).
     struct Piece { Coord origin; size_t instance; LeafT* leaf; };

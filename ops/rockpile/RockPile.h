@@ -21,16 +21,29 @@
 namespace rockvdb {
 namespace rockpile {
 
+/// How a support file is read.
+struct SupportOptions
+{
+    std::string grid;        ///< level set in a .vdb ("" = 'surface', else the only level set)
+    UpAxis up = UpAxis::Z;   ///< up axis of a mesh file (y: Blender's OBJ default, Houdini)
+};
+
+/// A pile's parameters. Defaults, ranges and help live in one table, pileSchema()
+/// (RockPileStage.cc); a default-constructed PileParams holds the table's defaults.
 struct PileParams
 {
-    double threshold = 0.5;  ///< fraction of anchors inside the support, in (0, 1]
-    bool dropDeep = true;    ///< drop rocks deeper than 2 × the largest embedding radius
-    uint64_t seed = 0;       ///< lattice colours
-    double halfWidth = 3.0;  ///< of the output level set, voxels
+    PileParams();
+
+    double threshold;        ///< fraction of anchors inside the support, in (0, 1]
+    bool dropDeep;           ///< drop rocks deeper than 2 × the largest embedding radius
+    uint64_t seed;           ///< lattice colours (and a JSON support's noise)
+    double halfWidth = 3.0;  ///< of the output level set, voxels (the rocks' own band)
     /// Material id written on every rock voxel (grid 'material', for uniting the pile with
     /// other stages' material grids); −1 = no material grid.
-    int material = -1;
+    int material;
+    SupportOptions support;  ///< how a support file is read
 
+    /// @throw ValueError naming the parameter.
     void validate() const;
 };
 
@@ -71,12 +84,6 @@ double maxRockRadius(const TileSet& set);
 /// deep-rock test reads: twice the largest rock radius and a little.
 FieldPtr levelSetSupport(openvdb::FloatGrid::ConstPtr grid, const TileSet& set);
 
-/// How a support file is read.
-struct SupportOptions
-{
-    std::string grid;        ///< level set in a .vdb ("" = 'surface', else the only level set)
-    UpAxis up = UpAxis::Z;   ///< up axis of a mesh file (y: Blender's OBJ default, Houdini)
-};
 
 /// @brief A support from a file: a level set .vdb, a JSON expression of primitives (.json,
 /// relative paths from its folder, @a seed for its noise) or a closed mesh (.obj, .stl,
@@ -87,9 +94,13 @@ FieldPtr loadSupport(const std::string& path, const TileSet& set, uint64_t seed 
 
 /// @brief Choose the rocks of @a set that fill @a support (negative inside, metres).
 std::vector<Instance> selectRocks(const TileSet& set, const Field& support, const PileParams& p,
+                                  Task& task, PileStats* stats = nullptr);
+std::vector<Instance> selectRocks(const TileSet& set, const Field& support, const PileParams& p,
                                   PileStats* stats = nullptr);
 
 /// @brief The union level set of @a instances and its rock ids (in parallel).
+Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PileParams& p,
+               Task& task);
 Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PileParams& p);
 
 /// @brief The instances as a VDB points grid "rocks" (attributes P, rock, tile, instance) for

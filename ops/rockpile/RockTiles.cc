@@ -136,99 +136,6 @@ Vec3d r3(const Vec3d& offset, int i)
 
 } // namespace
 
-// ---- parameters ---------------------------------------------------------------------------
-
-TileParams TileParams::fromJson(const nlohmann::json& j)
-{
-    TileParams p;
-    for (auto it = j.begin(); it != j.end(); ++it) {
-        const std::string& k = it.key();
-        const auto& v = it.value();
-        if (k == "tiling") {
-            const std::string t = v.get<std::string>();
-            if (t == "aperiodic") p.tiling = Tiling::Aperiodic;
-            else if (t == "periodic") p.tiling = Tiling::Periodic;
-            else fail<ValueError>("rockpile: tiling must be aperiodic or periodic (got '", t, "')");
-        } else if (k == "n") p.n = v.get<int>();
-        else if (k == "seeds_per_cell") {
-            p.seedsMin = v.at(0).get<int>();
-            p.seedsMax = v.at(1).get<int>();
-        } else if (k == "anisotropy") {
-            for (int a = 0; a < 3; ++a) p.anisotropy[a] = v.at(a).get<double>();
-        } else if (k == "anisotropy_jitter") p.anisotropyJitter = v.get<double>();
-        else if (k == "g_max") p.gMax = v.get<double>();
-        else if (k == "voxels_per_cell") p.voxelsPerCell = v.get<int>();
-        else if (k == "cube_size") p.cubeSize = v.get<double>();
-        else if (k == "contact_radii") {
-            p.contactInner = v.at(0).get<double>();
-            p.contactOuter = v.at(1).get<double>();
-        } else if (k == "erosion_steps") p.erosionSteps = v.get<int>();
-        else if (k == "erosion_rate") p.erosionRate = v.get<double>();
-        else if (k == "poisson_radius") p.poissonRadius = v.get<double>();
-        else if (k == "seed") p.seed = v.get<uint64_t>();
-        else fail<ValueError>("rockpile: unknown tile parameter '", k, "'");
-    }
-    return p;
-}
-
-nlohmann::json TileParams::toJson() const
-{
-    return {{"tiling", tiling == Tiling::Periodic ? "periodic" : "aperiodic"},
-            {"n", n},
-            {"seeds_per_cell", {seedsMin, seedsMax}},
-            {"anisotropy", {anisotropy[0], anisotropy[1], anisotropy[2]}},
-            {"anisotropy_jitter", anisotropyJitter},
-            {"g_max", gMax},
-            {"voxels_per_cell", voxelsPerCell},
-            {"cube_size", cubeSize},
-            {"contact_radii", {contactInner, contactOuter}},
-            {"erosion_steps", erosionSteps},
-            {"erosion_rate", erosionRate},
-            {"poisson_radius", poissonRadius},
-            {"seed", seed}};
-}
-
-void TileParams::validate() const
-{
-    if (tiling == Tiling::Aperiodic) {
-        require(n >= 4, "rockpile", "n (cells per cube edge)",
-                ">= 4 for aperiodic corner cubes (a cell's owner must be unambiguous)", n);
-    } else {
-        require(n >= 3, "rockpile", "n (cells per cube edge)", ">= 3 for a periodic tile", n);
-    }
-    require(n <= 64, "rockpile", "n (cells per cube edge)", "<= 64", n);
-    require(seedsMin >= 1, "rockpile", "seeds per cell (minimum)", ">= 1", seedsMin);
-    require(seedsMax >= seedsMin && seedsMax <= 64, "rockpile", "seeds per cell (maximum)",
-            "in [minimum, 64]", seedsMax);
-    for (int a = 0; a < 3; ++a) {
-        require(std::isfinite(anisotropy[a]) && anisotropy[a] > 0 && anisotropy[a] <= 100,
-                "rockpile", "anisotropy coefficients", "in (0, 100]", anisotropy[a]);
-    }
-    require(anisotropyJitter >= 0 && anisotropyJitter < 1, "rockpile", "anisotropy jitter",
-            "in [0, 1)", anisotropyJitter);
-    require(std::isfinite(gMax) && gMax >= 1 && gMax <= 16, "rockpile", "g_max", "in [1, 16]",
-            gMax);
-    require(voxelsPerCell >= 4 && voxelsPerCell <= 64, "rockpile", "voxels per cell",
-            "in [4, 64]", voxelsPerCell);
-    require(std::isfinite(cubeSize) && cubeSize > 0, "rockpile", "cube size (m)", "> 0",
-            cubeSize);
-    require(contactInner >= 0, "rockpile", "contact radius a", ">= 0", contactInner);
-    if (!(contactOuter > contactInner)) {
-        fail<ValueError>("rockpile: contact radii need a < b (got a = ", contactInner,
-                         ", b = ", contactOuter, ")");
-    }
-    require(contactOuter <= 1.5, "rockpile", "contact radius b (cells)", "<= 1.5",
-            contactOuter);
-    require(erosionSteps >= 0 && erosionSteps <= 100, "rockpile", "erosion steps",
-            "in [0, 100]", erosionSteps);
-    require(erosionRate > 0 && erosionRate <= 1, "rockpile", "erosion rate", "in (0, 1]",
-            erosionRate);
-    if (tiling == Tiling::Periodic) {
-        const double r = poissonRadius > 0 ? poissonRadius : 0.8;
-        require(r >= 0.3 && r < 1.0, "rockpile", "Poisson radius (cells)", "in [0.3, 1)", r);
-    }
-}
-
 // ---- seeds --------------------------------------------------------------------------------
 
 std::vector<Seed> cellSeeds(const TileParams& p, const Coord& cell, const Colouring& colouring)
@@ -544,6 +451,12 @@ struct Job
 
 TileSet generateTiles(const TileParams& p)
 {
+    Task task;
+    return generateTiles(p, task);
+}
+
+TileSet generateTiles(const TileParams& p, Task& task)
+{
     p.validate();
     using Clock = std::chrono::steady_clock;
     const auto t0 = Clock::now();
@@ -656,12 +569,9 @@ TileSet generateTiles(const TileParams& p)
 
     const auto t1 = Clock::now();
     set.rocks.resize(jobs.size());
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, jobs.size(), 8),
-        [&](const tbb::blocked_range<size_t>& r) {
-            for (size_t i = r.begin(); i != r.end(); ++i) {
-                set.rocks[i] = makeRock(p, jobs[i].cell, jobs[i].index, jobs[i].colouring);
-            }
-        });
+    parallelFor(task, jobs.size(), 8, [&](size_t i) {
+        set.rocks[i] = makeRock(p, jobs[i].cell, jobs[i].index, jobs[i].colouring);
+    });
     set.stats.voronoiSeconds = std::chrono::duration<double>(Clock::now() - t1).count();
     for (size_t i = 0; i < jobs.size(); ++i) {
         set.regions[jobs[i].region].rocks.push_back(i);
@@ -905,6 +815,13 @@ constexpr int kRhoPad = 1;
 
 openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth, double* seconds)
 {
+    Task task;
+    return libraryGrid(set, task, halfWidth, seconds);
+}
+
+openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, Task& task, double halfWidth,
+                                    double* seconds)
+{
     using Clock = std::chrono::steady_clock;
     const auto t0 = Clock::now();
     const double dx = set.params.voxelSize();
@@ -912,12 +829,15 @@ openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth, double
     const std::vector<Coord> offsets = atlasOffsets(set, pad);
     const size_t count = set.rocks.size();
     std::vector<std::vector<LeafT*>> leaves(count);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 16),
-        [&](const tbb::blocked_range<size_t>& r) {
-            for (size_t i = r.begin(); i != r.end(); ++i) {
-                leaves[i] = rockLeaves(set.rocks[i], dx, offsets[i], halfWidth);
-            }
+    try {
+        parallelFor(task, count, 16, [&](size_t i) {
+            leaves[i] = rockLeaves(set.rocks[i], dx, offsets[i], halfWidth);
         });
+    } catch (...) {
+        for (auto& list : leaves)
+            for (LeafT* leaf : list) delete leaf;
+        throw;
+    }
     auto library = openvdb::FloatGrid::create(float(halfWidth * dx));
     library->setTransform(openvdb::math::Transform::createLinearTransform(dx));
     library->setGridClass(openvdb::GRID_LEVEL_SET);
@@ -933,6 +853,12 @@ openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth, double
 
 openvdb::FloatGrid::Ptr tileGrid(const TileSet& set)
 {
+    Task task;
+    return tileGrid(set, task);
+}
+
+openvdb::FloatGrid::Ptr tileGrid(const TileSet& set, Task& task)
+{
     const TileParams& p = set.params;
     const double dx = p.voxelSize();
     const std::vector<Coord> offsets = atlasOffsets(set, kRhoPad);
@@ -944,6 +870,7 @@ openvdb::FloatGrid::Ptr tileGrid(const TileSet& set)
     auto acc = rho->getAccessor();
     nlohmann::json rocks = nlohmann::json::array();
     for (size_t i = 0; i < set.rocks.size(); ++i) {
+        if (i % 256 == 0) task.step(double(i) / double(set.rocks.size()));
         const Rock& r = set.rocks[i];
         for (int x = 0; x < r.dims[0]; ++x)
             for (int y = 0; y < r.dims[1]; ++y)
@@ -989,8 +916,14 @@ TileSet tilesFromGrid(const openvdb::FloatGrid& rho)
         fail<ValueError>("rockpile: unreadable tile set description (format 1 expected)");
     }
     TileSet set;
-    set.params = TileParams::fromJson(j.at("params"));
-    set.params.validate();
+    // Format 1 files written before the parameter tables spelt keys with '_'.
+    nlohmann::json params = nlohmann::json::object();
+    for (auto it = j.at("params").begin(); it != j.at("params").end(); ++it) {
+        std::string key = it.key();
+        std::replace(key.begin(), key.end(), '_', '-');
+        params[key] = it.value();
+    }
+    set.params = TileParams::fromJson(params);
     auto acc = rho.getConstAccessor();
     for (const auto& rj : j.at("rocks")) {
         Rock r;

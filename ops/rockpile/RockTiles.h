@@ -23,6 +23,7 @@
 #pragma once
 
 #include <core/Field.h>
+#include <core/Task.h>
 
 #include <nlohmann/json_fwd.hpp>
 #include <openvdb/openvdb.h>
@@ -39,28 +40,32 @@ namespace rockpile {
 enum class Tiling { Aperiodic, Periodic };
 
 /// Everything that defines a tile set. Lengths in cells unless stated (a cell is
-/// cubeSize / n metres).
+/// cubeSize / n metres). Defaults, ranges and help live in one table, tilesSchema()
+/// (RockPileStage.cc); a default-constructed TileParams holds the table's defaults.
 struct TileParams
 {
-    Tiling tiling = Tiling::Aperiodic;
-    int n = 5;                        ///< cells per cube edge (aperiodic: >= 4)
-    int seedsMin = 1, seedsMax = 1;   ///< seeds per cell n_k in [min, max] (s = max)
+    TileParams();
+
+    Tiling tiling;
+    int n;                  ///< cells per cube edge (aperiodic: >= 4)
+    int seedsMin, seedsMax; ///< seeds per cell n_k in [min, max] (s = max)
     /// α, β, γ: relative extents of the ellipsoidal distance f_k along the seed's random
     /// frame (see Seed; 5, 5, 1 makes flat rocks); each drawn uniformly in
     /// [v·(1 − anisotropyJitter), v].
-    std::array<double, 3> anisotropy{{1.0, 1.0, 1.0}};
-    double anisotropyJitter = 0.25;
-    double gMax = 2.0;                ///< g_k uniform in [1, gMax] (the paper uses up to 4)
-    int voxelsPerCell = 10;           ///< m: n_G = m·n voxels per cube edge (Table 1: 10)
-    double cubeSize = 1.0;            ///< metres
-    double contactInner = 0.08;       ///< a: no erosion within a of a contact (cells; at
-                                      ///< least one voxel, so contacts survive sampling)
-    double contactOuter = 0.3;        ///< b: full erosion beyond b (cells)
-    int erosionSteps = 6;             ///< spheroidal erosion iterations
-    double erosionRate = 0.5;         ///< ε per step at full exposure
-    double poissonRadius = 0.0;       ///< periodic: seed spacing (cells; 0 = 0.8)
-    uint64_t seed = 0;
+    std::array<double, 3> anisotropy;
+    double anisotropyJitter;
+    double gMax;            ///< g_k uniform in [1, gMax] (the paper uses up to 4)
+    int voxelsPerCell;      ///< m: n_G = m·n voxels per cube edge (Table 1: 10)
+    double cubeSize;        ///< metres
+    double contactInner;    ///< a: no erosion within a of a contact (cells; at least one
+                            ///< voxel, so contacts survive sampling)
+    double contactOuter;    ///< b: full erosion beyond b (cells)
+    int erosionSteps;       ///< spheroidal erosion iterations
+    double erosionRate;     ///< ε per step at full exposure
+    double poissonRadius;   ///< periodic: seed spacing (cells; 0 = 0.8)
+    uint64_t seed;
 
+    /// @brief tilesSchema().fromJson: unknown keys and bad values are ValueErrors.
     static TileParams fromJson(const nlohmann::json& j);
     nlohmann::json toJson() const;
     /// @throw ValueError naming the parameter ("rockpile: n must be ...").
@@ -156,7 +161,9 @@ struct TileSet
     TileStats stats;
 };
 
-/// @brief Every unique rock of the tile set, in parallel (deterministic).
+/// @brief Every unique rock of the tile set, in parallel (deterministic); @a task is stepped
+/// per batch of rocks (a cancel throws Interrupted).
+TileSet generateTiles(const TileParams& p, Task& task);
 TileSet generateTiles(const TileParams& p);
 
 /// @brief The rocks whose seeds lie in the cube at lattice position @a cube under
@@ -178,6 +185,7 @@ openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize,
 /// v + offset_i), with metadata `rockvdb:tiles` (JSON format 1: params, stats, the regions
 /// with their rocks, and per rock its key, seed, atlas offset, box, solid and Voronoi voxels
 /// and contact count). The paper's rock field r = 2ρ − 1 is all a pile needs.
+openvdb::FloatGrid::Ptr tileGrid(const TileSet& set, Task& task);
 openvdb::FloatGrid::Ptr tileGrid(const TileSet& set);
 
 /// @brief The tile set back from a grid written by tileGrid (params validated).
@@ -187,8 +195,15 @@ TileSet tilesFromGrid(const openvdb::FloatGrid& rho);
 /// @brief Every rock's narrow-band level set in its own atlas slot of one level set
 /// `library` (metadata `rockvdb:library_offsets`: the slot offsets, rock order), built in
 /// parallel; @a seconds (optional) receives the time taken.
+openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, Task& task, double halfWidth = 3.0,
+                                    double* seconds = nullptr);
 openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth = 3.0,
                                     double* seconds = nullptr);
+
+/// @brief A rock's level-set leaves shifted by @a offset voxels (what rockLevelSet holds;
+/// the caller owns them). Piles assemble these.
+std::vector<openvdb::FloatTree::LeafNodeType*> rockLeavesShifted(
+    const Rock& rock, double voxelSize, const openvdb::Coord& offset, double halfWidth);
 
 } // namespace rockpile
 } // namespace rockvdb

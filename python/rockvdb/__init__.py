@@ -115,6 +115,96 @@ def _opt(value, check, *args):
 
 
 # ---------------------------------------------------------------------------------------------
+# Stage parameters: every stage's keywords, defaults, units, ranges and help come from its C++
+# table (the one vdb_* --help and --params read), so Python cannot drift from the CLI. Python
+# checks types here (TypeError naming the keyword); values, ranges and defaults are checked
+# once, in C++ (ValueError).
+
+def _table(stage):
+    return _json.loads(_rockvdb.schema(stage))
+
+
+_CHECKS = {"int": _int, "float": _float, "bool": _bool}
+
+
+def _stage_params(table, fn, params):
+    """Keyword arguments as the JSON text of the stage's parameters (CLI spelling)."""
+    rows = {r["python"]: r for r in table["params"]}
+    out = {}
+    for key, value in params.items():
+        row = rows.get(key)
+        if row is None:
+            import difflib
+            close = difflib.get_close_matches(key, list(rows), 1)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            raise TypeError(f"rockvdb.{fn}() got an unexpected keyword argument '{key}'{hint}")
+        kind = row["type"]
+        if kind in _CHECKS:
+            value = _CHECKS[kind](value, key, fn)
+        elif kind == "str":
+            value = _os.fspath(value) if isinstance(value, _os.PathLike) else _str(value, key, fn)
+        elif kind == "ints":
+            value = _ints(value, row["count"], key, fn)
+        else:
+            value = _floats(value, row["count"], key, fn)
+        out[row["name"]] = value
+    return _json.dumps(out)
+
+
+def _shown(value):
+    if isinstance(value, list):
+        return "(" + ", ".join(_shown(v) for v in value) + ")"
+    if isinstance(value, str):
+        return repr(value)
+    return repr(value)
+
+
+def _stage_function(table, impl, name, head, tail, before=(), after=()):
+    """A public function over impl with the table's keywords in its signature (defaults as the
+    table gives them) and a docstring listing each with its unit, default, range and help."""
+    import functools
+    import inspect
+    P = inspect.Parameter
+    params = [P(b, P.POSITIONAL_OR_KEYWORD) for b in before]
+    lines = [head, "", "Parameters (the same as the CLI's options, '-' spelt '_'):"]
+    for r in table["params"]:
+        default = tuple(r["default"]) if isinstance(r["default"], list) else r["default"]
+        params.append(P(r["python"], P.KEYWORD_ONLY, default=default))
+        unit = f" {r['unit']}" if r["unit"] else ""
+        rule = ""
+        if r["choices"]:
+            rule = "; one of " + ", ".join(r["choices"])
+        elif r["range"] and r["type"] not in ("str", "bool"):
+            rule = f"; {r['range']}"
+        lines.append(f"  {r['python']} ({r['type']}{unit}; default {_shown(r['default'])}{rule}): "
+                     f"{r['help']}.")
+    for a, d in after:
+        params.append(P(a, P.KEYWORD_ONLY, default=d))
+    lines += ["", tail]
+
+    @functools.wraps(impl)
+    def call(*args, **kwargs):
+        bound = sig.bind(*args, **{k: v for k, v in kwargs.items() if k in sig.parameters})
+        extra = {k: v for k, v in kwargs.items() if k not in sig.parameters}
+        fixed = {k: v for k, v in bound.arguments.items()
+                 if k in before or k in dict(after)}
+        table_args = {k: v for k, v in bound.arguments.items() if k not in fixed}
+        return impl(**fixed, **table_args, **extra)
+
+    sig = inspect.Signature(params)
+    call.__signature__ = sig
+    call.__doc__ = "\n".join(lines)
+    call.__name__ = call.__qualname__ = name
+    call.__wrapped__ = None
+    del call.__wrapped__
+    return call
+
+
+_ROCK_TILES = _table("rock_tiles")
+_ROCK_PILE = _table("rock_pile")
+
+
+# ---------------------------------------------------------------------------------------------
 # Fields
 
 class Field:
@@ -659,45 +749,27 @@ def detail(grid, warp_amplitude=0.0, warp_relief="turbulence", warp_scale=1.5, w
 # ---------------------------------------------------------------------------------------------
 # Rock tiles and rock piles (aperiodic-rock-piles, arches-material-stacks §5)
 
-def rock_tiles(n=5, seeds_per_cell=(1, 1), anisotropy=(1.0, 1.0, 1.0), anisotropy_jitter=0.25,
-               g_max=2.0, voxels_per_cell=10, cube_size=1.0, contact_radii=(0.08, 0.3),
-               erosion_steps=6, erosion_rate=0.5, tiling="aperiodic", poisson_radius=0.0,
-               seed=0, path=None):
-    """A rock tile set (vdb_rockpile tiles from Python; aperiodic-rock-piles §2-§5, arches §5).
-
-    n: cells per cube edge (default 5, >= 4 for corner cubes); seeds_per_cell (min, max)
-    (default (1, 1)); anisotropy: the relative extents (alpha, beta, gamma) of the rocks along
-    each seed's random frame (default (1, 1, 1); (5, 5, 1) makes flat rocks),
-    anisotropy_jitter (default 0.25); g_max: largest weight g_k (default 2); voxels_per_cell m
-    (default 10); cube_size (m, default 1; the voxel is cube_size / (n * m)); contact_radii
-    (a, b) in cells (default (0.08, 0.3)); erosion_steps (default 6), erosion_rate (default
-    0.5); tiling 'aperiodic' (corner cubes, default) or 'periodic' (arches §5);
-    poisson_radius (cells; 0 = half the seed spacing); seed (default 0).
-    Returns the tile set as a pyopenvdb.FloatGrid 'rho' (each rock's erosion state in its own
-    slot, the description in metadata 'rockvdb:tiles'); path also writes it (atomically)."""
+def _rock_tiles(path=None, **params):
     fn = "rock_tiles"
-    options = {"tiling": _str(tiling, "tiling", fn), "n": _int(n, "n", fn),
-               "seeds_per_cell": _ints(seeds_per_cell, 2, "seeds_per_cell", fn),
-               "anisotropy": _floats(anisotropy, 3, "anisotropy", fn),
-               "anisotropy_jitter": _float(anisotropy_jitter, "anisotropy_jitter", fn),
-               "g_max": _float(g_max, "g_max", fn),
-               "voxels_per_cell": _int(voxels_per_cell, "voxels_per_cell", fn),
-               "cube_size": _float(cube_size, "cube_size", fn),
-               "contact_radii": _floats(contact_radii, 2, "contact_radii", fn),
-               "erosion_steps": _int(erosion_steps, "erosion_steps", fn),
-               "erosion_rate": _float(erosion_rate, "erosion_rate", fn),
-               "poisson_radius": _float(poisson_radius, "poisson_radius", fn),
-               "seed": _int(seed, "seed", fn)}
     target = _opt(path, _path, "path", fn)
-    grid = _rockvdb.rock_tiles(_json.dumps(options))
+    grid = _rockvdb.rock_tiles(_stage_params(_ROCK_TILES, fn, params))
     if target is not None:
         _rockvdb.write(target, [grid])
     return grid
 
 
+rock_tiles = _stage_function(
+    _ROCK_TILES, _rock_tiles, "rock_tiles",
+    "A rock tile set (vdb_rockpile tiles from Python; aperiodic-rock-piles §2-§5, arches §5).",
+    "Returns the tile set as a pyopenvdb.FloatGrid 'rho' (each rock's erosion state in its own "
+    "slot, the description in metadata 'rockvdb:tiles'); path also writes it (atomically). "
+    "Ctrl-C raises KeyboardInterrupt.",
+    after=[("path", None)])
+
+
 def _tile_grid(tiles, fn):
     if isinstance(tiles, (str, _os.PathLike)):
-        return pyopenvdb.read(_os.fspath(tiles), "rho")
+        return _os.fspath(tiles)
     if not isinstance(tiles, pyopenvdb.FloatGrid):
         raise _type_error(fn, "tiles", "a tile set grid ('rho') or a tile file path", tiles)
     return tiles
@@ -706,23 +778,13 @@ def _tile_grid(tiles, fn):
 def rock_library(tiles):
     """Every rock of a tile set (a 'rho' grid or a tile file path) as a level set 'library',
     each rock in its own slot (offsets in metadata 'rockvdb:library_offsets')."""
-    return _rockvdb.rock_library(_tile_grid(tiles, "rock_library"))
+    tiles = _tile_grid(tiles, "rock_library")
+    if isinstance(tiles, str):
+        tiles = pyopenvdb.read(tiles, "rho")
+    return _rockvdb.rock_library(tiles)
 
 
-def rock_pile(tiles, support, threshold=0.5, keep_deep=False, seed=0, material=-1,
-              support_grid=None, up="z", stats=None):
-    """Fill a support with a tile set's rocks (vdb_rockpile pile from Python; rock piles §6).
-
-    tiles: a 'rho' grid or a tile file path. support: a pyopenvdb.FloatGrid level set, a
-    rockvdb.Field (e.g. rockvdb.sphere(2)), or a path (.vdb level set, .json expression,
-    closed .obj / .stl / .ply mesh); support_grid names the level set in a .vdb (default
-    'surface', else its only level set); up: a mesh file's up axis, 'z' (default) or 'y'
-    (Blender's OBJ export default, Houdini). A rock is placed when threshold (default 0.5) of
-    its anchors are inside; rocks deeper than twice the largest embedding radius are dropped
-    unless keep_deep. seed (default 0) colours the lattice. material >= 0 also returns a
-    'material' grid holding that id on every rock voxel (default -1 = none).
-    Returns (surface, rock_id), or (surface, rock_id, material) with material >= 0; stats (a
-    dict) receives counts, times, and each placed rock's library index and seed position."""
+def _rock_pile(tiles, support, stats=None, **params):
     fn = "rock_pile"
     if isinstance(support, Field):
         support = support._f
@@ -733,13 +795,20 @@ def rock_pile(tiles, support, threshold=0.5, keep_deep=False, seed=0, material=-
                           "a file path", support)
     if stats is not None and not isinstance(stats, dict):
         raise _type_error(fn, "stats", "a dict", stats)
-    options = {"threshold": _float(threshold, "threshold", fn),
-               "keep_deep": _bool(keep_deep, "keep_deep", fn), "seed": _int(seed, "seed", fn),
-               "material": _int(material, "material", fn),
-               "support_grid": _opt(support_grid, _str, "support_grid", fn) or "",
-               "up": _str(up, "up", fn)}
     surface, rock_id, mat, info = _rockvdb.rock_pile(_tile_grid(tiles, fn), support,
-                                                     _json.dumps(options))
+                                                     _stage_params(_ROCK_PILE, fn, params))
     if stats is not None:
         stats.update(info)
     return (surface, rock_id) if mat is None else (surface, rock_id, mat)
+
+
+rock_pile = _stage_function(
+    _ROCK_PILE, _rock_pile, "rock_pile",
+    "Fill a support with a tile set's rocks (vdb_rockpile pile from Python; rock piles §6).\n\n"
+    "tiles: a 'rho' grid or a tile file path. support: a pyopenvdb.FloatGrid level set, a "
+    "rockvdb.Field (e.g. rockvdb.sphere(2)), or a path (.vdb level set, .json expression, "
+    "closed .obj / .stl / .ply mesh).",
+    "Returns (surface, rock_id), or (surface, rock_id, material) with material >= 0; stats (a "
+    "dict) receives counts, times, and each placed rock's library index and seed position. "
+    "Ctrl-C raises KeyboardInterrupt.",
+    before=["tiles", "support"], after=[("stats", None)])

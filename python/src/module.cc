@@ -17,14 +17,16 @@
 #include <core/Primitives.h>
 #include <core/VdbIO.h>
 #include <detail/Detail.h>
-#include <rockpile/RockPile.h>
-#include <rockpile/RockTiles.h>
+#include <rockpile/RockPileStage.h>
 
 #include <nlohmann/json.hpp>
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <thread>
 
 namespace py = pybind11;
 using namespace rockvdb;
@@ -91,6 +93,52 @@ py::object bakeField(const PyField& f, double voxelSize, double halfWidth,
     if (!r.attribute) return py::cast(r.surface);
     stampProvenance(*r.attribute, generator, p.dump());
     return py::make_tuple(py::cast(r.surface), py::cast(r.attribute));
+}
+
+/// A Task's host in Python: Ctrl-C (the interpreter's pending SIGINT, or any signal whose
+/// handler raises) cancels; polled from the calling thread, which works in every TBB loop, at
+/// most every 50 ms, with the GIL taken just for the check. Stages then raise
+/// KeyboardInterrupt. Python delivers signals to the main thread only: calls from other
+/// Python threads run to the end.
+class PyTaskHost : public TaskHost
+{
+public:
+    bool cancelled() override
+    {
+        if (mCancelled.load()) return true;
+        if (std::this_thread::get_id() != mCaller) return false;
+        const auto now = std::chrono::steady_clock::now();
+        if (now < mNext) return false;
+        mNext = now + std::chrono::milliseconds(50);
+        py::gil_scoped_acquire gil;
+        if (PyErr_CheckSignals() != 0) {
+            PyErr_Clear(); // raised again as KeyboardInterrupt by the Interrupted translator
+            mCancelled.store(true);
+        }
+        return mCancelled.load();
+    }
+
+private:
+    std::thread::id mCaller = std::this_thread::get_id();
+    std::chrono::steady_clock::time_point mNext{};
+    std::atomic<bool> mCancelled{false};
+};
+
+/// The JSON text of a Python call's parameters (the wrapper spells keys as the CLI does).
+json parseParams(const std::string& text, const char* op)
+{
+    json j = json::parse(text, nullptr, false);
+    if (j.is_discarded()) fail<ValueError>(op, ": parameters are not JSON");
+    return j;
+}
+
+/// What provenance records of a grid input: its own generator and parameters.
+json gridSource(const openvdb::GridBase& g)
+{
+    auto p = provenance(g);
+    if (!p) return {{"grid", g.getName()}};
+    return {{"grid", g.getName()}, {"generator", p->generator},
+            {"params", json::parse(p->params, nullptr, false)}};
 }
 
 struct PyTile
@@ -401,18 +449,21 @@ PYBIND11_MODULE(_rockvdb, m)
     }, py::arg("grid"), py::arg("options"), py::arg("voxel_size") = std::nullopt,
        py::arg("half_width") = std::nullopt, py::arg("blend_mask") = std::nullopt);
 
-    m.def("rock_tiles", [](const std::string& options) {
-        const json o = json::parse(options);
-        rockpile::TileParams p = rockpile::TileParams::fromJson(o);
-        p.validate();
-        Grid rho;
-        {
-            py::gil_scoped_release release;
-            rho = rockpile::tileGrid(rockpile::generateTiles(p));
-        }
-        stampProvenance(*rho, "rockvdb.rock_tiles", p.toJson().dump());
-        return rho;
-    }, py::arg("options"));
+    // Stage tables: the Python wrappers build their signatures, defaults and docstrings
+    // from these (python/rockvdb/__init__.py).
+    m.def("schema", [](const std::string& stage) {
+        if (stage == "rock_tiles") return rockpile::tilesSchema().describe().dump();
+        if (stage == "rock_pile") return rockpile::pileSchema().describe().dump();
+        throw ValueError("schema: no stage '" + stage + "'");
+    }, py::arg("stage"));
+
+    m.def("rock_tiles", [](const std::string& params) {
+        const rockpile::TileParams p = rockpile::tilesSchema().fromJson(parseParams(params, "rockpile"));
+        py::gil_scoped_release release;
+        PyTaskHost host;
+        Task task(&host);
+        return rockpile::runTiles(p, false, task).rho;
+    }, py::arg("params"));
 
     m.def("rock_library", [](Grid tiles) {
         if (!tiles) throw py::type_error("rockpile: the tile set grid is None");
@@ -420,35 +471,36 @@ PYBIND11_MODULE(_rockvdb, m)
         Grid lib;
         {
             py::gil_scoped_release release;
-            lib = rockpile::libraryGrid(set);
+            PyTaskHost host;
+            Task task(&host);
+            lib = rockpile::libraryGrid(set, task);
         }
-        stampProvenance(*lib, "rockvdb.rock_library", set.params.toJson().dump());
+        stampProvenance(*lib, rockpile::kToolName,
+                        json{{"tiles", rockpile::tilesSchema().toJson(set.params)}}.dump());
         return lib;
     }, py::arg("tiles"));
 
-    m.def("rock_pile", [](Grid tiles, py::object support, const std::string& options) {
-        if (!tiles) throw py::type_error("rockpile: the tile set grid is None");
-        const json o = json::parse(options);
-        const rockpile::TileSet set = rockpile::tilesFromGrid(*tiles);
-        rockpile::PileParams pp;
-        pp.threshold = o.at("threshold");
-        pp.dropDeep = !o.at("keep_deep").get<bool>();
-        pp.seed = o.at("seed");
-        pp.material = o.at("material");
-        pp.validate();
-        rockpile::SupportOptions so;
-        so.grid = o.at("support_grid");
-        so.up = upAxisFromString(o.at("up"), "rockpile: up");
+    m.def("rock_pile", [](py::object tiles, py::object support, const std::string& params) {
+        const rockpile::PileParams p = rockpile::pileSchema().fromJson(parseParams(params, "rockpile"));
+        json inputs;
+        rockpile::TileSet set;
+        if (py::isinstance<py::str>(tiles)) {
+            inputs["tiles"] = tiles.cast<std::string>();
+            set = rockpile::readTileSet(tiles.cast<std::string>());
+        } else {
+            Grid g = tiles.is_none() ? Grid() : tiles.cast<Grid>();
+            if (!g) throw py::type_error("rockpile: the tile set grid is None");
+            inputs["tiles"] = gridSource(*g);
+            set = rockpile::tilesFromGrid(*g);
+        }
         FieldPtr field;
-        json params = o;
-        params["tiles"] = set.params.toJson();
         if (py::isinstance<py::str>(support)) {
-            field = rockpile::loadSupport(support.cast<std::string>(), set, pp.seed, so);
-            params["support"] = support.cast<std::string>();
+            inputs["support"] = support.cast<std::string>();
+            field = rockpile::loadSupport(support.cast<std::string>(), set, p.seed, p.support);
         } else if (py::isinstance<PyField>(support)) {
             const PyField& f = support.cast<const PyField&>();
             field = f.field;
-            params["support"] = f.expr;
+            inputs["support"] = f.expr;
         } else {
             Grid g;
             try {
@@ -461,34 +513,31 @@ PYBIND11_MODULE(_rockvdb, m)
             }
             requireLevelSet(*g, "rockpile support");
             field = rockpile::levelSetSupport(g, set);
-            params["support"] = "level set";
+            inputs["support"] = gridSource(*g);
         }
-        rockpile::PileStats st;
-        rockpile::Pile pile;
+        rockpile::PileResult r;
         {
             py::gil_scoped_release release;
-            auto instances = rockpile::selectRocks(set, *field, pp, &st);
-            pile = rockpile::buildPile(set, std::move(instances), pp);
+            PyTaskHost host;
+            Task task(&host);
+            r = rockpile::runPile(set, *field, p, inputs, false, false, task);
         }
-        stampProvenance(*pile.surface, "rockvdb.rock_pile", params.dump());
-        stampProvenance(*pile.rockId, "rockvdb.rock_pile", params.dump());
-        if (pile.material) stampProvenance(*pile.material, "rockvdb.rock_pile", params.dump());
         py::dict stats;
-        stats["placed"] = st.placed;
-        stats["candidates"] = st.candidates;
-        stats["features"] = st.features;
-        stats["dropped_deep"] = st.droppedDeep;
-        stats["select_seconds"] = st.selectSeconds;
-        stats["level_set_seconds"] = pile.stats.levelSetSeconds;
+        stats["placed"] = r.stats.placed;
+        stats["candidates"] = r.stats.candidates;
+        stats["features"] = r.stats.features;
+        stats["dropped_deep"] = r.stats.droppedDeep;
+        stats["select_seconds"] = r.stats.selectSeconds;
+        stats["level_set_seconds"] = r.stats.levelSetSeconds;
         py::list rocks, positions;
-        for (const auto& in : pile.instances) {
+        for (const auto& in : r.pile.instances) {
             rocks.append(in.rock);
             positions.append(py::make_tuple(in.position[0], in.position[1], in.position[2]));
         }
         stats["rocks"] = rocks;
         stats["positions"] = positions;
-        return py::make_tuple(Grid(pile.surface), Grid(pile.rockId), Grid(pile.material), stats);
-    }, py::arg("tiles"), py::arg("support"), py::arg("options"));
+        return py::make_tuple(Grid(r.pile.surface), Grid(r.pile.rockId), Grid(r.pile.material), stats);
+    }, py::arg("tiles"), py::arg("support"), py::arg("params"));
 
     m.def("read_image", [](const std::string& path, const std::string& op) {
         GrayImage img = readGrayImage(path, op.c_str());

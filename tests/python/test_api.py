@@ -101,7 +101,7 @@ def test_rock_pile_material_grid_and_default_support_grid(tmp_path):
     assert material.name == "material" and material.activeVoxelCount() == rock_id.activeVoxelCount()
     assert {it.value for it in material.citerOnValues()} == {3.0}
     assert len(rockvdb.rock_pile(tiles, tmp_path / "ball.vdb")) == 2
-    with pytest.raises(ValueError, match="material id"):
+    with pytest.raises(ValueError, match="material must be in"):
         rockvdb.rock_pile(tiles, rockvdb.sphere(0.8), material=-5)
 
 

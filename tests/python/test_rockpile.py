@@ -67,11 +67,11 @@ def test_bad_input(tiles):
         rockvdb.rock_pile(None, rockvdb.sphere(1.0))
     with pytest.raises(ValueError, match="support must be"):
         rockvdb.rock_pile(tiles, "ball.txt")
-    with pytest.raises(ValueError, match="n \\(cells per cube edge\\)"):
+    with pytest.raises(ValueError, match=r"n must be in \[3, 64\] \(got 1\)"):
         rockvdb.rock_tiles(n=1)
     with pytest.raises(ValueError, match="a < b"):
         rockvdb.rock_tiles(contact_radii=(0.4, 0.1))
-    with pytest.raises(ValueError, match="anchor threshold"):
+    with pytest.raises(ValueError, match=r"threshold must be in \(0, 1\]"):
         rockvdb.rock_pile(tiles, rockvdb.sphere(1.0), threshold=1.5)
     fog = vdb.FloatGrid()
     with pytest.raises(ValueError, match="no tile set"):

@@ -84,12 +84,13 @@ def test_tile_sets_are_deterministic_across_threads(tmp_path):
 
 
 @pytest.mark.parametrize("args,needle", [
-    (["--n", "3"], "n (cells per cube edge)"),
-    (["--n", "1"], "n (cells per cube edge)"),
-    (["--seeds-per-cell", "0,2"], "seeds per cell"),
+    (["--n", "3"], "rockpile: n must be >= 4 for aperiodic corner cubes"),
+    (["--n", "1"], "rockpile: n must be in [3, 64] (got 1)"),
+    (["--n", "five"], 'rockpile: n must be an integer (got "five")'),
+    (["--seeds-per-cell", "0,2"], "rockpile: seeds-per-cell must be in [1, 64] (got 0)"),
     (["--contact-radii", "0.5,0.2"], "a < b"),
-    (["--g-max", "0.5"], "g_max"),
-    (["--tiling", "hexagonal"], "tiling"),
+    (["--g-max", "0.5"], "rockpile: g-max must be in [1, 16] (got 0.5)"),
+    (["--tiling", "hexagonal"], "rockpile: tiling must be one of aperiodic, periodic (got 'hexagonal')"),
 ])
 def test_bad_parameters(tmp_path, args, needle):
     out = tmp_path / "o.tiles"
@@ -182,7 +183,7 @@ def test_pile_supports_agree(tmp_path, tile_set):
     ("open", 2, "not closed"),
     ("missing_tiles", 1, "none.tiles"),
     ("extension", 2, "support must be a .vdb"),
-    ("threshold", 2, "anchor threshold"),
+    ("threshold", 2, "threshold must be in (0, 1]"),
 ])
 def test_pile_bad_input(tmp_path, tile_set, case, code, needle):
     mesh = tmp_path / "cube.obj"

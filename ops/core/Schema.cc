@@ -1,0 +1,194 @@
+#include "Schema.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace rockvdb {
+
+using nlohmann::json;
+
+namespace {
+
+std::string number(double v)
+{
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+const char* typeWord(const ParamInfo& info)
+{
+    switch (info.type) {
+    case ParamType::Bool: return "true or false";
+    case ParamType::Int: return "an integer";
+    case ParamType::Real: return "a number";
+    case ParamType::Text: return "a string";
+    case ParamType::Ints: return "a list of integers";
+    case ParamType::Reals: return "a list of numbers";
+    }
+    return "a value";
+}
+
+const char* typeName(ParamType t)
+{
+    switch (t) {
+    case ParamType::Bool: return "bool";
+    case ParamType::Int: return "int";
+    case ParamType::Real: return "float";
+    case ParamType::Text: return "str";
+    case ParamType::Ints: return "ints";
+    case ParamType::Reals: return "floats";
+    }
+    return "";
+}
+
+size_t editDistance(const std::string& a, const std::string& b)
+{
+    std::vector<size_t> row(b.size() + 1);
+    for (size_t k = 0; k <= b.size(); ++k) row[k] = k;
+    for (size_t i = 1; i <= a.size(); ++i) {
+        size_t diag = row[0];
+        row[0] = i;
+        for (size_t k = 1; k <= b.size(); ++k) {
+            const size_t up = row[k];
+            const bool same = a[i - 1] == b[k - 1] || (a[i - 1] == '_' && b[k - 1] == '-');
+            row[k] = std::min({row[k] + 1, row[k - 1] + 1, diag + (same ? 0 : 1)});
+            diag = up;
+        }
+    }
+    return row[b.size()];
+}
+
+} // namespace
+
+bool Range::contains(double v) const
+{
+    if (std::isnan(v)) return false;
+    if (minOpen ? !(v > min) : !(v >= min)) return false;
+    if (maxOpen ? !(v < max) : !(v <= max)) return false;
+    return true;
+}
+
+std::string Range::text() const
+{
+    const bool lo = std::isfinite(min), hi = std::isfinite(max);
+    if (lo && hi) {
+        return std::string("in ") + (minOpen ? "(" : "[") + number(min) + ", " + number(max) +
+               (maxOpen ? ")" : "]");
+    }
+    if (lo) return std::string(minOpen ? "> " : ">= ") + number(min);
+    if (hi) return std::string(maxOpen ? "< " : "<= ") + number(max);
+    return "a finite number";
+}
+
+std::string ParamInfo::pythonName() const
+{
+    std::string s = name;
+    std::replace(s.begin(), s.end(), '-', '_');
+    return s;
+}
+
+std::string closestName(const std::string& key, const std::vector<std::string>& names)
+{
+    std::string best;
+    size_t bestD = size_t(-1);
+    for (const auto& n : names) {
+        const size_t d = editDistance(key, n);
+        if (d < bestD) {
+            bestD = d;
+            best = n;
+        }
+    }
+    return bestD <= std::max<size_t>(2, key.size() / 3) ? best : std::string();
+}
+
+const ParamInfo* SchemaBase::find(const std::string& name) const
+{
+    for (const auto& p : mInfo) {
+        if (p.name == name) return &p;
+    }
+    return nullptr;
+}
+
+json SchemaBase::coerce(const ParamInfo& info, const json& v) const
+{
+    auto wrongType = [&]() {
+        fail<ParamTypeError>(mOp, ": ", info.name, " must be ", typeWord(info),
+                             info.count > 1 ? " of " + std::to_string(info.count) : std::string(),
+                             " (got ", v.dump(), ")");
+    };
+    auto number = [&](const json& x, bool integer) -> json {
+        if (!x.is_number() || x.is_boolean()) wrongType();
+        const double d = x.get<double>();
+        if (integer && !(x.is_number_integer() || (std::isfinite(d) && d == std::floor(d)))) wrongType();
+        if (!info.range.contains(d) || !std::isfinite(d)) {
+            fail<ValueError>(mOp, ": ", info.name, " must be ", info.range.text(), " (got ",
+                             x.dump(), ")");
+        }
+        if (!integer) return d;
+        if (x.is_number_unsigned()) return x.get<uint64_t>();
+        return x.is_number_integer() ? x.get<int64_t>() : int64_t(d);
+    };
+    if (v.is_null() && info.defaultValue.is_null()) return v; // optional, unset
+    switch (info.type) {
+    case ParamType::Bool:
+        if (!v.is_boolean()) wrongType();
+        return v;
+    case ParamType::Int: return number(v, true);
+    case ParamType::Real: return number(v, false);
+    case ParamType::Text: {
+        if (!v.is_string()) wrongType();
+        const std::string s = v.get<std::string>();
+        if (!info.choices.empty() &&
+            std::find(info.choices.begin(), info.choices.end(), s) == info.choices.end()) {
+            std::string list;
+            for (const auto& c : info.choices) list += (list.empty() ? "" : ", ") + c;
+            fail<ValueError>(mOp, ": ", info.name, " must be one of ", list, " (got '", s, "')");
+        }
+        return v;
+    }
+    case ParamType::Ints:
+    case ParamType::Reals: {
+        if (!v.is_array() || v.size() != info.count) wrongType();
+        json out = json::array();
+        for (const auto& x : v) out.push_back(number(x, info.type == ParamType::Ints));
+        return out;
+    }
+    }
+    return v;
+}
+
+json SchemaBase::resolve(const json& j) const
+{
+    if (!j.is_object()) fail<ValueError>(mOp, ": parameters must be a JSON object (got ", j.dump(), ")");
+    std::vector<std::string> names;
+    for (const auto& p : mInfo) names.push_back(p.name);
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        if (find(it.key())) continue;
+        const std::string best = closestName(it.key(), names);
+        fail<ValueError>(mOp, ": unknown parameter '", it.key(), "'",
+                         best.empty() ? std::string() : " (did you mean '" + best + "'?)");
+    }
+    json out = json::object();
+    for (const auto& p : mInfo) {
+        const auto it = j.find(p.name);
+        out[p.name] = coerce(p, it == j.end() ? p.defaultValue : *it);
+    }
+    return out;
+}
+
+json SchemaBase::describe() const
+{
+    json rows = json::array();
+    for (const auto& p : mInfo) {
+        json range = nullptr;
+        if (std::isfinite(p.range.min) || std::isfinite(p.range.max)) range = p.range.text();
+        rows.push_back({{"name", p.name}, {"python", p.pythonName()}, {"type", typeName(p.type)},
+                        {"unit", p.unit}, {"default", p.defaultValue}, {"count", p.count},
+                        {"range", range}, {"choices", p.choices}, {"help", p.help}});
+    }
+    return {{"op", mOp}, {"summary", mSummary}, {"params", rows}};
+}
+
+} // namespace rockvdb

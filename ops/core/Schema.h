@@ -1,0 +1,205 @@
+// rockvdb — Schema: one table per stage's parameters, the single truth behind every interface.
+//
+// Each row names a parameter once: its name, type, unit, default, range and help, and the
+// Params member it sets. From the table come
+//   - the CLI options and --help            (vdbtools/Cli: Tool::addParams),
+//   - JSON: --params files and provenance   (fromJson / toJson),
+//   - the Python keyword arguments, their defaults and docstrings (describe(), read by
+//     python/rockvdb),
+//   - validation: one message naming op, parameter, range and value.
+// A default therefore exists in exactly one place, and the CLI, Python and a file's own
+// rockvdb:params give the same Params, hence the same grids.
+//
+// Names are the CLI's ("cube-size"); JSON keys are the same; Python spells them with
+// underscores ("cube_size"). Unknown keys are errors that suggest the closest name.
+#pragma once
+
+#include "Error.h"
+#include "Field.h"
+
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace rockvdb {
+
+/// A parameter value of the wrong type (a string where a number belongs). A ValueError for
+/// the CLI (exit 2); Python raises an exception that is both TypeError and ValueError.
+class ParamTypeError : public ValueError
+{
+public:
+    using ValueError::ValueError;
+};
+
+enum class ParamType { Bool, Int, Real, Text, Ints, Reals };
+
+/// Allowed values of a number (each value of a list): [min, max], ends open or closed.
+struct Range
+{
+    double min = -std::numeric_limits<double>::infinity();
+    double max = std::numeric_limits<double>::infinity();
+    bool minOpen = false, maxOpen = false;
+
+    static Range any() { return {}; }
+    static Range atLeast(double v) { return {v, std::numeric_limits<double>::infinity(), false, false}; }
+    static Range above(double v) { return {v, std::numeric_limits<double>::infinity(), true, false}; }
+    static Range closed(double a, double b) { return {a, b, false, false}; }
+    static Range halfOpen(double a, double b) { return {a, b, false, true}; }  ///< [a, b)
+    static Range openClosed(double a, double b) { return {a, b, true, false}; } ///< (a, b]
+
+    bool contains(double v) const;
+    /// "in [1, 64]", "> 0", ">= 0", "any number"
+    std::string text() const;
+};
+
+/// One row of a stage's table.
+struct ParamInfo
+{
+    std::string name;               ///< CLI option and JSON key ("cube-size")
+    ParamType type = ParamType::Real;
+    std::string unit;               ///< "m", "cells", "voxels", "degrees" or "" (none)
+    nlohmann::json defaultValue;    ///< null: unset by default (the help says what that means)
+    size_t count = 1;               ///< values in an Ints / Reals list
+    Range range;
+    std::vector<std::string> choices; ///< Text: the allowed values (empty = any text)
+    std::string help;
+    /// The Python keyword: the name with '_' for '-'.
+    std::string pythonName() const;
+};
+
+/// @brief The name in @a names closest to @a key (edit distance, '_' counts as '-'), or "" when
+/// none is close enough to suggest.
+std::string closestName(const std::string& key, const std::vector<std::string>& names);
+
+/// The table without its binding to a Params type: what interfaces read.
+class SchemaBase
+{
+public:
+    SchemaBase(std::string op, std::string summary) : mOp(std::move(op)), mSummary(std::move(summary)) {}
+    virtual ~SchemaBase() = default;
+
+    const std::string& op() const { return mOp; }
+    const std::string& summary() const { return mSummary; }
+    const std::vector<ParamInfo>& params() const { return mInfo; }
+    const ParamInfo* find(const std::string& name) const;
+
+    /// @brief Check one JSON value against its row and return it in canonical form (ints for
+    /// Int, doubles for Real, lists of the right length).
+    /// @throw ParamTypeError for a wrong type, ValueError for a value out of range.
+    nlohmann::json coerce(const ParamInfo& info, const nlohmann::json& value) const;
+
+    /// @brief Defaults merged with @a j, every key checked and coerced.
+    /// @throw ValueError for an unknown key (suggesting the closest name) or a bad value.
+    nlohmann::json resolve(const nlohmann::json& j) const;
+
+    /// @brief The table as JSON: [{name, python, type, unit, default, count, range, choices,
+    /// help}], for Python signatures and docstrings and for docs.
+    nlohmann::json describe() const;
+
+protected:
+    std::string mOp, mSummary;
+    std::vector<ParamInfo> mInfo;
+};
+
+namespace schema_detail {
+template<typename T> struct Conv
+{
+    static nlohmann::json get(const T& v) { return v; }
+    static void set(T& m, const nlohmann::json& j) { m = j.get<T>(); }
+};
+template<> struct Conv<Vec3d>
+{
+    static nlohmann::json get(const Vec3d& v) { return {v[0], v[1], v[2]}; }
+    static void set(Vec3d& m, const nlohmann::json& j)
+    {
+        m = Vec3d(j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>());
+    }
+};
+} // namespace schema_detail
+
+template<typename P>
+class Schema : public SchemaBase
+{
+public:
+    using Getter = std::function<nlohmann::json(const P&)>;
+    using Setter = std::function<void(P&, const nlohmann::json&)>;
+    using Rule = std::function<void(const P&)>;
+
+    using SchemaBase::SchemaBase;
+
+    /// @brief A row with its own conversion (enums, members split in two, ...).
+    Schema& add(ParamInfo info, Getter get, Setter set)
+    {
+        mInfo.push_back(std::move(info));
+        mGet.push_back(std::move(get));
+        mSet.push_back(std::move(set));
+        return *this;
+    }
+
+    /// @brief A row bound to a member (numbers, bools, strings, std::array, Vec3d).
+    template<typename T>
+    Schema& member(ParamInfo info, T P::*m)
+    {
+        return add(std::move(info),
+                   [m](const P& p) { return schema_detail::Conv<T>::get(p.*m); },
+                   [m](P& p, const nlohmann::json& j) { schema_detail::Conv<T>::set(p.*m, j); });
+    }
+
+    /// @brief A rule between parameters (checked after every row): throws ValueError.
+    Schema& rule(Rule r)
+    {
+        mRules.push_back(std::move(r));
+        return *this;
+    }
+
+    /// @brief Every member set from the table's defaults.
+    void reset(P& p) const
+    {
+        for (size_t i = 0; i < mInfo.size(); ++i) mSet[i](p, mInfo[i].defaultValue);
+    }
+
+    /// @brief Parameters from JSON: defaults for missing keys, unknown keys and bad values
+    /// rejected with one message naming the op and the parameter.
+    P fromJson(const nlohmann::json& j) const
+    {
+        const nlohmann::json all = resolve(j);
+        P p;
+        for (size_t i = 0; i < mInfo.size(); ++i) mSet[i](p, all.at(mInfo[i].name));
+        checkRules(p);
+        return p;
+    }
+
+    /// @brief Every parameter, canonical (what provenance records and --params replays).
+    nlohmann::json toJson(const P& p) const
+    {
+        nlohmann::json j = nlohmann::json::object();
+        for (size_t i = 0; i < mInfo.size(); ++i) j[mInfo[i].name] = mGet[i](p);
+        return j;
+    }
+
+    /// @brief Ranges and rules of parameters set from C++ (ValueError naming the parameter).
+    void validate(const P& p) const
+    {
+        for (size_t i = 0; i < mInfo.size(); ++i) coerce(mInfo[i], mGet[i](p));
+        checkRules(p);
+    }
+
+private:
+    void checkRules(const P& p) const
+    {
+        for (const auto& r : mRules) r(p);
+    }
+
+    std::vector<Getter> mGet;
+    std::vector<Setter> mSet;
+    std::vector<Rule> mRules;
+};
+
+} // namespace rockvdb

@@ -1,0 +1,207 @@
+#include "RockPileStage.h"
+
+#include <core/VdbIO.h>
+
+namespace rockvdb {
+namespace rockpile {
+
+using nlohmann::json;
+
+namespace {
+
+ParamInfo row(const char* name, ParamType type, const char* unit, json def, Range range,
+              const char* help, size_t count = 1)
+{
+    ParamInfo p;
+    p.name = name;
+    p.type = type;
+    p.unit = unit;
+    p.defaultValue = std::move(def);
+    p.range = range;
+    p.help = help;
+    p.count = count;
+    return p;
+}
+
+Schema<TileParams> makeTilesSchema()
+{
+    using T = TileParams;
+    Schema<T> s("rockpile", "Generate a rock tile set: cubes of n³ cells with seeds, each rock "
+                            "the discrete anisotropic Voronoi cell of its seed, eroded except "
+                            "near its contacts.");
+    ParamInfo tiling = row("tiling", ParamType::Text, "", "aperiodic", Range::any(),
+                           "aperiodic (2-colour corner cubes) or periodic (one cube, arches §5)");
+    tiling.choices = {"aperiodic", "periodic"};
+    s.add(tiling, [](const T& p) { return json(p.tiling == Tiling::Periodic ? "periodic" : "aperiodic"); },
+          [](T& p, const json& j) { p.tiling = j == "periodic" ? Tiling::Periodic : Tiling::Aperiodic; });
+    s.member(row("n", ParamType::Int, "cells", 5, Range::closed(3, 64),
+                 "Cells per cube edge (aperiodic >= 4, periodic >= 3)"), &T::n);
+    s.add(row("seeds-per-cell", ParamType::Ints, "", json::array({1, 1}), Range::closed(1, 64),
+              "Seeds per cell n_k in [min, max] (s = max)", 2),
+          [](const T& p) { return json::array({p.seedsMin, p.seedsMax}); },
+          [](T& p, const json& j) { p.seedsMin = j.at(0); p.seedsMax = j.at(1); });
+    s.member(row("anisotropy", ParamType::Reals, "", json::array({1.0, 1.0, 1.0}),
+                 Range::openClosed(0, 100),
+                 "alpha, beta, gamma: relative rock extents along each seed's random frame "
+                 "(5,5,1: flat rocks)", 3), &T::anisotropy);
+    s.member(row("anisotropy-jitter", ParamType::Real, "", 0.25, Range::halfOpen(0, 1),
+                 "Each extent uniform in [v(1 - j), v]"), &T::anisotropyJitter);
+    s.member(row("g-max", ParamType::Real, "", 2.0, Range::closed(1, 16),
+                 "g_k uniform in [1, g-max] (relative rock size)"), &T::gMax);
+    s.member(row("voxels-per-cell", ParamType::Int, "", 10, Range::closed(4, 64),
+                 "m: n_G = m n voxels per cube edge"), &T::voxelsPerCell);
+    s.member(row("cube-size", ParamType::Real, "m", 1.0, Range::above(0), "Cube edge"),
+             &T::cubeSize);
+    s.add(row("contact-radii", ParamType::Reals, "cells", json::array({0.08, 0.3}),
+              Range::closed(0, 1.5), "a, b: no erosion within a of a contact, full beyond b", 2),
+          [](const T& p) { return json::array({p.contactInner, p.contactOuter}); },
+          [](T& p, const json& j) { p.contactInner = j.at(0); p.contactOuter = j.at(1); });
+    s.member(row("erosion-steps", ParamType::Int, "", 6, Range::closed(0, 100),
+                 "Spheroidal erosion iterations"), &T::erosionSteps);
+    s.member(row("erosion-rate", ParamType::Real, "", 0.5, Range::openClosed(0, 1),
+                 "Erosion per step at full exposure"), &T::erosionRate);
+    s.member(row("poisson-radius", ParamType::Real, "cells", 0.0, Range::halfOpen(0, 1),
+                 "Periodic: seed spacing (0 = 0.8; else >= 0.3)"), &T::poissonRadius);
+    s.member(row("seed", ParamType::Int, "", 0, Range::atLeast(0),
+                 "Random seed (same seed, same bits)"), &T::seed);
+    s.rule([](const T& p) {
+        if (p.tiling == Tiling::Aperiodic && p.n < 4) {
+            fail<ValueError>("rockpile: n must be >= 4 for aperiodic corner cubes (a cell's "
+                             "owner must be unambiguous) (got ", p.n, ")");
+        }
+        if (p.seedsMax < p.seedsMin) {
+            fail<ValueError>("rockpile: seeds-per-cell needs min <= max (got ", p.seedsMin, ", ",
+                             p.seedsMax, ")");
+        }
+        if (!(p.contactOuter > p.contactInner)) {
+            fail<ValueError>("rockpile: contact-radii need a < b (got a = ", p.contactInner,
+                             ", b = ", p.contactOuter, ")");
+        }
+        if (p.tiling == Tiling::Periodic && p.poissonRadius > 0 && p.poissonRadius < 0.3) {
+            fail<ValueError>("rockpile: poisson-radius must be 0 (default) or in [0.3, 1) (got ",
+                             p.poissonRadius, ")");
+        }
+    });
+    return s;
+}
+
+Schema<PileParams> makePileSchema()
+{
+    using P = PileParams;
+    Schema<P> s("rockpile", "Fill a support object with a tile set's rocks.");
+    s.member(row("threshold", ParamType::Real, "", 0.5, Range::openClosed(0, 1),
+                 "Place a rock when this fraction of its anchors (voxel centres and seed) is "
+                 "inside"), &P::threshold);
+    s.add(row("keep-deep", ParamType::Bool, "", false, Range::any(),
+              "Keep rocks deeper than twice the largest embedding radius (dropped by default)"),
+          [](const P& p) { return json(!p.dropDeep); },
+          [](P& p, const json& j) { p.dropDeep = !j.get<bool>(); });
+    s.member(row("material", ParamType::Int, "", -1, Range::halfOpen(-1, 1 << 24),
+                 "Also write grid 'material' holding this id on every rock voxel (to unite the "
+                 "pile with other stages' material grids); -1 = none"), &P::material);
+    s.add(row("support-grid", ParamType::Text, "", "", Range::any(),
+              "Level set to read from a .vdb support (empty: 'surface', else the file's only "
+              "level set)"),
+          [](const P& p) { return json(p.support.grid); },
+          [](P& p, const json& j) { p.support.grid = j.get<std::string>(); });
+    ParamInfo up = row("up", ParamType::Text, "", "z", Range::any(),
+                       "Up axis of a mesh support: z (rockvdb) or y (Blender's OBJ export "
+                       "default, Houdini)");
+    up.choices = {"z", "y"};
+    s.add(up, [](const P& p) { return json(p.support.up == UpAxis::Y ? "y" : "z"); },
+          [](P& p, const json& j) { p.support.up = j == "y" ? UpAxis::Y : UpAxis::Z; });
+    s.member(row("seed", ParamType::Int, "", 0, Range::atLeast(0),
+                 "Lattice colours (and a JSON support's noise)"), &P::seed);
+    return s;
+}
+
+} // namespace
+
+const Schema<TileParams>& tilesSchema()
+{
+    static const Schema<TileParams> s = makeTilesSchema();
+    return s;
+}
+
+const Schema<PileParams>& pileSchema()
+{
+    static const Schema<PileParams> s = makePileSchema();
+    return s;
+}
+
+TileParams::TileParams() { tilesSchema().reset(*this); }
+TileParams TileParams::fromJson(const json& j) { return tilesSchema().fromJson(j); }
+json TileParams::toJson() const { return tilesSchema().toJson(*this); }
+void TileParams::validate() const { tilesSchema().validate(*this); }
+
+PileParams::PileParams() { pileSchema().reset(*this); }
+
+void PileParams::validate() const
+{
+    pileSchema().validate(*this);
+    require(halfWidth >= 1 && halfWidth <= 16, "rockpile", "half width (voxels)", "in [1, 16]",
+            halfWidth);
+}
+
+TilesResult runTiles(const TileParams& params, bool library, Task& task)
+{
+    params.validate();
+    TilesResult r;
+    // Shares measured at the defaults: Voronoi + erosion dominates; the library's level sets
+    // take about as long again when asked for.
+    task.phase("voronoi + erosion", library ? 0.45 : 0.9);
+    r.set = generateTiles(params, task);
+    task.phase("tile grid", library ? 0.05 : 0.1);
+    r.rho = tileGrid(r.set, task);
+    const std::string prov = json{{"tiles", params.toJson()}}.dump();
+    stampProvenance(*r.rho, kToolName, prov);
+    if (library) {
+        task.phase("level sets", 0.5);
+        r.library = libraryGrid(r.set, task, 3.0, &r.librarySeconds);
+        stampProvenance(*r.library, kToolName, prov);
+    }
+    task.done();
+    return r;
+}
+
+TileSet readTileSet(const std::string& path)
+{
+    const openvdb::GridPtrVecPtr grids = readGrids(path);
+    for (const auto& g : *grids) {
+        auto rho = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+        if (rho && rho->getName() == "rho") return tilesFromGrid(*rho);
+    }
+    fail<ValueError>("rockpile: ", path, " holds no tile set (grid 'rho')");
+}
+
+PileResult runPile(const TileSet& tiles, const Field& support, const PileParams& params,
+                   const json& inputs, bool points, bool library, Task& task)
+{
+    params.validate();
+    PileResult r;
+    task.phase("select", 0.3);
+    auto instances = selectRocks(tiles, support, params, task, &r.stats);
+    task.phase("level sets", library ? 0.5 : 0.7);
+    r.pile = buildPile(tiles, std::move(instances), params, task);
+    r.stats.levelSetSeconds = r.pile.stats.levelSetSeconds;
+    json p = pileSchema().toJson(params);
+    for (auto it = inputs.begin(); it != inputs.end(); ++it) p[it.key()] = it.value();
+    const std::string text = json{{"pile", p}}.dump();
+    for (const auto& g : {r.pile.surface, r.pile.rockId, r.pile.material}) {
+        if (g) stampProvenance(*g, kToolName, text);
+    }
+    if (points) {
+        r.points = instancePoints(r.pile.instances, tiles.params.voxelSize());
+        stampProvenance(*r.points, kToolName, text);
+    }
+    if (library) {
+        task.phase("library", 0.2);
+        r.library = libraryGrid(tiles, task);
+        stampProvenance(*r.library, kToolName, text);
+    }
+    task.done();
+    return r;
+}
+
+} // namespace rockpile
+} // namespace rockvdb

@@ -1,0 +1,60 @@
+// rockvdb — the rock-pile stage's front door: its parameter tables and its two entry points,
+// `tiles` (a tile set, aperiodic-rock-piles §2–§5, arches §5) and `pile` (§6).
+//
+// vdb_rockpile and rockvdb.rock_tiles / rock_pile are thin wrappers over runTiles / runPile:
+// the tables give both their options, defaults and checks, and the entry points stamp the
+// provenance, so the two interfaces write the same grids, metadata included, and a file's
+// rockvdb:params fed back as `vdb_rockpile <subcommand> --params` remakes it bit for bit.
+#pragma once
+
+#include "RockPile.h"
+#include "RockTiles.h"
+
+#include <core/Schema.h>
+#include <core/Task.h>
+
+#include <nlohmann/json.hpp>
+
+namespace rockvdb {
+namespace rockpile {
+
+/// The tool both entry points record as the generator of what they make.
+constexpr const char* kToolName = "vdb_rockpile";
+
+/// @brief The table of TileParams (`vdb_rockpile tiles`, rockvdb.rock_tiles).
+const Schema<TileParams>& tilesSchema();
+/// @brief The table of PileParams (`vdb_rockpile pile`, rockvdb.rock_pile).
+const Schema<PileParams>& pileSchema();
+
+struct TilesResult
+{
+    TileSet set;
+    openvdb::FloatGrid::Ptr rho;     ///< the tile set grid (tileGrid)
+    openvdb::FloatGrid::Ptr library; ///< every rock's level set (when asked), else null
+    double librarySeconds = 0;
+};
+
+/// @brief Generate a tile set (phases: voronoi + erosion, tile grid, library), every grid
+/// stamped with provenance {"tiles": params}.
+TilesResult runTiles(const TileParams& params, bool library, Task& task);
+
+/// @brief The tile set of a file written by `tiles` (its grid 'rho').
+/// @throw IoError for unreadable files, ValueError when the file holds no tile set.
+TileSet readTileSet(const std::string& path);
+
+struct PileResult
+{
+    Pile pile;
+    PileStats stats;
+    openvdb::GridBase::Ptr points;   ///< instance points 'rocks' (when asked), else null
+    openvdb::FloatGrid::Ptr library; ///< the tile set's library (when asked), else null
+};
+
+/// @brief Fill @a support with the rocks of @a tiles (phases: select, level sets), every
+/// grid stamped with provenance {"pile": params + @a inputs}, where @a inputs names the tile
+/// set and the support ({"tiles": path, "support": path} for a replayable file).
+PileResult runPile(const TileSet& tiles, const Field& support, const PileParams& params,
+                   const nlohmann::json& inputs, bool points, bool library, Task& task);
+
+} // namespace rockpile
+} // namespace rockvdb

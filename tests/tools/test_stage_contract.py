@@ -1,0 +1,243 @@
+"""The stage contract (issue 15): one parameter table per stage drives the CLI and Python, so
+both give the same grids for the same call (and for no call at all beyond the required
+inputs); a file's own rockvdb:params replays it bit for bit; unknown keys are errors naming
+the key; Ctrl-C / SIGTERM stop a tool within a second with exit 130 and nothing written, and
+raise KeyboardInterrupt in Python; the progress bar only goes up and ends at 100%."""
+import json
+import os
+import pty
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import pyopenvdb as vdb
+import pytest
+
+import rockvdb
+from conftest import assert_bitwise_equal, one_line_error, run, tool
+
+
+def grids(path):
+    """{name: grid} of a .vdb (every grid, metadata included)."""
+    return {g.name: g for g in vdb.readAll(str(path))[0]}
+
+
+def assert_same_file(a, b, skip_meta=()):
+    """Two .vdb files hold the same grids: names, classes, bit-identical voxels and the same
+    rockvdb metadata (provenance included)."""
+    ga, gb = grids(a), grids(b)
+    assert sorted(ga) == sorted(gb)
+    for name in ga:
+        x, y = ga[name], gb[name]
+        assert x.gridClass == y.gridClass and x.background == y.background
+        if hasattr(x, "copyToArray") and x.activeVoxelCount() > 0:
+            assert_bitwise_equal(x, y)
+        else:
+            assert x.activeVoxelCount() == y.activeVoxelCount()
+        for key in x.metadata.keys():
+            if key.startswith("rockvdb:") and key not in skip_meta:
+                assert x.metadata[key] == y.metadata[key], (name, key)
+
+
+def params_of(path, grid):
+    return json.loads(vdb.read(str(path), grid).metadata["rockvdb:params"])
+
+
+# ---- rock piles ------------------------------------------------------------------------------
+
+TILES = {"n": 4, "voxels-per-cell": 5, "seed": 3, "anisotropy": [2.0, 1.0, 1.0]}
+
+
+@pytest.fixture(scope="module")
+def tile_file(tmp_path_factory):
+    out = tmp_path_factory.mktemp("tiles") / "t.vdb"
+    args = []
+    for k, v in TILES.items():
+        args += [f"--{k}", ",".join(map(str, v)) if isinstance(v, list) else str(v)]
+    run([tool("vdb_rockpile"), "tiles", "-q", *args, "-o", str(out)], check=True)
+    return out
+
+
+def test_rock_tiles_cli_and_python_give_the_same_file(tmp_path, tile_file):
+    kwargs = {k.replace("-", "_"): v for k, v in TILES.items()}
+    rockvdb.rock_tiles(**kwargs, path=tmp_path / "py.vdb")
+    assert_same_file(tile_file, tmp_path / "py.vdb")
+
+
+def test_rock_tiles_defaults_are_the_same_on_both_interfaces(tmp_path):
+    """Nothing but the output: the CLI's defaults and Python's are the table's."""
+    run([tool("vdb_rockpile"), "tiles", "-q", "--tiling", "periodic", "--n", "3",
+         "-o", str(tmp_path / "cli.vdb")], check=True)
+    rockvdb.rock_tiles(tiling="periodic", n=3, path=tmp_path / "py.vdb")
+    assert_same_file(tmp_path / "cli.vdb", tmp_path / "py.vdb")
+    p = params_of(tmp_path / "cli.vdb", "rho")["tiles"]
+    # Every row of the table is recorded, at the table's default where not given.
+    table = json.loads(rockvdb._rockvdb.schema("rock_tiles"))["params"]
+    assert sorted(p) == sorted(r["name"] for r in table)
+    for r in table:
+        if r["name"] not in ("tiling", "n"):
+            assert p[r["name"]] == r["default"], r["name"]
+
+
+def test_rock_pile_cli_and_python_give_the_same_file(tmp_path, tile_file):
+    support = tmp_path / "ball.json"
+    support.write_text(json.dumps({"type": "sphere", "center": [0.1, 0, 0], "radius": 0.83}))
+    run([tool("vdb_rockpile"), "pile", "-q", "--tiles", str(tile_file), "--support", str(support),
+         "--material", "4", "-o", str(tmp_path / "cli.vdb")], check=True)
+    surface, rock_id, material = rockvdb.rock_pile(str(tile_file), str(support), material=4)
+    rockvdb.write(str(tmp_path / "py.vdb"), [surface, rock_id, material])
+    assert_same_file(tmp_path / "cli.vdb", tmp_path / "py.vdb")
+    assert params_of(tmp_path / "py.vdb", "surface")["pile"]["support"] == str(support)
+
+
+@pytest.mark.parametrize("sub, grid", [("tiles", "rho"), ("pile", "surface")])
+def test_a_file_replays_from_its_own_provenance(tmp_path, tile_file, sub, grid):
+    if sub == "tiles":
+        first = tile_file
+    else:
+        support = tmp_path / "ball.json"
+        support.write_text(json.dumps({"type": "sphere", "radius": 0.7}))
+        first = tmp_path / "pile.vdb"
+        run([tool("vdb_rockpile"), "pile", "-q", "--tiles", str(tile_file), "--support",
+             str(support), "--threshold", "0.4", "--keep-deep", "-o", str(first)], check=True)
+    prov = tmp_path / "prov.json"
+    prov.write_text(vdb.read(str(first), grid).metadata["rockvdb:params"])
+    again = tmp_path / "again.vdb"
+    # The subcommand comes from the file too.
+    run([tool("vdb_rockpile"), "-q", "--params", str(prov), "-o", str(again)], check=True)
+    assert_same_file(first, again)
+
+
+@pytest.mark.parametrize("params, message", [
+    ({"tiles": {"voxels_per_cell": 5}},
+     "unknown --params key 'tiles.voxels_per_cell' (did you mean 'tiles.voxels-per-cell'?)"),
+    ({"tiles": {"n": 4, "erosion-step": 2}},
+     "unknown --params key 'tiles.erosion-step' (did you mean 'tiles.erosion-steps'?)"),
+    ({"tiles": {"n": "four"}}, 'rockpile: n must be an integer (got "four")'),
+    ({"pile": {"treshold": 0.3}}, "unknown --params key 'pile.treshold' (did you mean 'pile.threshold'?)"),
+])
+def test_misspelt_params_keys_name_the_key(tmp_path, params, message):
+    p = tmp_path / "p.json"
+    p.write_text(json.dumps(params))
+    out = tmp_path / "o.vdb"
+    one_line_error(run([tool("vdb_rockpile"), "--params", str(p), "-o", str(out)]), 2, message)
+    assert not out.exists()
+
+
+def test_python_keywords_are_the_tables_and_misspellings_name_the_key():
+    import inspect
+    sig = inspect.signature(rockvdb.rock_tiles)
+    table = json.loads(rockvdb._rockvdb.schema("rock_tiles"))["params"]
+    for r in table:
+        d = sig.parameters[r["python"]].default
+        assert (list(d) if isinstance(d, tuple) else d) == r["default"]
+        assert r["python"] in rockvdb.rock_tiles.__doc__
+    with pytest.raises(TypeError, match=r"unexpected keyword argument 'voxel_per_cell' "
+                                        r"\(did you mean 'voxels_per_cell'\?\)"):
+        rockvdb.rock_tiles(voxel_per_cell=4)
+    with pytest.raises(TypeError, match=r"rock_tiles\(\): n must be an integer, got str"):
+        rockvdb.rock_tiles(n="5")
+    with pytest.raises(ValueError, match=r"rockpile: erosion-rate must be in \(0, 1\] \(got 0.0\)"):
+        rockvdb.rock_tiles(erosion_rate=0.0)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'treshold'"):
+        rockvdb.rock_pile("t.vdb", rockvdb.sphere(1), treshold=0.4)
+
+
+# ---- Ctrl-C and SIGTERM ---------------------------------------------------------------------
+
+LONG_RUNS = {
+    # Each takes several seconds on a 2-core machine (so 0.5 s in is mid-run).
+    "rockpile tiles": lambda tmp, tile_file: [tool("vdb_rockpile"), "tiles", "--n", "6",
+                                              "--seeds-per-cell", "1,3"],
+    "rockpile pile": lambda tmp, tile_file: [tool("vdb_rockpile"), "pile", "--tiles",
+                                             str(tile_file), "--support", str(big_ball(tmp)),
+                                             "--keep-deep"],
+}
+
+
+def big_ball(tmp):
+    path = tmp / "big.json"
+    path.write_text(json.dumps({"type": "sphere", "radius": 3.5}))
+    return path
+
+
+@pytest.mark.parametrize("what", sorted(LONG_RUNS))
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_interrupt_stops_within_a_second_and_writes_nothing(tmp_path, tile_file, what, sig):
+    out = tmp_path / "out.vdb"
+    out.write_bytes(b"previous output")
+    args = LONG_RUNS[what](tmp_path, tile_file) + ["-o", str(out)]
+    p = subprocess.Popen(args, stderr=subprocess.PIPE)
+    time.sleep(0.5)
+    assert p.poll() is None, "finished before the interrupt: make the run longer"
+    t0 = time.monotonic()
+    p.send_signal(sig)
+    _, err = p.communicate(timeout=30)
+    took = time.monotonic() - t0
+    assert p.returncode == 130, err
+    assert took < 1.0, took
+    assert b"interrupted; nothing written" in err
+    assert out.read_bytes() == b"previous output"
+    assert not [f for f in os.listdir(tmp_path) if ".tmp-" in f]
+
+
+PY_INTERRUPT = """
+import os, signal, sys, threading, time
+import rockvdb
+threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+t0 = time.monotonic()
+try:
+    {call}
+except KeyboardInterrupt:
+    took = time.monotonic() - t0 - 0.5
+    print("KeyboardInterrupt", took)
+    sys.exit(0)
+print("finished", time.monotonic() - t0)
+"""
+
+
+@pytest.mark.parametrize("call", [
+    "rockvdb.rock_tiles(n=6, seeds_per_cell=(1, 3))",
+    "rockvdb.rock_pile(sys.argv[1], rockvdb.sphere(3.5), keep_deep=True)",
+])
+def test_python_calls_raise_keyboard_interrupt(tmp_path, tile_file, call):
+    script = tmp_path / "s.py"
+    script.write_text(PY_INTERRUPT.format(call=call))
+    p = subprocess.run([sys.executable, str(script), str(tile_file)], capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    word, took = p.stdout.split()
+    assert word == "KeyboardInterrupt", p.stdout
+    assert float(took) < 1.0
+
+
+# ---- progress --------------------------------------------------------------------------------
+
+def progress_of(args):
+    """Run under a pseudo-terminal (the bar shows only on a terminal); the percentages drawn."""
+    master, slave = pty.openpty()
+    p = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=slave)
+    os.close(slave)
+    data = b""
+    while True:
+        try:
+            chunk = os.read(master, 65536)
+        except OSError:
+            break
+        if not chunk:
+            break
+        data += chunk
+    assert p.wait(timeout=120) == 0
+    os.close(master)
+    return [int(x) for x in re.findall(rb"\] +(\d+)%", data)]
+
+
+def test_progress_only_goes_up_and_ends_at_100(tmp_path, tile_file):
+    for args in (["tiles", "--n", "5", "--library", str(tmp_path / "lib.vdb")],
+                 ["pile", "--tiles", str(tile_file), "--support", str(big_ball(tmp_path))]):
+        seen = progress_of([tool("vdb_rockpile"), *args, "-o", str(tmp_path / "o.vdb")])
+        assert len(seen) >= 5, seen
+        assert seen == sorted(seen), seen
+        assert seen[-1] == 100, seen
