@@ -226,10 +226,10 @@ void detailGroup(bool quick)
                 double(ref.second) / ref.first / 1e6);
     struct Case { const char* name; nlohmann::json j; };
     const Case cases[] = {
-        {"gradient warp, A = 3 cm, p = 8", {{"warp_amplitude", 0.03}, {"warp_scale", 0.6}}},
-        {"Gabor, A = 3 cm, F0 = 6/m, axis frames", {{"gabor_amplitude", 0.03}, {"gabor_frequency", 6.0}, {"direction_axis", {0, 0, 1}}}},
-        {"Gabor, curvature frames", {{"gabor_amplitude", 0.03}, {"gabor_frequency", 6.0}, {"direction_curvature", true}}},
-        {"warp + Gabor", {{"warp_amplitude", 0.03}, {"warp_scale", 0.6}, {"gabor_amplitude", 0.03}, {"gabor_frequency", 6.0}, {"direction_axis", {0, 0, 1}}}},
+        {"gradient warp, A = 3 cm, p = 8", {{"warp-amplitude", 0.03}, {"warp-scale", 0.6}}},
+        {"Gabor, A = 3 cm, F0 = 6/m, axis frames", {{"gabor-amplitude", 0.03}, {"gabor-frequency", 6.0}, {"direction-axis", {0, 0, 1}}}},
+        {"Gabor, curvature frames", {{"gabor-amplitude", 0.03}, {"gabor-frequency", 6.0}, {"direction-curvature", true}}},
+        {"warp + Gabor", {{"warp-amplitude", 0.03}, {"warp-scale", 0.6}, {"gabor-amplitude", 0.03}, {"gabor-frequency", 6.0}, {"direction-axis", {0, 0, 1}}}},
     };
     for (const Case& k : cases) {
         const auto m = run(detail::DetailParams::fromJson(k.j));

@@ -11,6 +11,8 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
+#include <sys/time.h>
 #include <fstream>
 #include <iostream>
 #include <mutex>
@@ -23,8 +25,41 @@ using nlohmann::json;
 
 namespace {
 
+// Ctrl-C / SIGTERM: the flag every Task checks at a coarse grain. A phase that cannot check
+// (an OpenVDB tool without an interrupter, a file being read) is covered by a watchdog: if
+// the process is still running 0.8 s after the signal (or at a second signal) it removes the
+// temporary file being written, if any, says so and exits 130 at once. Only
+// async-signal-safe calls here.
 std::atomic<bool> gSigint{false};
-extern "C" void onSigint(int) { gSigint.store(true); }
+char gInterruptLine[512] = "interrupted\n";
+size_t gInterruptLength = 12;
+
+void hardExit()
+{
+    const char* tmp = pendingTempFile();
+    if (tmp[0] != '\0') ::unlink(tmp);
+    ssize_t ignored = ::write(STDERR_FILENO, gInterruptLine, gInterruptLength);
+    (void)ignored;
+    ::_exit(130);
+}
+
+extern "C" void onAlarm(int) { hardExit(); }
+
+extern "C" void onSigint(int)
+{
+    if (gSigint.exchange(true)) hardExit();
+    itimerval t{};
+    t.it_value.tv_usec = 800000;
+    ::setitimer(ITIMER_REAL, &t, nullptr);
+}
+
+void cancelWatchdog()
+{
+    itimerval t{};
+    ::setitimer(ITIMER_REAL, &t, nullptr);
+}
+
+bool sigintSeen() { return gSigint.load(); }
 
 std::string cliText(const nlohmann::json& v)
 {
@@ -43,7 +78,7 @@ std::string cliText(const nlohmann::json& v)
 nlohmann::json fromText(ParamType type, const std::string& text)
 {
     const bool integer = type == ParamType::Int || type == ParamType::Ints;
-    if (type == ParamType::Text) return text;
+    if (type == ParamType::Text || type == ParamType::Json) return text;
     try {
         size_t pos = 0;
         if (integer) {
@@ -84,7 +119,7 @@ public:
         if (!j.is_object()) throw CLI::ConversionError("--params JSON must be an object");
         if (mApp) checkKeys(mApp, j, "");
         std::vector<CLI::ConfigItem> items;
-        collect(j, {}, items);
+        collect(mApp, j, {}, items);
         return items;
     }
 
@@ -172,11 +207,22 @@ private:
         return v.dump();
     }
 
-    static void collect(const json& j, std::vector<std::string> parents,
+    static bool isSubcommand(const CLI::App* app, const std::string& name)
+    {
+        if (!app) return false;
+        for (const CLI::App* sub : app->get_subcommands({})) {
+            if (sub->get_name() == name) return true;
+        }
+        return false;
+    }
+
+    // An object names a subcommand (its options follow), or is the value of a JSON option
+    // (a skeleton, a blend), passed on as its text.
+    static void collect(const CLI::App* app, const json& j, std::vector<std::string> parents,
                         std::vector<CLI::ConfigItem>& items)
     {
         for (auto it = j.begin(); it != j.end(); ++it) {
-            if (it->is_object()) {
+            if (it->is_object() && isSubcommand(app, it.key())) {
                 auto p = parents;
                 p.push_back(it.key());
                 // Mark the subcommand itself so CLI11 selects it.
@@ -185,18 +231,19 @@ private:
                 sub.name = it.key();
                 sub.inputs = {"true"};
                 items.push_back(sub);
-                collect(*it, p, items);
+                collect(app->get_subcommand(it.key()), *it, p, items);
                 continue;
             }
+            if (it->is_null()) continue; // unset (the table's null default), as in provenance
             CLI::ConfigItem item;
             item.parents = parents;
             item.name = it.key();
-            if (it->is_array()) for (const auto& v : *it) item.inputs.push_back(str(v));
+            if (it->is_object()) item.inputs.push_back(it->dump());
+            else if (it->is_array()) for (const auto& v : *it) item.inputs.push_back(str(v));
             else item.inputs.push_back(str(*it));
             items.push_back(item);
         }
-    }
-};
+    }};
 
 } // namespace
 
@@ -334,6 +381,7 @@ void Tool::addParams(CLI::App& where, const SchemaBase& schema)
             for (const auto& c : info.choices) list += (list.empty() ? "" : "|") + c;
             help += "; " + list;
         } else if (info.type != ParamType::Bool && info.type != ParamType::Text &&
+                   info.type != ParamType::Json &&
                    (std::isfinite(info.range.min) || std::isfinite(info.range.max))) {
             help += "; " + info.range.text();
         }
@@ -345,7 +393,7 @@ void Tool::addParams(CLI::App& where, const SchemaBase& schema)
             b.option = where.add_option("--" + info.name, *b.values, help);
             if (info.count > 1) b.option->delimiter(',');
             b.option->expected(int(info.count));
-            static const char* const names[] = {"BOOL", "INT", "FLOAT", "TEXT", "INT", "FLOAT"};
+            static const char* const names[] = {"BOOL", "INT", "FLOAT", "TEXT", "INT", "FLOAT", "FILE"};
             std::string type = names[int(info.type)];
             for (size_t k = 1; k < info.count; ++k) type += std::string(",") + names[int(info.type)];
             b.option->type_name(type);
@@ -367,6 +415,10 @@ nlohmann::json Tool::givenParams(const SchemaBase& schema) const
             nlohmann::json list = nlohmann::json::array();
             for (const auto& v : *b.values) list.push_back(fromText(info.type, v));
             j[info.name] = list;
+        } else if (info.type == ParamType::Json) {
+            const std::string& text = b.values->back();
+            const bool inline_ = !text.empty() && (text[0] == '{' || text[0] == '[');
+            j[info.name] = inline_ ? nlohmann::json::parse(text, nullptr, false) : nlohmann::json(text);
         } else {
             j[info.name] = fromText(info.type, b.values->back());
         }
@@ -448,8 +500,17 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
     } catch (const CLI::ParseError& e) {
         return error(std::string(e.what()) + " (see --help)", 2);
     }
+    {
+        const bool tty = !mQuiet && ::isatty(STDERR_FILENO);
+        const std::string line = (tty ? "\r\033[K" : "") + mName +
+                                 ": error: interrupted; nothing written\n";
+        gInterruptLength = std::min(line.size(), sizeof gInterruptLine);
+        std::memcpy(gInterruptLine, line.data(), gInterruptLength);
+    }
+    std::signal(SIGALRM, onAlarm);
     std::signal(SIGINT, onSigint);
     std::signal(SIGTERM, onSigint);
+    setCommitCheck(&sigintSeen);
     std::signal(SIGPIPE, SIG_IGN);
     try {
         initialize();
@@ -460,12 +521,14 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
                 tbb::global_control::max_allowed_parallelism, size_t(mThreads));
         }
         body();
+        cancelWatchdog(); // a signal after the last write: the outputs are complete
         return 0;
     } catch (const ValueError& e) {
         return error(e.what(), 2);
     } catch (const IoError& e) {
         return error(e.what(), 1);
     } catch (const Interrupted&) {
+        cancelWatchdog();
         return error("interrupted; nothing written", 130);
     } catch (const std::bad_alloc&) {
         return error("out of memory; nothing written (try a larger --voxel-size)", 1);

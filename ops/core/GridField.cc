@@ -5,6 +5,7 @@
 
 #include <openvdb/tools/ChangeBackground.h>
 #include <openvdb/tools/FastSweeping.h>
+#include <openvdb/tree/LeafManager.h>
 #include <openvdb/tools/GridOperators.h>
 #include <openvdb/tools/Interpolation.h>
 
@@ -139,9 +140,13 @@ openvdb::FloatGrid::ConstPtr widenBand(openvdb::FloatGrid::ConstPtr grid, double
     openvdb::FloatGrid::Ptr g = openvdb::tools::dilateSdf(*grid, iterations);
     // Beyond the widened band the field must keep growing: background = the new width.
     const float bg = float(width + iterations * dx);
-    for (auto it = g->beginValueOn(); it; ++it) {
-        it.setValue(std::min(std::max(*it, -bg), bg));
-    }
+    openvdb::tree::LeafManager<openvdb::FloatTree> leaves(g->tree());
+    leaves.foreach([bg](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+        for (auto it = leaf.beginValueOn(); it; ++it) it.setValue(std::min(std::max(*it, -bg), bg));
+    });
+    auto tiles = g->tree().beginValueOn(); // active tiles (above the leaves), if any
+    tiles.setMaxDepth(openvdb::FloatTree::ValueOnIter::LEAF_DEPTH - 1);
+    for (; tiles; ++tiles) tiles.setValue(std::min(std::max(*tiles, -bg), bg));
     openvdb::tools::changeLevelSetBackground(g->tree(), bg);
     return g;
 }

@@ -26,6 +26,7 @@ const char* typeWord(const ParamInfo& info)
     case ParamType::Text: return "a string";
     case ParamType::Ints: return "a list of integers";
     case ParamType::Reals: return "a list of numbers";
+    case ParamType::Json: return "a JSON object or a file path";
     }
     return "a value";
 }
@@ -39,6 +40,7 @@ const char* typeName(ParamType t)
     case ParamType::Text: return "str";
     case ParamType::Ints: return "ints";
     case ParamType::Reals: return "floats";
+    case ParamType::Json: return "json";
     }
     return "";
 }
@@ -148,6 +150,9 @@ json SchemaBase::coerce(const ParamInfo& info, const json& v) const
         }
         return v;
     }
+    case ParamType::Json:
+        if (!v.is_string() && !v.is_object() && !v.is_array()) wrongType();
+        return v;
     case ParamType::Ints:
     case ParamType::Reals: {
         if (!v.is_array() || v.size() != info.count) wrongType();

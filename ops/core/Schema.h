@@ -24,6 +24,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -38,7 +39,9 @@ public:
     using ValueError::ValueError;
 };
 
-enum class ParamType { Bool, Int, Real, Text, Ints, Reals };
+/// Json: a JSON object or array given inline, or the path of a file holding it (the CLI
+/// gives paths; --params, provenance and Python may give either).
+enum class ParamType { Bool, Int, Real, Text, Ints, Reals, Json };
 
 /// Allowed values of a number (each value of a list): [min, max], ends open or closed.
 struct Range
@@ -113,6 +116,23 @@ template<typename T> struct Conv
 {
     static nlohmann::json get(const T& v) { return v; }
     static void set(T& m, const nlohmann::json& j) { m = j.get<T>(); }
+};
+template<typename T> struct Conv<std::optional<T>>
+{
+    static nlohmann::json get(const std::optional<T>& v)
+    {
+        return v ? Conv<T>::get(*v) : nlohmann::json(nullptr);
+    }
+    static void set(std::optional<T>& m, const nlohmann::json& j)
+    {
+        if (j.is_null()) {
+            m.reset();
+        } else {
+            T v{};
+            Conv<T>::set(v, j);
+            m = v;
+        }
+    }
 };
 template<> struct Conv<Vec3d>
 {

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
+#include <atomic>
 #include <cstring>
 #include <fstream>
 #include <iostream>
@@ -136,10 +137,26 @@ void requireWritable(const std::string& path)
 }
 
 namespace {
+
+char gPendingTemp[4096] = "";
+std::atomic<bool (*)()> gCommitCheck{nullptr};
+
+// The temporary file named in gPendingTemp while it exists (a signal handler may read it).
+class PendingTemp
+{
+public:
+    explicit PendingTemp(const std::string& tmp)
+    {
+        if (tmp.size() < sizeof gPendingTemp) std::memcpy(gPendingTemp, tmp.c_str(), tmp.size() + 1);
+    }
+    ~PendingTemp() { gPendingTemp[0] = '\0'; }
+};
+
 // Temporary file in the target's folder, then rename; the caller has checked the target.
 void writeCheckedAtomic(const std::string& path, const std::string& bytes)
 {
     const std::string tmp = tempNameFor(path);
+    PendingTemp pending(tmp);
     {
         std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
         if (!f) fail<IoError>("cannot write '", path, "': ", std::strerror(errno));
@@ -150,6 +167,10 @@ void writeCheckedAtomic(const std::string& path, const std::string& bytes)
             fail<IoError>("cannot write '", path, "': write failed (disk full?)");
         }
     }
+    if (auto check = gCommitCheck.load(); check && check()) {
+        std::remove(tmp.c_str());
+        throw Interrupted();
+    }
     if (std::rename(tmp.c_str(), path.c_str()) != 0) {
         const int err = errno;
         std::remove(tmp.c_str());
@@ -157,6 +178,10 @@ void writeCheckedAtomic(const std::string& path, const std::string& bytes)
     }
 }
 } // namespace
+
+const char* pendingTempFile() { return gPendingTemp; }
+
+void setCommitCheck(bool (*cancelled)()) { gCommitCheck.store(cancelled); }
 
 void writeFileAtomic(const std::string& path, const std::string& bytes)
 {

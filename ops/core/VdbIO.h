@@ -54,6 +54,15 @@ void requireLevelSet(const openvdb::GridBase& grid, const std::string& what);
 /// not a folder itself. Tools call it before any work so a bad -o fails fast.
 void requireWritable(const std::string& path);
 
+/// @brief The temporary file being written at this moment ("" when none). Async-signal-safe
+/// to read: a signal handler that ends the process unlinks it, so nothing is left behind.
+const char* pendingTempFile();
+
+/// @brief A check made just before a finished temporary file is renamed over its target:
+/// when it returns true the temporary is removed and Interrupted thrown, so a cancel that
+/// comes during a write replaces nothing. The CLI installs its Ctrl-C flag; null = none.
+void setCommitCheck(bool (*cancelled)());
+
 /// @brief Write @a bytes to @a path atomically (temporary file + rename); "-" = stdout.
 void writeFileAtomic(const std::string& path, const std::string& bytes);
 

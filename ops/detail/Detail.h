@@ -62,7 +62,7 @@ struct GaborParams
     double tiltDeg = 0.0;        ///< α: projection direction tilted from the normal
     double tiltAzimuthDeg = 0.0; ///< θ: azimuth of the tilt in the frame, from t towards b
     Singular singular = Singular::Auto;
-    uint64_t seed = 1;
+    uint64_t seed = 0;
 };
 
 /// The parameters that may vary in space (gabor §4, "Blending implicit surfaces carrying
@@ -86,7 +86,7 @@ struct DetailParams
     ReliefParams warp;           ///< gradient warp (amplitude 0 disables)
     GaborParams gabor;           ///< Gabor details (amplitude 0 disables)
     DirectionField direction;
-    uint64_t seed = 1;           ///< warp relief seed
+    uint64_t seed = 0;           ///< warp relief seed
     /// Optional spatial blend towards a second parameter set, weighted by a scalar grid
     /// (world-space trilinear samples clamped to [0, 1]; background = outside).
     std::shared_ptr<const BlendParams> blend;
@@ -94,13 +94,9 @@ struct DetailParams
     /// @brief ValueError for unusable settings; frequencies above the Nyquist limit of
     /// @a voxelSize (F0 + 2a > 1/(2·voxel)) are refused with the limit in the message.
     void validate(double voxelSize) const;
-    /// @brief From JSON with the Python names: warp_amplitude, warp_relief ("turbulence" or
-    /// an image path), warp_scale, warp_octaves, warp_sharpness, gabor_amplitude,
-    /// gabor_frequency, gabor_bandwidth, gabor_orientation, gabor_impulses, gabor_falloff,
-    /// gabor_isotropic, tilt [α, θ], direction_axis [x,y,z], direction_skeleton (a JSON
-    /// object or file path), direction_curvature, singular, seed, and "blend": {the same
-    /// names for warp_amplitude, gabor_amplitude, gabor_frequency, gabor_orientation,
-    /// gabor_falloff, tilt} (all optional; the blend mask grid is set separately).
+    /// @brief From JSON keyed as the stage's table (detailSchema() in DetailStage.h, the CLI's
+    /// names: warp-amplitude, gabor-frequency, direction-axis, ...); unknown keys and bad
+    /// values are ValueErrors. The blend mask grid is set separately.
     static DetailParams fromJson(const nlohmann::json& j);
     /// Gabor ridges default to ten times as wide as they are high: F0 = 1/(10·A).
     static constexpr double kDefaultWavelengthPerAmplitude = 10.0;

@@ -143,6 +143,11 @@ def _stage_params(table, fn, params):
             value = _CHECKS[kind](value, key, fn)
         elif kind == "str":
             value = _os.fspath(value) if isinstance(value, _os.PathLike) else _str(value, key, fn)
+        elif kind == "json":
+            if isinstance(value, _os.PathLike):
+                value = _os.fspath(value)
+            if not isinstance(value, (str, dict, list)):
+                raise _type_error(fn, key, "a dict or a JSON file path", value)
         elif kind == "ints":
             value = _ints(value, row["count"], key, fn)
         else:
@@ -202,6 +207,7 @@ def _stage_function(table, impl, name, head, tail, before=(), after=()):
 
 _ROCK_TILES = _table("rock_tiles")
 _ROCK_PILE = _table("rock_pile")
+_DETAIL = _table("detail")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -681,69 +687,23 @@ def coverage(surface, ids, max_nz=0.6, region=None):
 # ---------------------------------------------------------------------------------------------
 # Surface detail (implicit-blocks §4.2, gabor-details-implicit-surfaces §3-§4)
 
-def detail(grid, warp_amplitude=0.0, warp_relief="turbulence", warp_scale=1.5, warp_octaves=4,
-           warp_sharpness=8.0, gabor_amplitude=0.0, gabor_frequency=0.0, gabor_bandwidth=0.0,
-           gabor_orientation=0.0, gabor_impulses=16.0, gabor_falloff=0.0,
-           gabor_isotropic=False, tilt=(0.0, 0.0), direction_axis=None,
-           direction_skeleton=None, direction_curvature=False, singular="auto", seed=0,
-           voxel_size=None, half_width=None, blend=None, blend_mask=None):
-    """Surface detail on a level set (vdb_detail from Python). Returns a new, re-baked and
-    renormalised level set (the input is untouched), named like the input ('surface' when the
-    input has no name).
-
-    Gradient warp (implicit-blocks §4.2): warp_amplitude (m, default 0 = off), warp_relief
-    ('turbulence' (default) or an EXR / 16-bit PNG path), warp_scale (m per relief tile,
-    default 1.5), warp_octaves (default 4), warp_sharpness (exponent p of the triplanar
-    weights, default 8; 1 = the blocks paper's).
-    Gabor details (gabor §3-§4): gabor_amplitude (m, default 0 = off), gabor_frequency F0
-    (cycles per metre; default 0 = 1 / (10 * gabor_amplitude), ridges ten times as wide as
-    they are high), gabor_bandwidth a (1/m; default 0 = F0 / 4), gabor_orientation (degrees
-    from the frame direction, default 0), gabor_impulses per kernel cell (default 16),
-    gabor_falloff R (m; default 0 = 12 * amplitude), gabor_isotropic (default False), tilt
-    (alpha, theta) in degrees (default (0, 0)). Frames: direction_axis (x, y, z),
-    direction_skeleton (a dict {"segments": [...]} or a JSON path) or direction_curvature=True;
-    singular: 'auto' (default), 'cancel' or 'isotropic' near W parallel to n. seed (default 0).
-    voxel_size (m) and half_width (voxels) default to the input's.
-    blend: a dict of the parameters that may vary in space (warp_amplitude, gabor_amplitude,
-    gabor_frequency, gabor_orientation, gabor_falloff, tilt), reached where blend_mask (a
-    pyopenvdb.FloatGrid of weights in [0, 1]) reads 1; the parameters are interpolated
-    (gabor §4), so blends do not blur the details."""
+def _detail(grid, blend_mask=None, **params):
     fn = "detail"
     _grid(grid, "grid", fn)
-    if isinstance(direction_skeleton, _os.PathLike):
-        direction_skeleton = _os.fspath(direction_skeleton)
-    if direction_skeleton is not None and not isinstance(direction_skeleton, (str, dict)):
-        raise _type_error(fn, "direction_skeleton", "a dict or a JSON file path",
-                          direction_skeleton)
-    if isinstance(warp_relief, _os.PathLike):
-        warp_relief = _os.fspath(warp_relief)
-    options = {"warp_amplitude": _float(warp_amplitude, "warp_amplitude", fn),
-               "warp_relief": _str(warp_relief, "warp_relief", fn),
-               "warp_scale": _float(warp_scale, "warp_scale", fn),
-               "warp_octaves": _int(warp_octaves, "warp_octaves", fn),
-               "warp_sharpness": _float(warp_sharpness, "warp_sharpness", fn),
-               "gabor_amplitude": _float(gabor_amplitude, "gabor_amplitude", fn),
-               "gabor_frequency": _float(gabor_frequency, "gabor_frequency", fn),
-               "gabor_bandwidth": _float(gabor_bandwidth, "gabor_bandwidth", fn),
-               "gabor_orientation": _float(gabor_orientation, "gabor_orientation", fn),
-               "gabor_impulses": _float(gabor_impulses, "gabor_impulses", fn),
-               "gabor_falloff": _float(gabor_falloff, "gabor_falloff", fn),
-               "gabor_isotropic": _bool(gabor_isotropic, "gabor_isotropic", fn),
-               "tilt": _floats(tilt, 2, "tilt", fn),
-               "direction_axis": _opt(direction_axis, _floats, 3, "direction_axis", fn),
-               "direction_skeleton": direction_skeleton,
-               "direction_curvature": _bool(direction_curvature, "direction_curvature", fn),
-               "singular": _str(singular, "singular", fn), "seed": _int(seed, "seed", fn)}
-    if blend is not None:
-        if not isinstance(blend, dict):
-            raise _type_error(fn, "blend", "a dict", blend)
-        options["blend"] = blend
-    if blend is not None and blend_mask is None:
-        raise ValueError("detail: blend needs blend_mask (the weights)")
-    return _rockvdb.detail(grid, _json.dumps(options),
-                           _opt(voxel_size, _float, "voxel_size", fn),
-                           _opt(half_width, _float, "half_width", fn),
+    return _rockvdb.detail(grid, _stage_params(_DETAIL, fn, params),
                            _opt(blend_mask, _grid, "blend_mask", fn))
+
+
+detail = _stage_function(
+    _DETAIL, _detail, "detail",
+    "Surface detail on a level set (vdb_detail from Python; implicit-blocks §4.2, Gabor details "
+    "§3-§4). Returns a new, re-baked and renormalised level set (the input is untouched), "
+    "named like the input ('surface' when the input has no name).",
+    "direction_skeleton and blend take a dict or a JSON file path; blend needs blend_mask (a "
+    "pyopenvdb.FloatGrid of weights in [0, 1]): the parameters are interpolated (gabor §4), so "
+    "blends do not blur the details. voxel_size and half_width default to the input's. Ctrl-C "
+    "raises KeyboardInterrupt.",
+    before=["grid"], after=[("blend_mask", None)])
 
 
 # ---------------------------------------------------------------------------------------------

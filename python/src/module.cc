@@ -16,7 +16,7 @@
 #include <core/Preview.h>
 #include <core/Primitives.h>
 #include <core/VdbIO.h>
-#include <detail/Detail.h>
+#include <detail/DetailStage.h>
 #include <rockpile/RockPileStage.h>
 
 #include <nlohmann/json.hpp>
@@ -421,39 +421,29 @@ PYBIND11_MODULE(_rockvdb, m)
         writeGrayImage(path, img);
     }, py::arg("path"), py::arg("array"), "Write a 2D array as float EXR or 16-bit PNG (row 0 first)");
 
-    m.def("detail", [](Grid grid, const std::string& options, std::optional<double> voxelSize,
-                       std::optional<double> halfWidth, std::optional<Grid> blendMask) {
-        const json o = json::parse(options);
-        detail::DetailParams p = detail::DetailParams::fromJson(o);
-        if (blendMask) p.blendMask = *blendMask;
-        if (!grid) throw ValueError("detail: the input grid is None");
-        requireLevelSet(*grid, "detail input");
-        BakeSettings s;
-        s.voxelSize = voxelSize ? *voxelSize : grid->voxelSize()[0];
-        s.halfWidth = halfWidth ? *halfWidth : double(grid->background()) / grid->voxelSize()[0];
-        s.gridName = grid->getName().empty() ? "surface" : grid->getName();
-        BakeResult r;
+    m.def("detail", [](Grid grid, const std::string& params, std::optional<Grid> blendMask) {
+        if (!grid) throw py::type_error("detail: the input grid is None");
+        const detail::DetailStageParams p =
+            detail::detailSchema().fromJson(parseParams(params, "detail"));
+        detail::DetailInputs in;
+        in.grid = grid;
+        if (blendMask) in.blendMask = *blendMask;
+        detail::DetailResult r;
         {
             py::gil_scoped_release release;
-            r = detail::detailLevelSet(grid, p, s);
+            PyTaskHost host;
+            Task task(&host);
+            r = detail::runDetail(p, in, task);
         }
-        json params = o;
-        params["voxel_size"] = s.voxelSize;
-        params["half_width"] = s.halfWidth;
-        if (auto prov = provenance(*grid)) {
-            params["source"] = {{"generator", prov->generator},
-                                {"params", json::parse(prov->params, nullptr, false)}};
-        }
-        stampProvenance(*r.surface, "rockvdb.detail", params.dump());
-        return r.surface;
-    }, py::arg("grid"), py::arg("options"), py::arg("voxel_size") = std::nullopt,
-       py::arg("half_width") = std::nullopt, py::arg("blend_mask") = std::nullopt);
+        return r.bake.surface;
+    }, py::arg("grid"), py::arg("params"), py::arg("blend_mask") = std::nullopt);
 
     // Stage tables: the Python wrappers build their signatures, defaults and docstrings
     // from these (python/rockvdb/__init__.py).
     m.def("schema", [](const std::string& stage) {
         if (stage == "rock_tiles") return rockpile::tilesSchema().describe().dump();
         if (stage == "rock_pile") return rockpile::pileSchema().describe().dump();
+        if (stage == "detail") return detail::detailSchema().describe().dump();
         throw ValueError("schema: no stage '" + stage + "'");
     }, py::arg("stage"));
 

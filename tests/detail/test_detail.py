@@ -207,7 +207,7 @@ def test_python_matches_the_cli_and_skeleton_frames(sphere, tmp_path):
     c = detail(sphere, tmp_path / "c.vdb", "--gabor-amplitude", "0.03", "--gabor-frequency", "6",
                "--direction-axis", "0,0,1", "--seed", "3")
     assert np.array_equal(dense(g)[1], dense(c)[1])
-    assert json.loads(g.metadata["rockvdb:params"])["gabor_frequency"] == 6.0
+    assert json.loads(g.metadata["rockvdb:params"])["gabor-frequency"] == 6.0
     # A skeleton along z gives the same frames as the z axis near it (W = f·S, same direction).
     skel = {"segments": [{"a": [0, 0, -2], "b": [0, 0, 2], "radius": 10}]}
     gs = rockvdb.detail(vdb.read(str(sphere), "surface"), gabor_amplitude=0.03,
@@ -220,8 +220,8 @@ def test_python_matches_the_cli_and_skeleton_frames(sphere, tmp_path):
 
 
 @pytest.mark.parametrize("args,needle", [
-    (["--warp-amplitude", "-0.1"], "warp amplitude"),
-    (["--gabor-amplitude", "-1"], "gabor amplitude"),
+    (["--warp-amplitude", "-0.1"], "detail: warp-amplitude must be in [0, 1000] (got -0.1)"),
+    (["--gabor-amplitude", "-1"], "detail: gabor-amplitude must be in [0, 1000] (got -1.0)"),
     (["--gabor-amplitude", "0.02", "--gabor-frequency", "30"], "Nyquist limit"),
     (["--gabor-amplitude", "0.02", "--gabor-frequency", "5", "--tilt", "80,0"], "tilt"),
     (["--gabor-amplitude", "0.02", "--gabor-frequency", "5", "--gabor-falloff", "0.01"],

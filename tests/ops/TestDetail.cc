@@ -56,9 +56,9 @@ TEST(Detail, ResultsAreValidNarrowBandLevelSets)
     auto in = sphere(dx);
     BakeSettings s;
     s.voxelSize = dx;
-    for (const char* opts : {R"({"warp_amplitude": 0.05, "warp_scale": 0.8})",
-                             R"({"gabor_amplitude": 0.04, "gabor_frequency": 5, "direction_axis": [0, 0, 1]})",
-                             R"({"gabor_amplitude": 0.04, "gabor_frequency": 5, "direction_curvature": true, "tilt": [30, 0]})"}) {
+    for (const char* opts : {R"({"warp-amplitude": 0.05, "warp-scale": 0.8})",
+                             R"({"gabor-amplitude": 0.04, "gabor-frequency": 5, "direction-axis": [0, 0, 1]})",
+                             R"({"gabor-amplitude": 0.04, "gabor-frequency": 5, "direction-curvature": true, "tilt": [30, 0]})"}) {
         const auto p = detail::DetailParams::fromJson(nlohmann::json::parse(opts));
         auto out = detail::detailLevelSet(in, p, s).surface;
         EXPECT_EQ(openvdb::tools::checkLevelSet(*out, 8), "") << opts;
@@ -76,8 +76,8 @@ TEST(Detail, CandidateMaskChangesNothing)
     // same field baked over all leaves (no candidates) must give the same grid, bit for bit.
     const float dx = 0.02f;
     auto in = sphere(dx);
-    for (const char* opts : {R"({"warp_amplitude": 0.04})",
-                             R"({"warp_amplitude": 0.04, "gabor_amplitude": 0.03, "gabor_frequency": 6, "direction_axis": [1, 0, 0]})"}) {
+    for (const char* opts : {R"({"warp-amplitude": 0.04})",
+                             R"({"warp-amplitude": 0.04, "gabor-amplitude": 0.03, "gabor-frequency": 6, "direction-axis": [1, 0, 0]})"}) {
         const auto p = detail::DetailParams::fromJson(nlohmann::json::parse(opts));
         BakeSettings s;
         s.voxelSize = dx;

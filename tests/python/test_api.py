@@ -71,7 +71,7 @@ def test_detail_on_a_grid_without_a_name():
     assert d.name == "surface" and d.gridClass == vdb.GridClass.LEVEL_SET
     assert d.activeVoxelCount() > 0.5 * g.activeVoxelCount()
     p = json.loads(rockvdb.provenance(d)[2])
-    assert p["gabor_frequency"] == 0  # "auto": 1 / (10 A); replays the same
+    assert p["gabor-frequency"] == 0  # "auto": 1 / (10 A); replays the same
 
 
 def test_mesh_up_axis_y_is_blenders_obj_convention(tmp_path):

@@ -1,0 +1,73 @@
+// rockvdb — the bake's rows in every baking stage's table: voxel size, band, renormalisation,
+// tracker steps, region and memory limit, named and checked the same way in every tool.
+#pragma once
+
+#include "Bake.h"
+#include "Schema.h"
+
+#include <array>
+#include <optional>
+#include <string>
+
+namespace rockvdb {
+
+struct BakeParams
+{
+    std::optional<double> voxelSize;  ///< m; unset: the stage's own rule (e.g. the input's)
+    std::optional<double> halfWidth;  ///< voxels; unset: the stage's own rule
+    std::string renormalize = "auto";
+    int trackerSteps = 0;
+    std::optional<std::array<double, 6>> region; ///< xmin,ymin,zmin,xmax,ymax,zmax (m)
+    double maxMemoryGB = 0;           ///< 0 = 75% of RAM
+
+    /// @brief The BakeSettings these give, unset sizes taken from the arguments.
+    BakeSettings settings(double voxelSizeIfUnset, double halfWidthIfUnset) const;
+};
+
+/// @brief The bake rows of a stage's table, bound to member @a m of its Params. @a voxelSize
+/// and @a halfWidth are the stage's defaults (null: "the input's", said in @a sizeNote).
+template<typename P>
+void addBakeRows(Schema<P>& s, BakeParams P::*m, nlohmann::json voxelSize,
+                 nlohmann::json halfWidth, const char* sizeNote = "")
+{
+    using schema_detail::Conv;
+    auto bind = [&](ParamInfo info, auto BakeParams::*field) {
+        using T = std::remove_reference_t<decltype(std::declval<BakeParams>().*field)>;
+        s.add(std::move(info),
+              [m, field](const P& p) { return Conv<T>::get((p.*m).*field); },
+              [m, field](P& p, const nlohmann::json& j) { Conv<T>::set((p.*m).*field, j); });
+    };
+    auto row = [](const char* name, ParamType type, const char* unit, nlohmann::json def,
+                  Range range, std::string help, size_t count = 1) {
+        ParamInfo p;
+        p.name = name;
+        p.type = type;
+        p.unit = unit;
+        p.defaultValue = std::move(def);
+        p.range = range;
+        p.help = std::move(help);
+        p.count = count;
+        return p;
+    };
+    const std::string note = sizeNote;
+    bind(row("voxel-size", ParamType::Real, "m", voxelSize, Range::closed(1e-6, 1e6),
+             "Voxel edge length" + (voxelSize.is_null() ? note : std::string())),
+         &BakeParams::voxelSize);
+    bind(row("half-width", ParamType::Real, "voxels", halfWidth, Range::closed(1, 64),
+             "Narrow-band half width" + (halfWidth.is_null() ? note : std::string())),
+         &BakeParams::halfWidth);
+    ParamInfo renorm = row("renormalize", ParamType::Text, "", "auto", Range::any(),
+                           "Renormalise fields that are not exact distances: auto (those), on, off");
+    renorm.choices = {"auto", "on", "off"};
+    bind(renorm, &BakeParams::renormalize);
+    bind(row("tracker-steps", ParamType::Int, "", 0, Range::closed(0, 100),
+             "LevelSetTracker normalise steps after baking"), &BakeParams::trackerSteps);
+    bind(row("region", ParamType::Reals, "m", nullptr, Range::any(),
+             "Bake only voxel centres in [min, max): xmin,ymin,zmin,xmax,ymax,zmax "
+             "(leaf-aligned regions chunk a bake bit for bit)", 6),
+         &BakeParams::region);
+    bind(row("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0),
+             "Refuse bakes estimated above this (0 = 75% of RAM)"), &BakeParams::maxMemoryGB);
+}
+
+} // namespace rockvdb

@@ -1,0 +1,241 @@
+#include "DetailStage.h"
+
+#include <core/Error.h>
+#include <core/Expression.h>
+#include <core/VdbIO.h>
+
+#include <algorithm>
+
+namespace rockvdb {
+namespace detail {
+
+using nlohmann::json;
+
+namespace {
+
+ParamInfo row(const char* name, ParamType type, const char* unit, json def, Range range,
+              const char* help, size_t count = 1)
+{
+    ParamInfo p;
+    p.name = name;
+    p.type = type;
+    p.unit = unit;
+    p.defaultValue = std::move(def);
+    p.range = range;
+    p.help = help;
+    p.count = count;
+    return p;
+}
+
+Schema<DetailStageParams> makeSchema()
+{
+    using P = DetailStageParams;
+    Schema<P> s("detail",
+        "Add small-scale rock detail to a level set and re-bake it (renormalised). Gradient "
+        "warp (implicit blocks §4.2): the surface moves along its normal by a relief seen "
+        "through three axis projections blended by |g.u_i|^p. Gabor details (Gabor surface "
+        "noise in local frames (n, t, b), b = n ^ W): each point near the surface is projected "
+        "on it and the field raised or lowered by D(noise)·(1 - |p p_S|/R)^6. Amplitudes are "
+        "in metres and bound the displacement; 0 disables an operator.");
+    s.member(row("warp-amplitude", ParamType::Real, "m", 0.0, Range::closed(0, 1e3),
+                 "Warp: largest displacement; 0 = off"), &P::warpAmplitude);
+    s.member(row("warp-relief", ParamType::Text, "", "turbulence", Range::any(),
+                 "Warp relief: 'turbulence' or an EXR / 16-bit PNG image (bright = bump)"),
+             &P::warpRelief);
+    s.member(row("warp-scale", ParamType::Real, "m", 1.5, Range::above(0),
+                 "Warp: turbulence wavelength, or world size of one image tile"), &P::warpScale);
+    s.member(row("warp-octaves", ParamType::Int, "", 4, Range::closed(1, 12),
+                 "Warp: turbulence octaves"), &P::warpOctaves);
+    s.member(row("warp-sharpness", ParamType::Real, "", 8.0, Range::closed(1, 64),
+                 "Warp: exponent p of the projection weights |g.u_i|^p (8: the arches paper's "
+                 "texture blend keeps one projection sharp; 1: the blocks paper's)"),
+             &P::warpSharpness);
+    s.member(row("gabor-amplitude", ParamType::Real, "m", 0.0, Range::closed(0, 1e3),
+                 "Gabor: largest displacement; 0 = off"), &P::gaborAmplitude);
+    s.member(row("gabor-frequency", ParamType::Real, "cycles/m", 0.0, Range::atLeast(0),
+                 "Gabor: F0, below the voxel Nyquist limit; 0 = 1/(10 x amplitude), ridges ten "
+                 "times as wide as they are high"), &P::gaborFrequency);
+    s.member(row("gabor-bandwidth", ParamType::Real, "1/m", 0.0, Range::atLeast(0),
+                 "Gabor: a; 0 = F0/2"), &P::gaborBandwidth);
+    s.member(row("gabor-orientation", ParamType::Real, "degrees", 0.0, Range::closed(-360, 360),
+                 "Gabor: frequency direction in the frame, from t towards b"),
+             &P::gaborOrientation);
+    s.member(row("gabor-impulses", ParamType::Real, "", 16.0, Range::closed(1, 256),
+                 "Gabor: impulses per kernel"), &P::gaborImpulses);
+    s.member(row("gabor-falloff", ParamType::Real, "m", 0.0, Range::atLeast(0),
+                 "Gabor: R of K(r) = (1 - r/R)^6; 0 = 12 x amplitude, the smallest R that keeps "
+                 "the field monotone along normals"), &P::gaborFalloff);
+    s.member(row("gabor-isotropic", ParamType::Bool, "", false, Range::any(),
+                 "Gabor: isotropic noise (no frames)"), &P::gaborIsotropic);
+    s.member(row("tilt", ParamType::Reals, "degrees", json::array({0.0, 0.0}),
+                 Range::closed(-360, 360),
+                 "Gabor: projection tilt alpha (from the normal, 0..75), theta (azimuth from t "
+                 "towards b)", 2), &P::tilt);
+    s.member(row("direction-axis", ParamType::Reals, "", nullptr, Range::closed(-1e6, 1e6),
+                 "W = this axis (default 0,0,1 when no direction is given)", 3),
+             &P::directionAxis);
+    s.member(row("direction-skeleton", ParamType::Json, "", nullptr, Range::any(),
+                 "W = weighted skeleton direction: a JSON file (or object) {\"segments\": "
+                 "[{\"a\": [x,y,z], \"b\": [x,y,z], \"radius\": r}]}"), &P::directionSkeleton);
+    s.member(row("direction-curvature", ParamType::Bool, "", false, Range::any(),
+                 "W = principal direction of largest curvature of the input"),
+             &P::directionCurvature);
+    ParamInfo singular = row("singular", ParamType::Text, "", "auto", Range::any(),
+                             "Near frame singularities: cancel the noise, or fade to isotropic "
+                             "noise; auto = isotropic for curvature frames, cancel otherwise");
+    singular.choices = {"auto", "cancel", "isotropic"};
+    s.member(singular, &P::singular);
+    s.member(row("seed", ParamType::Int, "", 0, Range::atLeast(0),
+                 "Random seed (same seed, same bits)"), &P::seed);
+    s.member(row("blend", ParamType::Json, "", nullptr, Range::any(),
+                 "Blend towards a second parameter set where the blend mask reads 1: a JSON file "
+                 "(or object) with warp_amplitude, gabor_amplitude, gabor_frequency, "
+                 "gabor_orientation, gabor_falloff, tilt; the parameters are interpolated, not "
+                 "the results"), &P::blend);
+    addBakeRows(s, &P::bake, nullptr, nullptr, " [default: the input's]");
+    s.rule([](const P& p) {
+        const int directions = int(p.directionAxis.has_value()) +
+                               int(!p.directionSkeleton.is_null()) + int(p.directionCurvature);
+        if (directions > 1) {
+            fail<ValueError>("detail: give one of direction-axis, direction-skeleton, "
+                             "direction-curvature");
+        }
+    });
+    return s;
+}
+
+json jsonValue(const json& v)
+{
+    return v.is_string() ? readJsonFile(v.get<std::string>()) : v;
+}
+
+} // namespace
+
+const Schema<DetailStageParams>& detailSchema()
+{
+    static const Schema<DetailStageParams> s = makeSchema();
+    return s;
+}
+
+DetailStageParams::DetailStageParams() { detailSchema().reset(*this); }
+
+DetailParams DetailParams::fromJson(const json& j) { return detailSchema().fromJson(j).engine(); }
+
+DetailParams DetailStageParams::engine() const
+{
+    detailSchema().validate(*this);
+    DetailParams p;
+    p.warp.amplitude = warpAmplitude;
+    if (warpRelief != "turbulence") p.warp.image = warpRelief;
+    p.warp.scale = warpScale;
+    p.warp.octaves = warpOctaves;
+    p.warp.sharpness = warpSharpness;
+    GaborParams& g = p.gabor;
+    g.amplitude = gaborAmplitude;
+    g.frequency = gaborFrequency;
+    g.bandwidth = gaborBandwidth;
+    g.orientationDeg = gaborOrientation;
+    g.impulses = gaborImpulses;
+    g.falloff = gaborFalloff;
+    g.isotropic = gaborIsotropic;
+    g.tiltDeg = tilt[0];
+    g.tiltAzimuthDeg = tilt[1];
+    g.singular = singular == "cancel" ? Singular::Cancel
+               : singular == "isotropic" ? Singular::Isotropic : Singular::Auto;
+    p.seed = g.seed = seed;
+    if (directionAxis) {
+        const auto& a = *directionAxis;
+        p.direction.axis = Vec3d(a[0], a[1], a[2]);
+    } else if (!directionSkeleton.is_null()) {
+        p.direction = DirectionField::fromSkeletonJson(jsonValue(directionSkeleton));
+    } else if (directionCurvature) {
+        p.direction.kind = DirectionKind::Curvature;
+    }
+    if (!blend.is_null()) {
+        const json b = jsonValue(blend);
+        if (!b.is_object()) fail<ValueError>("detail: blend must be a JSON object");
+        // Keys as in Python (warp_amplitude) or as on the command line (warp-amplitude).
+        json k = json::object();
+        for (auto it = b.begin(); it != b.end(); ++it) {
+            std::string key = it.key();
+            std::replace(key.begin(), key.end(), '-', '_');
+            static const char* names[] = {"warp_amplitude", "gabor_amplitude", "gabor_frequency",
+                                          "gabor_orientation", "gabor_falloff", "tilt"};
+            if (std::find_if(std::begin(names), std::end(names),
+                             [&](const char* n) { return key == n; }) == std::end(names)) {
+                fail<ValueError>("detail: blend: '", it.key(), "' cannot vary in space (it can: "
+                                 "warp_amplitude, gabor_amplitude, gabor_frequency, "
+                                 "gabor_orientation, gabor_falloff, tilt)");
+            }
+            k[key] = it.value();
+        }
+        try {
+            auto bp = std::make_shared<BlendParams>();
+            bp->warpAmplitude = k.value("warp_amplitude", p.warp.amplitude);
+            bp->gaborAmplitude = k.value("gabor_amplitude", g.amplitude);
+            bp->frequency = k.value("gabor_frequency", g.frequency);
+            bp->orientationDeg = k.value("gabor_orientation", g.orientationDeg);
+            bp->falloff = k.value("gabor_falloff", g.falloff);
+            bp->tiltDeg = g.tiltDeg;
+            bp->tiltAzimuthDeg = g.tiltAzimuthDeg;
+            if (k.contains("tilt")) {
+                const auto t = k.at("tilt").get<std::array<double, 2>>();
+                bp->tiltDeg = t[0];
+                bp->tiltAzimuthDeg = t[1];
+            }
+            p.blend = bp;
+        } catch (const json::exception& e) {
+            fail<ValueError>("detail: blend: malformed value (", e.what(), ")");
+        }
+    }
+    return p;
+}
+
+DetailResult runDetail(const DetailStageParams& params, const DetailInputs& in, Task& task)
+{
+    if (!in.grid) fail<ValueError>("detail: no input grid");
+    requireLevelSet(*in.grid, "detail input");
+    DetailParams p = params.engine();
+    if (!params.blend.is_null() && !in.blendMask) {
+        fail<ValueError>("detail: blend needs a blend mask (--blend-mask / blend_mask: the weights)");
+    }
+    if (in.blendMask && params.blend.is_null()) {
+        fail<ValueError>("detail: a blend mask needs blend (--blend / blend: the parameters)");
+    }
+    p.blendMask = in.blendMask;
+    const double dx = in.grid->voxelSize()[0];
+    BakeSettings settings = params.bake.settings(dx, double(in.grid->background()) / dx);
+    settings.gridName = in.grid->getName().empty() ? "surface" : in.grid->getName();
+
+    task.phase("detail", in.ids.empty() ? 1.0 : 0.9);
+    DetailResult r;
+    r.bake = detailLevelSet(in.grid, p, settings, task.interrupter());
+    task.check();
+
+    // Provenance: the table as used (voxel size and band resolved), the inputs' names, and
+    // the input's own provenance (skipped by a replay).
+    json prov = detailSchema().toJson(params);
+    prov["voxel-size"] = settings.voxelSize;
+    prov["half-width"] = settings.halfWidth;
+    for (auto it = in.names.begin(); it != in.names.end(); ++it) prov[it.key()] = it.value();
+    if (auto src = provenance(*in.grid)) {
+        prov["sources"] = json::array({{{"generator", src->generator},
+                                        {"params", json::parse(src->params, nullptr, false)}}});
+    }
+    const std::string text = prov.dump();
+    stampProvenance(*r.bake.surface, kDetailTool, text);
+    if (!in.ids.empty()) {
+        task.phase("ids", 0.1);
+        for (size_t i = 0; i < in.ids.size(); ++i) {
+            task.step(double(i) / double(in.ids.size()));
+            auto carried = carryAttribute(*in.grid, *r.bake.surface, *in.ids[i]);
+            stampProvenance(*carried, kDetailTool, text);
+            r.ids.push_back(carried);
+        }
+    }
+    task.done();
+    return r;
+}
+
+} // namespace detail
+} // namespace rockvdb
