@@ -238,7 +238,9 @@ private:
             CLI::ConfigItem item;
             item.parents = parents;
             item.name = it.key();
-            if (it->is_object()) item.inputs.push_back(it->dump());
+            const bool nested = it->is_array() &&
+                std::any_of(it->begin(), it->end(), [](const json& v) { return v.is_structured(); });
+            if (it->is_object() || nested) item.inputs.push_back(it->dump()); // a JSON option
             else if (it->is_array()) for (const auto& v : *it) item.inputs.push_back(str(v));
             else item.inputs.push_back(str(*it));
             items.push_back(item);
@@ -277,12 +279,15 @@ bool Progress::wasInterrupted(int percent)
     return gSigint.load();
 }
 
-TaskBar::~TaskBar()
+TaskBar::~TaskBar() { clear(); }
+
+void TaskBar::clear()
 {
     if (mShown) {
         std::fprintf(stderr, "\r\033[K");
         std::fflush(stderr);
     }
+    mShown = false;
 }
 
 bool TaskBar::cancelled() { return gSigint.load(); }
@@ -295,7 +300,7 @@ void TaskBar::progress(const char* phase, double fraction)
     const int percent = std::clamp(int(fraction * 100.0), 0, 100);
     if (percent <= mLast) return; // only up, whatever order threads report in
     mLast = percent;
-    mShown = true;
+    mShown = true; // (a clear() in between: drawn again at the next percent)
     const int w = 30, filled = percent * w / 100;
     std::fprintf(stderr, "\r\033[K%s: %s [%.*s%*s] %3d%%", mTool.c_str(), phase, filled,
                  "##############################", w - filled, "", percent);
@@ -393,6 +398,8 @@ void Tool::addParams(CLI::App& where, const SchemaBase& schema)
             b.option = where.add_option("--" + info.name, *b.values, help);
             if (info.count > 1) b.option->delimiter(',');
             b.option->expected(int(info.count));
+            // A JSON option's value is one word, even '[...]' (CLI11 splits those otherwise).
+            if (info.type == ParamType::Json) b.option->allow_extra_args(false);
             static const char* const names[] = {"BOOL", "INT", "FLOAT", "TEXT", "INT", "FLOAT", "FILE"};
             std::string type = names[int(info.type)];
             for (size_t k = 1; k < info.count; ++k) type += std::string(",") + names[int(info.type)];

@@ -51,6 +51,8 @@ class TaskBar : public TaskHost
 public:
     TaskBar(std::string tool, bool enabled) : mTool(std::move(tool)), mEnabled(enabled) {}
     ~TaskBar() override;
+    /// @brief Clear the bar's line (before other messages); it stays usable.
+    void clear();
     bool cancelled() override;
     void progress(const char* phase, double fraction) override;
 

@@ -59,7 +59,7 @@ int main(int argc, char** argv)
         auto bar = tool.taskBar();
         Task task(bar.get());
         const DetailResult r = runDetail(p, in, task);
-        bar.reset();
+        bar->clear();
         const BakeStats& st = r.bake.stats;
         char line[200];
         std::snprintf(line, sizeof line, "bake: %zu active voxels in %zu leaves (%zu candidates, "

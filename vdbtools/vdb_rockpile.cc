@@ -60,7 +60,7 @@ int main(int argc, char** argv)
             const TileParams p = tilesSchema().fromJson(tool.givenParams(tilesSchema()));
             if (!library.empty()) requireWritable(library);
             const TilesResult r = runTiles(p, !library.empty(), task);
-            bar.reset();
+            bar->clear();
             const TileStats& st = r.set.stats;
             std::snprintf(line, sizeof line, "%zu stones (%zu regions, %zu seeds, %zu contacts); "
                           "seeds %.3f s, voronoi + erosion %.3f s", st.stones, st.regions,
@@ -82,7 +82,7 @@ int main(int argc, char** argv)
         const FieldPtr support = loadSupport(supportPath, set, p.seed, p.support);
         const PileResult r = runPile(set, *support, p, {{"tiles", tilesPath}, {"support", supportPath}},
                                      !pointsPath.empty(), !pileLibrary.empty(), task);
-        bar.reset();
+        bar->clear();
         std::snprintf(line, sizeof line,
                       "placed %zu rocks (%zu candidates in %zu tile features, %zu too deep); "
                       "select %.3f s, level sets %.3f s (%.0f rocks/s)",

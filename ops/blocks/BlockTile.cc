@@ -1303,41 +1303,6 @@ void allowKeys(const json& j, const std::string& where, std::initializer_list<co
 
 } // namespace
 
-json TileParams::toJson() const
-{
-    json j;
-    j["type"] = blockTypeName(type);
-    j["tile_size"] = tileSize;
-    j["point_radius"] = pointRadius;
-    j["neighbour_radius"] = neighbourRadius;
-    j["disc_count"] = discCount;
-    j["disc_spacing"] = discSpacing;
-    j["disc_radius"] = {discRadiusMin, discRadiusMax};
-    j["jitter"] = jitterDeg;
-    j["irregular_fraction"] = irregularFraction;
-    j["axis"] = arr(axis);
-    j["oblique_angle"] = obliqueDeg;
-    j["min_points"] = minPoints;
-    j["smooth_radius"] = smoothRadius;
-    j["fill"] = fill;
-    j["fracture_width"] = fractureWidth;
-    j["seed"] = seed;
-    j["relief"] = {{"amplitude", relief.amplitude}, {"scale", relief.scale},
-                   {"octaves", relief.octaves}, {"image", relief.image},
-                   {"sharpness", relief.sharpness}};
-    json fr = json::array();
-    for (const auto& d : extraDiscs) {
-        fr.push_back({{"center", arr(d.center)}, {"normal", arr(d.normal)}, {"radius", d.radius}});
-    }
-    j["fractures"] = fr;
-    json au = json::array();
-    for (const auto& a : authored) au.push_back({{"type", "polytope"}, {"planes", a.planes}});
-    j["authored"] = au;
-    return j;
-}
-
-namespace {
-
 std::vector<Disc> fracturesFromJson(const json& j)
 {
     if (!j.is_array()) fail<ValueError>("blocks: fractures must be an array of discs");
@@ -1403,70 +1368,14 @@ AuthoredBlock authoredFromJson(const json& j, const std::string& w)
     return a;
 }
 
-} // namespace
-
-TileParams TileParams::fromJson(const json& j)
+std::vector<AuthoredBlock> authoredListFromJson(const json& j)
 {
-    allowKeys(j, "tile parameters",
-              {"type", "tile_size", "point_radius", "neighbour_radius", "disc_count",
-               "disc_spacing", "disc_radius", "jitter", "irregular_fraction", "axis",
-               "oblique_angle", "min_points", "smooth_radius", "seed", "relief", "fractures",
-               "authored", "fill", "fracture_width"});
-    TileParams p;
-    if (j.contains("type")) {
-        if (!j["type"].is_string()) fail<ValueError>("blocks: type must be a string");
-        p.type = blockTypeFromString(j["type"]);
+    if (!j.is_array()) fail<ValueError>("blocks: authored must be an array");
+    std::vector<AuthoredBlock> out;
+    for (size_t i = 0; i < j.size(); ++i) {
+        out.push_back(authoredFromJson(j[i], "authored[" + std::to_string(i) + "]"));
     }
-    auto num = [&](const char* k, double& v) { if (j.contains(k)) v = numFrom(j[k], k); };
-    num("tile_size", p.tileSize);
-    num("point_radius", p.pointRadius);
-    num("neighbour_radius", p.neighbourRadius);
-    double count = p.discCount, minPts = p.minPoints;
-    num("disc_count", count);
-    num("min_points", minPts);
-    p.discCount = int(count);
-    p.minPoints = int(minPts);
-    num("disc_spacing", p.discSpacing);
-    if (j.contains("disc_radius")) {
-        const json& r = j["disc_radius"];
-        if (!r.is_array() || r.size() != 2) fail<ValueError>("blocks: disc_radius must be [min, max]");
-        p.discRadiusMin = numFrom(r[0], "disc_radius");
-        p.discRadiusMax = numFrom(r[1], "disc_radius");
-    }
-    num("jitter", p.jitterDeg);
-    num("irregular_fraction", p.irregularFraction);
-    if (j.contains("axis")) p.axis = vecFrom(j["axis"], "axis");
-    num("oblique_angle", p.obliqueDeg);
-    num("smooth_radius", p.smoothRadius);
-    num("fracture_width", p.fractureWidth);
-    if (j.contains("fill")) {
-        if (!j["fill"].is_boolean()) fail<ValueError>("blocks: fill must be true or false");
-        p.fill = j["fill"].get<bool>();
-    }
-    if (j.contains("seed")) {
-        if (!j["seed"].is_number_integer()) fail<ValueError>("blocks: seed must be an integer");
-        p.seed = j["seed"].get<uint64_t>();
-    }
-    if (j.contains("relief")) {
-        const json& r = j["relief"];
-        allowKeys(r, "relief", {"amplitude", "scale", "octaves", "image", "sharpness"});
-        if (r.contains("amplitude")) p.relief.amplitude = numFrom(r["amplitude"], "relief.amplitude");
-        if (r.contains("scale")) p.relief.scale = numFrom(r["scale"], "relief.scale");
-        if (r.contains("octaves")) p.relief.octaves = int(numFrom(r["octaves"], "relief.octaves"));
-        if (r.contains("sharpness")) p.relief.sharpness = numFrom(r["sharpness"], "relief.sharpness");
-        if (r.contains("image")) {
-            if (!r["image"].is_string()) fail<ValueError>("blocks: relief.image must be a path");
-            p.relief.image = r["image"];
-        }
-    }
-    if (j.contains("fractures")) p.extraDiscs = fracturesFromJson(j["fractures"]);
-    if (j.contains("authored")) {
-        if (!j["authored"].is_array()) fail<ValueError>("blocks: authored must be an array");
-        for (size_t i = 0; i < j["authored"].size(); ++i) {
-            p.authored.push_back(authoredFromJson(j["authored"][i], "authored[" + std::to_string(i) + "]"));
-        }
-    }
-    return p;
+    return out;
 }
 
 json TileStats::toJson() const
@@ -1477,15 +1386,20 @@ json TileStats::toJson() const
             {"dropped_points", droppedPoints}, {"visibility_splits", visibilitySplits},
             {"wrap_cuts", wrapCuts},      {"merged_clusters", mergedClusters},
             {"small_blocks", smallBlocks},
-            {"mean_points", meanPoints},
-            {"seconds", {{"sampling", sampling}, {"graph", graph}, {"fracturing", fracturing},
-                         {"clustering", clustering}, {"hulls", hulls},
-                         {"generation", generation}}}};
+            {"mean_points", meanPoints}};
+    // No timings: a tile file (and the rockvdb:tile metadata) is a pure function of the
+    // parameters, so the same call writes the same bits; times go to stderr and bench/.
 }
 
 // ---- generation ---------------------------------------------------------------------------
 
 BlockTile generateTile(const TileParams& in)
+{
+    Task task;
+    return generateTile(in, task);
+}
+
+BlockTile generateTile(const TileParams& in, Task& task)
 {
     TileParams p = in;
     p.resolveDefaults();
@@ -1517,12 +1431,14 @@ BlockTile generateTile(const TileParams& in)
         }
     }
 
+    task.check();
     // 2. Neighbour graph (periodic).
     t0 = Clock::now();
     const std::vector<PeriodicEdge> edges = neighbourGraph(pts, s, p.neighbourRadius);
     st.edges = edges.size();
     st.graph = since(t0);
 
+    task.check();
     // 3. Fractures cut the edges; authored blocks are cut out of the graph.
     t0 = Clock::now();
     tile.discs = makeDiscs(p);
@@ -1557,6 +1473,7 @@ BlockTile generateTile(const TileParams& in)
         adj[size_t(e.b)].push_back({e.a, pa - pb});
     }
     st.fracturing = since(t0);
+    task.check();
 
     // 4. Clusters: connected components, unwrapped; wrapping clusters are cut opposite
     //    their first point; then split until no disc separates two of their points.
@@ -1719,6 +1636,7 @@ BlockTile generateTile(const TileParams& in)
         enrol(size_t(best));
     }
     st.clustering = since(t0);
+    task.check();
 
     // 5. Convex bases (CGAL hulls); ids: authored blocks first, then clusters in order of
     //    their smallest point (the queue order above is deterministic).
@@ -1767,7 +1685,9 @@ BlockTile generateTile(const TileParams& in)
     // sides mirrored; rounds repeat while new planes change what meets. The pairs are found
     // in parallel (per lower block) and applied in block order.
     struct Split { size_t k; std::array<double, 4> mine, theirs; };
+    task.check();
     for (int round = 0; p.fill && round < 4; ++round) {
+        task.check();
         std::vector<std::vector<std::pair<int, int>>> edges(made.size());
         tbb::parallel_for(size_t(0), made.size(), [&](size_t c) { edges[c] = edgesOf(made[c]); });
         std::vector<std::vector<Split>> splits(made.size());
@@ -1948,7 +1868,6 @@ BlockTile tileFromJson(const json& j)
             t.stats.discs = s.value("discs", size_t(0));
             t.stats.blocks = s.value("blocks", size_t(0));
             t.stats.meanPoints = s.value("mean_points", 0.0);
-            if (s.contains("seconds")) t.stats.generation = s["seconds"].value("generation", 0.0);
         }
         return t;
     } catch (const json::exception& e) {

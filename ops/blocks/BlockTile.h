@@ -16,6 +16,7 @@
 #pragma once
 
 #include <core/Field.h>
+#include <core/Task.h>
 #include <detail/Relief.h>
 
 #include <nlohmann/json_fwd.hpp>
@@ -51,41 +52,54 @@ struct AuthoredBlock
 
 using detail::ReliefParams;
 
-/// Everything that defines a tile; 0 / negative values mean "the type's default".
+/// Everything that defines a tile; 0 / negative values mean "the type's default". Defaults,
+/// ranges and help live in one table, tileSchema() (BlocksStage.h); a default-constructed
+/// TileParams holds the table's defaults.
 struct TileParams
 {
-    BlockType type = BlockType::Equidimensional;
-    double tileSize = 20.0;        ///< s, metres
-    double pointRadius = 0.0;      ///< Poisson radius of the points (default 0.034·s)
-    double neighbourRadius = 0.0;  ///< graph edge length limit (default 2·pointRadius)
-    int discCount = -1;            ///< number of generated fracture discs (-1: default)
-    double discSpacing = 0.0;      ///< Poisson radius of the disc centres
-    double discRadiusMin = 0.0, discRadiusMax = 0.0;
-    double jitterDeg = -1.0;       ///< random tilt of the set normals
-    double irregularFraction = -1; ///< share of discs with a uniformly random normal
-    Vec3d axis = Vec3d(0, 0, 1);   ///< dominant axis (bedding normal, column axis)
-    double obliqueDeg = 60.0;      ///< rhombohedral: angle between the three set normals
+    TileParams();
+
+    BlockType type;
+    double tileSize;          ///< s, metres
+    double pointRadius;       ///< Poisson radius of the points (default 0.034·s)
+    double neighbourRadius;   ///< graph edge length limit (default 2·pointRadius)
+    int discCount;            ///< number of generated fracture discs (-1: default)
+    double discSpacing;       ///< Poisson radius of the disc centres
+    double discRadiusMin, discRadiusMax;
+    double jitterDeg;         ///< random tilt of the set normals
+    double irregularFraction; ///< share of discs with a uniformly random normal
+    Vec3d axis;               ///< dominant axis (bedding normal, column axis)
+    double obliqueDeg;        ///< rhombohedral: angle between the three set normals
     std::vector<Disc> extraDiscs;  ///< user fractures
     std::vector<AuthoredBlock> authored;
-    int minPoints = 8;             ///< smaller clusters join a neighbour (fill) or are dropped
-    double smoothRadius = 0.25;    ///< R of the smooth intersection of the hull planes
+    int minPoints;            ///< smaller clusters join a neighbour (fill) or are dropped
+    double smoothRadius;      ///< R of the smooth intersection of the hull planes
     /// Blocks fill their tile up to the fractures (the gap between two neighbours is
     /// fractureWidth; clusters under minPoints join a neighbour). false: the paper's
     /// hull-only reading (each block is its points' hull, neighbours stand about a point
     /// spacing apart, clusters under minPoints are dropped; half the tile stays empty).
-    bool fill = true;
-    double fractureWidth = -1.0;   ///< w (m) of the gaps between blocks (default 0.002·s)
-    ReliefParams relief;
-    uint64_t seed = 1;
+    bool fill;
+    double fractureWidth;     ///< w (m) of the gaps between blocks (default 0.002·s)
+    ReliefParams relief;      ///< the warp (the table's warp-* rows)
+    uint64_t seed;
 
     /// @brief Fill in the type's defaults (documented in BlockTile.cc).
     void resolveDefaults();
     /// @brief ValueError naming the parameter unless usable (call after resolveDefaults).
     void validate() const;
+    /// @brief The table's JSON (the tile file's "params"; CLI names).
     nlohmann::json toJson() const;
-    /// @throw ValueError naming the key for unknown keys or bad values.
+    /// @brief From the table's JSON; also reads the '_'-spelt, nested-relief form of tile
+    /// files written before the table. @throw ValueError naming the key for unknown keys or
+    /// bad values.
     static TileParams fromJson(const nlohmann::json& j);
 };
+
+/// @brief User fractures from JSON: [{"center": [x,y,z], "normal": [x,y,z], "radius": r}].
+std::vector<Disc> fracturesFromJson(const nlohmann::json& j);
+/// @brief Authored blocks from JSON: [{"type": "box", "center", "size", "rotate"} or
+/// {"type": "polytope", "planes": [[nx, ny, nz, d], ...]}] (boxes become polytopes).
+std::vector<AuthoredBlock> authoredListFromJson(const nlohmann::json& j);
 
 enum class BlockKind { Polytope, Segment, Point };
 
@@ -128,7 +142,9 @@ struct BlockTile
     double size() const { return params.tileSize; }
 };
 
-/// @brief Generate a tile (§4.1–4.2): sampling, graph, fractures, clusters, hulls.
+/// @brief Generate a tile (§4.1–4.2): sampling, graph, fractures, clusters, hulls; the task
+/// is checked between phases and per round of growing (a cancel throws Interrupted).
+BlockTile generateTile(const TileParams& params, Task& task);
 BlockTile generateTile(const TileParams& params);
 
 /// @brief The tile file: JSON "rockvdb-tile" version 1 (parameters, discs, blocks, stats).

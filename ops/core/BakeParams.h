@@ -6,6 +6,7 @@
 #include "Schema.h"
 
 #include <array>
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -20,8 +21,10 @@ struct BakeParams
     std::optional<std::array<double, 6>> region; ///< xmin,ymin,zmin,xmax,ymax,zmax (m)
     double maxMemoryGB = 0;           ///< 0 = 75% of RAM
 
-    /// @brief The BakeSettings these give, unset sizes taken from the arguments.
-    BakeSettings settings(double voxelSizeIfUnset, double halfWidthIfUnset) const;
+    /// @brief The BakeSettings these give, unset sizes taken from the arguments (stages whose
+    /// table gives the sizes a default call it without).
+    BakeSettings settings(double voxelSizeIfUnset = std::numeric_limits<double>::quiet_NaN(),
+                          double halfWidthIfUnset = std::numeric_limits<double>::quiet_NaN()) const;
 };
 
 /// @brief The bake rows of a stage's table, bound to member @a m of its Params. @a voxelSize

@@ -14,10 +14,12 @@
 namespace rockvdb {
 namespace detail {
 
-/// Relief d of the gradient-based warp (§4.2): procedural turbulence or a tiled image.
+/// Relief d of the gradient-based warp (§4.2): procedural turbulence or a tiled image. The
+/// initial values are neutral (no warp); each stage's table (blocks, detail) holds the
+/// defaults its users get.
 struct ReliefParams
 {
-    double amplitude = 0.05; ///< metres; the surface moves by at most this (0 disables)
+    double amplitude = 0.0;  ///< metres; the surface moves by at most this (0 disables)
     double scale = 1.5;      ///< metres: noise wavelength, or world size of one image tile
     int octaves = 4;         ///< turbulence octaves
     std::string image;       ///< EXR / 16-bit PNG relief (empty: procedural turbulence)

@@ -208,6 +208,7 @@ def _stage_function(table, impl, name, head, tail, before=(), after=()):
 _ROCK_TILES = _table("rock_tiles")
 _ROCK_PILE = _table("rock_pile")
 _DETAIL = _table("detail")
+_BLOCK_TILE = _table("block_tile")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -490,13 +491,18 @@ class BlockTile:
         self.surface = None
         self.block_id = None
 
-    def bake(self, voxel_size=0.05, half_width=3.0, periods=(1, 1, 1)):
-        """Bake the tile at voxel_size (m, default 0.05), half_width (voxels, default 3) over
-        periods (tiles along x, y, z; default one); sets and returns (surface, block_id)."""
+    def bake(self, **params):
+        """Bake the tile (the same bake as vdb_blocks'); sets and returns (surface, block_id).
+        Keywords: periods (tiles along x, y, z) and the bake's rows of vdb_blocks' table:
+        voxel_size (m), half_width (voxels), renormalize, tracker_steps, region, max_memory;
+        left out, each takes the table's default (vdb_blocks --help)."""
         fn = "BlockTile.bake"
-        self.surface, self.block_id = self._tile.bake(_float(voxel_size, "voxel_size", fn),
-                                                      _float(half_width, "half_width", fn),
-                                                      _ints(periods, 3, "periods", fn))
+        allowed = {"periods", "voxel_size", "half_width", "renormalize", "tracker_steps",
+                   "region", "max_memory"}
+        for key in params:
+            if key not in allowed:
+                raise TypeError(f"rockvdb.{fn}() got an unexpected keyword argument '{key}'")
+        self.surface, self.block_id = self._tile.bake(_stage_params(_BLOCK_TILE, fn, params))
         return self.surface, self.block_id
 
     def field(self, periods=(1, 1, 1), periodic=False):
@@ -511,50 +517,32 @@ class BlockTile:
         self._tile.save(_path(path, "path", "BlockTile.save"))
 
     def __repr__(self):
-        return (f"<BlockTile {self.params['type']} {self.params['tile_size']} m: "
+        return (f"<BlockTile {self.params['type']} {self.params['tile-size']} m: "
                 f"{len(self.blocks)} blocks>")
 
 
-_TILE_KEYS = ("tile_size", "point_radius", "neighbour_radius", "disc_count", "disc_spacing",
-              "disc_radius", "jitter", "irregular_fraction", "axis", "oblique_angle",
-              "min_points", "smooth_radius", "fractures", "authored", "fill", "fracture_width")
-_RELIEF_KEYS = {"warp_amplitude": "amplitude", "relief_scale": "scale",
-                "relief_octaves": "octaves", "relief_image": "image",
-                "relief_sharpness": "sharpness"}
+_BAKE_KEYS = ("periods", "voxel-size", "half-width", "renormalize", "tracker-steps", "region",
+              "max-memory")
 
 
-def block_tile(type="equidimensional", seed=1, voxel_size=0.05, periods=(1, 1, 1),
-               half_width=3.0, bake=True, **params):
-    """Generate a fractured block tile (vdb_blocks from Python; implicit-blocks §4).
-
-    type: equidimensional (default), prismatic, polyhedral, rhombohedral, tabular or
-    columnar; seed (default 1). Further keywords, as vdb_blocks' options: tile_size (m,
-    default 20), point_radius (m, default 0.034 * tile_size), neighbour_radius, disc_count,
-    disc_spacing, disc_radius=(min, max) (m), jitter, irregular_fraction, axis, oblique_angle
-    (degrees), min_points (default 8), smooth_radius (m, default 0.25), fill (default True:
-    blocks grow to their fractures; False: the paper's hull-only reading), fracture_width (m, default
-    0.002 * tile_size), fractures=[{center, normal,
-    radius}], authored=[{type: box|polytope, ...}], warp_amplitude (m), relief_scale,
-    relief_octaves, relief_image (path), relief_sharpness. With bake=True (default) the grids
-    are baked at voxel_size (m, default 0.05) and half_width (voxels, default 3) over periods.
-    Returns a BlockTile."""
+def _block_tile(bake=True, **params):
     fn = "block_tile"
-    spec = {"type": _str(type, "type", fn), "seed": _int(seed, "seed", fn)}
-    relief = {}
-    for key, value in params.items():
-        if key in _TILE_KEYS:
-            spec[key] = list(value) if isinstance(value, tuple) else value
-        elif key in _RELIEF_KEYS:
-            relief[_RELIEF_KEYS[key]] = (_os.fspath(value) if isinstance(value, _os.PathLike)
-                                         else value)
-        else:
-            raise TypeError(f"rockvdb.block_tile() got an unexpected keyword argument '{key}'")
-    if relief:
-        spec["relief"] = relief
-    tile = BlockTile(_rockvdb.generate_tile(_json.dumps(spec)))
-    if bake:
-        tile.bake(voxel_size, half_width, periods)
+    spec = _json.loads(_stage_params(_BLOCK_TILE, fn, params))
+    tile = BlockTile(_rockvdb.generate_tile(_json.dumps(
+        {k: v for k, v in spec.items() if k not in _BAKE_KEYS})))
+    if _bool(bake, "bake", fn):
+        tile.surface, tile.block_id = tile._tile.bake(_json.dumps(
+            {k: v for k, v in spec.items() if k in _BAKE_KEYS}))
     return tile
+
+
+block_tile = _stage_function(
+    _BLOCK_TILE, _block_tile, "block_tile",
+    "Generate a fractured block tile (vdb_blocks from Python; implicit-blocks §4).",
+    "fractures and authored take a list or a JSON file path. With bake=True (default) the "
+    "tile is baked as vdb_blocks bakes it (the same grids); bake=False only generates. Returns "
+    "a BlockTile. Ctrl-C raises KeyboardInterrupt.",
+    after=[("bake", True)])
 
 
 def load_tile(path):

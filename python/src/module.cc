@@ -3,7 +3,7 @@
 #include "GridCaster.h"
 
 #include <amplify/Amplify.h>
-#include <blocks/BlockTile.h>
+#include <blocks/BlocksStage.h>
 #include <core/GridField.h>
 #include <core/Bake.h>
 #include <core/Combinators.h>
@@ -146,27 +146,19 @@ struct PyTile
     std::shared_ptr<const blocks::BlockTile> tile;
 };
 
-py::tuple bakeTile(const PyTile& t, double voxelSize, double halfWidth,
-                   const std::array<int, 3>& periods)
+// BlockTile.bake / block_tile(bake=True): the stage's bakeTile with the table's defaults for
+// what the call leaves out (periods and the bake's rows).
+py::tuple bakeTile(const PyTile& t, const std::string& params)
 {
-    BakeSettings s;
-    s.voxelSize = voxelSize;
-    s.halfWidth = halfWidth;
-    s.withAttribute = true;
-    s.attributeName = "block_id";
-    blocks::TileFieldOptions o;
-    o.periods = periods;
-    BakeResult r;
+    blocks::BlocksParams p = blocks::blocksSchema().fromJson(parseParams(params, "blocks"));
+    blocks::BlocksResult r;
     {
         py::gil_scoped_release release;
-        r = bake(*blocks::tileField(t.tile, o), s);
+        PyTaskHost host;
+        Task task(&host);
+        r = blocks::bakeTile(t.tile, p, json::object(), task);
     }
-    json p = {{"tile", t.tile->params.toJson()}, {"voxel_size", voxelSize},
-              {"half_width", halfWidth}, {"periods", periods}};
-    stampProvenance(*r.surface, "rockvdb.block_tile", p.dump());
-    stampProvenance(*r.attribute, "rockvdb.block_tile", p.dump());
-    r.surface->insertMeta("rockvdb:tile", openvdb::StringMetadata(blocks::tileToJson(*t.tile).dump()));
-    return py::make_tuple(py::cast(r.surface), py::cast(r.attribute));
+    return py::make_tuple(py::cast(r.bake.surface), py::cast(r.bake.attribute));
 }
 
 // rockvdb.amplify: the terrain (a level-set grid or a heightfield path), tiles with their
@@ -333,9 +325,8 @@ PYBIND11_MODULE(_rockvdb, m)
              "The tile file's JSON text")
         .def("save", [](const PyTile& t, const std::string& path) { blocks::writeTile(*t.tile, path); },
              py::arg("path"), "Write the tile file (atomic)")
-        .def("bake", &bakeTile, py::arg("voxel_size") = 0.05, py::arg("half_width") = 3.0,
-             py::arg("periods") = std::array<int, 3>{1, 1, 1},
-             "Bake (surface, block_id) over the given tile periods")
+        .def("bake", &bakeTile, py::arg("params"),
+             "Bake (surface, block_id): periods and bake rows of vdb_blocks' table (JSON)")
         .def("field", [](const PyTile& t, const std::array<int, 3>& periods, bool periodic) {
             blocks::TileFieldOptions o;
             o.periods = periods;
@@ -346,16 +337,16 @@ PYBIND11_MODULE(_rockvdb, m)
         }, py::arg("periods") = std::array<int, 3>{1, 1, 1}, py::arg("periodic") = false,
            "The tile as a Field (union of its blocks; periodic=True tiles all of space)");
     m.def("generate_tile", [](const std::string& params) {
-        const json j = json::parse(params, nullptr, false);
-        if (j.is_discarded()) throw ValueError("block_tile: parameters are not JSON");
-        blocks::TileParams p = blocks::TileParams::fromJson(j);
+        const blocks::TileParams p = blocks::tileSchema().fromJson(parseParams(params, "blocks"));
         std::shared_ptr<const blocks::BlockTile> t;
         {
             py::gil_scoped_release release;
-            t = std::make_shared<const blocks::BlockTile>(blocks::generateTile(p));
+            PyTaskHost host;
+            Task task(&host);
+            t = blocks::makeTile(p, task);
         }
         return PyTile{t};
-    }, py::arg("params_json"));
+    }, py::arg("params"), "A tile from the tile rows of vdb_blocks' table (JSON)");
     m.def("load_tile", [](const std::string& path) {
         return PyTile{std::make_shared<const blocks::BlockTile>(blocks::readTile(path))};
     }, py::arg("path"), "Read a .tile file or a vdb_blocks .vdb");
@@ -444,6 +435,8 @@ PYBIND11_MODULE(_rockvdb, m)
         if (stage == "rock_tiles") return rockpile::tilesSchema().describe().dump();
         if (stage == "rock_pile") return rockpile::pileSchema().describe().dump();
         if (stage == "detail") return detail::detailSchema().describe().dump();
+        if (stage == "block_tile") return blocks::blocksSchema().describe().dump();
+        if (stage == "tile") return blocks::tileSchema().describe().dump();
         throw ValueError("schema: no stage '" + stage + "'");
     }, py::arg("stage"));
 

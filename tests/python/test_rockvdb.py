@@ -217,11 +217,11 @@ def test_tile_file_round_trip_is_bitwise(tmp_path):
     (ba, a), (bb, b) = dense(t.surface), dense(s)
     assert ba == bb and np.array_equal(a.view(np.uint32), b.view(np.uint32))
     assert json.loads(s["rockvdb:tile"])["blocks"] == t.blocks
-    assert rockvdb.provenance(s)[1] == "rockvdb.block_tile"
+    assert rockvdb.provenance(s)[1] == "vdb_blocks"  # the same record as the CLI writes
 
 
 def test_block_tile_errors_are_exceptions(tmp_path):
-    with pytest.raises(ValueError, match="unknown type"):
+    with pytest.raises(ValueError, match="type must be one of"):
         rockvdb.block_tile(type="granite", bake=False)
     with pytest.raises(ValueError, match="point radius"):
         rockvdb.block_tile(tile_size=10, point_radius=6, bake=False)

@@ -101,23 +101,23 @@ def write_png8_rgb(path, w, h):
 def test_bad_input(tmp_path):
     out = tmp_path / "o.vdb"
     base = [tool("vdb_blocks"), *SMALL, "-o", str(out)]
-    one_line_error(run(base + ["--type", "granite"]), 2, "unknown type 'granite'")
+    one_line_error(run(base + ["--type", "granite"]), 2, "type must be one of equidimensional")
     one_line_error(run([tool("vdb_blocks"), "--tile-size", "10", "--point-radius", "6", "-o",
                         str(out)]), 2, "point radius must be in (0, tile size / 2) (got 6)")
     one_line_error(run(base + ["--neighbour-radius", "0.3"]), 2, "neighbour radius")
     one_line_error(run([tool("vdb_blocks"), "--tile-size", "10", "--voxel-size", "0.5", "-o",
                         str(out)]), 2, "too coarse")
     one_line_error(run(base + ["--disc-radius", "2,1"]), 2, "disc radius (max)")
-    one_line_error(run(base + ["--disc-radius", "-1,2"]), 2, "disc radius (min)")
+    one_line_error(run(base + ["--disc-radius", "-1,2"]), 2, "blocks: disc-radius must be in [0, 40000] (got -1.0)")
     bad = tmp_path / "f.json"
     bad.write_text('[{"center": [1, 2, 3], "normal": [0, 0, 1]}]')
     one_line_error(run(base + ["--fractures", str(bad)]), 2, "radius")
     bad.write_text('[{"center": [1, 2, 3], "normal": [0, 0, 1], "radius": }]')
     one_line_error(run(base + ["--fractures", str(bad)]), 2, "malformed")
-    one_line_error(run(base + ["--relief-image", str(tmp_path / "none.png")]), 1, "none.png")
+    one_line_error(run(base + ["--warp-relief", str(tmp_path / "none.png")]), 1, "none.png")
     rgb = tmp_path / "rgb.png"
     write_png8_rgb(rgb, 8, 8)
-    one_line_error(run(base + ["--relief-image", str(rgb)]), 2, "rgb.png")
+    one_line_error(run(base + ["--warp-relief", str(rgb)]), 2, "rgb.png")
     one_line_error(run(base + ["--from-tile", str(bad)]), 2, "tile file")
     one_line_error(run(base + ["--tile", "/nonexistent/dir/t.tile"]), 1, "does not exist")
     assert not out.exists()
@@ -142,4 +142,4 @@ def test_fill_grows_blocks_to_their_fractures(tmp_path):
     params = json.loads(g["rockvdb:params"])
     assert params["fill"] is True and params["fracture-width"] == 0.03
     tile = json.loads((tmp_path / "fill.tile").read_text())
-    assert tile["params"]["fill"] is True and tile["params"]["fracture_width"] == 0.03
+    assert tile["params"]["fill"] is True and tile["params"]["fracture-width"] == 0.03

@@ -200,6 +200,51 @@ def test_detail_keywords_are_the_tables():
                        direction_curvature=True)
 
 
+# ---- block tiles -----------------------------------------------------------------------------
+
+def test_block_tile_defaults_are_the_same_on_both_interfaces(tmp_path):
+    """No parameter at all: a 20 m equidimensional tile at 5 cm, seed 0, on both interfaces
+    (Python's seed used to default to 1 and the CLI's to 0)."""
+    run([tool("vdb_blocks"), "-q", "-o", str(tmp_path / "cli.vdb")], check=True)
+    t = rockvdb.block_tile()
+    rockvdb.write(str(tmp_path / "py.vdb"), [t.surface, t.block_id])
+    assert_same_file(tmp_path / "cli.vdb", tmp_path / "py.vdb")
+
+
+SMALL_BLOCKS = ["--type", "tabular", "--tile-size", "8", "--point-radius", "0.4", "--seed", "4",
+                "--warp-amplitude", "0.03", "--voxel-size", "0.08", "--periods", "2,1,1"]
+
+
+def test_block_tile_cli_and_python_give_the_same_file(tmp_path):
+    run([tool("vdb_blocks"), "-q", *SMALL_BLOCKS, "-o", str(tmp_path / "cli.vdb")], check=True)
+    t = rockvdb.block_tile(type="tabular", tile_size=8, point_radius=0.4, seed=4,
+                           warp_amplitude=0.03, voxel_size=0.08, periods=(2, 1, 1))
+    rockvdb.write(str(tmp_path / "py.vdb"), [t.surface, t.block_id])
+    assert_same_file(tmp_path / "cli.vdb", tmp_path / "py.vdb")
+    # A saved tile baked again from Python (BlockTile.bake) and from the CLI (--from-tile).
+    t.save(str(tmp_path / "t.tile"))
+    u = rockvdb.load_tile(str(tmp_path / "t.tile"))
+    s, ids = u.bake(voxel_size=0.08, periods=(2, 1, 1))
+    assert_bitwise_equal(s, t.surface)
+    with pytest.raises(ValueError, match="too coarse"):
+        u.bake(voxel_size=0.6)  # the guard holds on every interface
+
+
+def test_block_tile_replays_from_its_own_provenance(tmp_path):
+    first = tmp_path / "b.vdb"
+    fractures = tmp_path / "f.json"
+    fractures.write_text(json.dumps([{"center": [4, 4, 4], "normal": [1, 1, 0], "radius": 3}]))
+    run([tool("vdb_blocks"), "-q", *SMALL_BLOCKS, "--fractures", str(fractures), "-o",
+         str(first)], check=True)
+    prov = json.loads(vdb.read(str(first), "surface").metadata["rockvdb:params"])
+    assert prov["fractures"][0]["radius"] == 3  # the content, not the path: replays anywhere
+    fractures.unlink()
+    (tmp_path / "prov.json").write_text(json.dumps(prov))
+    run([tool("vdb_blocks"), "-q", "--params", str(tmp_path / "prov.json"), "-o",
+         str(tmp_path / "again.vdb")], check=True)
+    assert_same_file(first, tmp_path / "again.vdb")
+
+
 # ---- Ctrl-C and SIGTERM ---------------------------------------------------------------------
 
 LONG_RUNS = {
@@ -209,6 +254,7 @@ LONG_RUNS = {
     "rockpile pile": lambda tmp, tile_file: [tool("vdb_rockpile"), "pile", "--tiles",
                                              str(tile_file), "--support", str(big_ball(tmp)),
                                              "--keep-deep"],
+    "blocks": lambda tmp, tile_file: [tool("vdb_blocks"), "--voxel-size", "0.04"],
     "detail": lambda tmp, tile_file: [tool("vdb_detail"), str(fine_ball(tmp)),
                                       "--gabor-amplitude", "0.02", "--gabor-frequency", "8"],
 }
@@ -248,9 +294,13 @@ def test_interrupt_stops_within_a_second_and_writes_nothing(tmp_path, tile_file,
     assert not [f for f in os.listdir(tmp_path) if ".tmp-" in f]
 
 
-def test_progress_only_goes_up_and_ends_at_100_for_detail(tmp_path, ball_vdb):
-    seen = progress_of([tool("vdb_detail"), str(ball_vdb), "--gabor-amplitude", "0.03",
-                        "-o", str(tmp_path / "o.vdb")])
+@pytest.mark.parametrize("args", [
+    ["vdb_detail", "BALL", "--gabor-amplitude", "0.03"],
+    ["vdb_blocks", "--voxel-size", "0.1"],
+])
+def test_progress_only_goes_up_and_ends_at_100_for(tmp_path, ball_vdb, args):
+    args = [str(ball_vdb) if a == "BALL" else a for a in args]
+    seen = progress_of([tool(args[0]), *args[1:], "-o", str(tmp_path / "o.vdb")])
     assert len(seen) >= 3 and seen == sorted(seen) and seen[-1] == 100, seen
 
 
@@ -273,6 +323,7 @@ print("finished", time.monotonic() - t0)
     "rockvdb.rock_tiles(n=6, seeds_per_cell=(1, 3))",
     "rockvdb.rock_pile(sys.argv[1], rockvdb.sphere(3.5), keep_deep=True)",
     "rockvdb.detail(rockvdb.read(sys.argv[2]), gabor_amplitude=0.02, gabor_frequency=8)",
+    "rockvdb.block_tile(voxel_size=0.04)",
 ])
 def test_python_calls_raise_keyboard_interrupt(tmp_path, tile_file, call):
     script = tmp_path / "s.py"

@@ -1,0 +1,281 @@
+#include "BlocksStage.h"
+
+#include <core/Error.h>
+#include <core/Expression.h>
+#include <core/Image.h>
+#include <core/VdbIO.h>
+
+#include <algorithm>
+
+namespace rockvdb {
+namespace blocks {
+
+using nlohmann::json;
+
+namespace {
+
+ParamInfo row(const char* name, ParamType type, const char* unit, json def, Range range,
+              const char* help, size_t count = 1)
+{
+    ParamInfo p;
+    p.name = name;
+    p.type = type;
+    p.unit = unit;
+    p.defaultValue = std::move(def);
+    p.range = range;
+    p.help = help;
+    p.count = count;
+    return p;
+}
+
+json vec(const Vec3d& v) { return {v[0], v[1], v[2]}; }
+
+json jsonValue(const json& v) { return v.is_string() ? readJsonFile(v.get<std::string>()) : v; }
+
+/// The tile's rows on any Params that holds a TileParams: @a at(p) gives it (const or not).
+template<typename P, typename Access>
+void addTileRows(Schema<P>& s, Access at)
+{
+    using T = TileParams;
+    auto bind = [&](ParamInfo info, auto get, auto set) {
+        s.add(std::move(info), [at, get](const P& p) { return json(get(at(p))); },
+              [at, set](P& p, const json& j) { set(at(p), j); });
+    };
+    auto member = [&](ParamInfo info, auto T::*m) {
+        using V = std::remove_reference_t<decltype(std::declval<T&>().*m)>;
+        bind(std::move(info), [m](const T& t) { return schema_detail::Conv<V>::get(t.*m); },
+             [m](T& t, const json& j) { schema_detail::Conv<V>::set(t.*m, j); });
+    };
+    ParamInfo type = row("type", ParamType::Text, "", "equidimensional", Range::any(),
+                         "Block type (§4.1, Fig. 2)");
+    type.choices = {"equidimensional", "prismatic", "polyhedral", "rhombohedral", "tabular",
+                    "columnar"};
+    bind(type, [](const T& t) { return json(blockTypeName(t.type)); },
+         [](T& t, const json& j) { t.type = blockTypeFromString(j.get<std::string>()); });
+    member(row("tile-size", ParamType::Real, "m", 20.0, Range::openClosed(0, 1e4), "Tile side s"),
+           &T::tileSize);
+    member(row("point-radius", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
+               "Poisson radius of the sample points (0 = 0.034 x tile size, ~14 500 points)"),
+           &T::pointRadius);
+    member(row("neighbour-radius", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
+               "Longest graph edge (0 = 2 x point radius)"), &T::neighbourRadius);
+    member(row("disc-count", ParamType::Int, "", -1, Range::closed(-1, 10000),
+               "Generated fracture discs (-1 = the type's default, 0 = none)"), &T::discCount);
+    member(row("disc-spacing", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
+               "Poisson radius of the disc centres (0 = the type's default)"), &T::discSpacing);
+    bind(row("disc-radius", ParamType::Reals, "m", nullptr, Range::closed(0, 4e4),
+             "Disc radius range min,max (default: the type's)", 2),
+         [](const T& t) {
+             return t.discRadiusMin > 0 ? json::array({t.discRadiusMin, t.discRadiusMax}) : json();
+         },
+         [](T& t, const json& j) {
+             t.discRadiusMin = j.is_null() ? 0.0 : j.at(0).get<double>();
+             t.discRadiusMax = j.is_null() ? 0.0 : j.at(1).get<double>();
+         });
+    member(row("jitter", ParamType::Real, "degrees", -1.0, Range::closed(-1, 90),
+               "Random tilt of the set normals (-1 = the type's default)"), &T::jitterDeg);
+    member(row("irregular-fraction", ParamType::Real, "", -1.0, Range::closed(-1, 1),
+               "Share of discs with a random normal (-1 = the type's default)"),
+           &T::irregularFraction);
+    member(row("axis", ParamType::Reals, "", json::array({0.0, 0.0, 1.0}), Range::closed(-1e6, 1e6),
+               "Dominant axis: bedding normal / column axis", 3), &T::axis);
+    member(row("oblique-angle", ParamType::Real, "degrees", 60.0, Range::closed(30, 90),
+               "Rhombohedral: angle between the three set normals"), &T::obliqueDeg);
+    bind(row("fractures", ParamType::Json, "", nullptr, Range::any(),
+             "Extra fracture discs, a JSON file (or list): [{\"center\":[x,y,z],"
+             "\"normal\":[x,y,z],\"radius\":r}, ...] (tile coordinates, m)"),
+         [](const T& t) {
+             if (t.extraDiscs.empty()) return json();
+             json a = json::array();
+             for (const auto& d : t.extraDiscs) {
+                 a.push_back({{"center", vec(d.center)}, {"normal", vec(d.normal)}, {"radius", d.radius}});
+             }
+             return a;
+         },
+         [](T& t, const json& j) {
+             t.extraDiscs = j.is_null() ? std::vector<Disc>() : fracturesFromJson(jsonValue(j));
+         });
+    bind(row("authored", ParamType::Json, "", nullptr, Range::any(),
+             "Authored blocks, a JSON file (or list): [{\"type\":\"box\",\"center\":[..],"
+             "\"size\":[..],\"rotate\":[..]} or {\"type\":\"polytope\",\"planes\":"
+             "[[nx,ny,nz,d],...]}, ...]"),
+         [](const T& t) {
+             if (t.authored.empty()) return json();
+             json a = json::array();
+             for (const auto& b : t.authored) a.push_back({{"type", "polytope"}, {"planes", b.planes}});
+             return a;
+         },
+         [](T& t, const json& j) {
+             t.authored = j.is_null() ? std::vector<AuthoredBlock>() : authoredListFromJson(jsonValue(j));
+         });
+    member(row("min-points", ParamType::Int, "", 8, Range::closed(1, 100000),
+               "Clusters with fewer points join a neighbour whose joint hull holds no third "
+               "cluster's point, else stay blocks (without fill: are dropped)"), &T::minPoints);
+    member(row("fill", ParamType::Bool, "", true, Range::any(),
+               "Grow each block to its fractures: neighbours share a separating plane (the "
+               "disc's own where it separates them) and stand fracture-width apart; --no-fill: "
+               "the paper's hull-only reading (neighbours about a point spacing apart, small "
+               "clusters dropped)"), &T::fill);
+    member(row("fracture-width", ParamType::Real, "m", -1.0, Range::closed(-1, 1e3),
+               "Gap between neighbouring blocks across a fracture (-1 = 0.002 x tile size; "
+               "unused without fill)"), &T::fractureWidth);
+    member(row("smooth-radius", ParamType::Real, "m", 0.25, Range::closed(0, 2.5e3),
+               "R of the smooth intersection of the hull planes"), &T::smoothRadius);
+    bind(row("warp-amplitude", ParamType::Real, "m", 0.05, Range::closed(0, 500),
+             "Relief warp amplitude (the surface moves at most this; 0 = off)"),
+         [](const T& t) { return t.relief.amplitude; },
+         [](T& t, const json& j) { t.relief.amplitude = j.get<double>(); });
+    bind(row("warp-relief", ParamType::Text, "", "turbulence", Range::any(),
+             "Warp relief: 'turbulence' or an EXR / 16-bit PNG image (tiled; bright = bump)"),
+         [](const T& t) { return t.relief.image.empty() ? std::string("turbulence") : t.relief.image; },
+         [](T& t, const json& j) {
+             const std::string v = j.get<std::string>();
+             t.relief.image = v == "turbulence" ? std::string() : v;
+         });
+    bind(row("warp-scale", ParamType::Real, "m", 1.5, Range::openClosed(0, 1e4),
+             "Warp: turbulence wavelength, or world size of one image tile"),
+         [](const T& t) { return t.relief.scale; },
+         [](T& t, const json& j) { t.relief.scale = j.get<double>(); });
+    bind(row("warp-octaves", ParamType::Int, "", 4, Range::closed(1, 12), "Warp: turbulence octaves"),
+         [](const T& t) { return t.relief.octaves; },
+         [](T& t, const json& j) { t.relief.octaves = j.get<int>(); });
+    bind(row("warp-sharpness", ParamType::Real, "", 1.0, Range::closed(1, 64),
+             "Warp: exponent p of the triplanar weights |g.u_i|^p (1 = the paper's)"),
+         [](const T& t) { return t.relief.sharpness; },
+         [](T& t, const json& j) { t.relief.sharpness = j.get<double>(); });
+    member(row("seed", ParamType::Int, "", 0, Range::atLeast(0),
+               "Random seed (same seed, same bits)"), &T::seed);
+}
+
+Schema<TileParams> makeTileSchema()
+{
+    Schema<TileParams> s("blocks", "A periodic tile of fractured rock blocks (implicit blocks §4).");
+    addTileRows(s, [](auto& p) -> auto& { return p; });
+    return s;
+}
+
+Schema<BlocksParams> makeBlocksSchema()
+{
+    Schema<BlocksParams> s("blocks",
+        "Generate a periodic tile of fractured rock blocks (Paris et al., 'Modeling rocky "
+        "scenery using implicit blocks', §4): Poisson-sphere points in a periodic cube, a "
+        "neighbour graph, fracture discs per block type cutting its edges, clusters split "
+        "until no disc separates two of their points, one block per cluster = smooth "
+        "intersection of its convex hull's planes, warped by a triplanar relief; baked with "
+        "its block ids over periods.");
+    addTileRows(s, [](auto& p) -> auto& { return p.tile; });
+    s.member(row("periods", ParamType::Ints, "", json::array({1, 1, 1}), Range::closed(1, 1024),
+                 "Tile periods baked along x,y,z", 3), &BlocksParams::periods);
+    addBakeRows(s, &BlocksParams::bake, 0.05, 3.0);
+    return s;
+}
+
+// Tile files written before the table spelt keys with '_' and nested the warp as "relief".
+json fromLegacy(const json& j)
+{
+    if (!j.is_object() || !j.contains("relief")) return j;
+    json out = json::object();
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        if (it.key() == "relief") {
+            const json& r = it.value();
+            static const std::pair<const char*, const char*> names[] = {
+                {"amplitude", "warp-amplitude"}, {"scale", "warp-scale"},
+                {"octaves", "warp-octaves"}, {"sharpness", "warp-sharpness"}};
+            for (const auto& [from, to] : names) {
+                if (r.contains(from)) out[to] = r.at(from);
+            }
+            const std::string image = r.value("image", std::string());
+            out["warp-relief"] = image.empty() ? std::string("turbulence") : image;
+            continue;
+        }
+        std::string key = it.key();
+        std::replace(key.begin(), key.end(), '_', '-');
+        const bool emptyList = it.value().is_array() && it.value().empty();
+        out[key] = emptyList && (key == "fractures" || key == "authored") ? json() : it.value();
+    }
+    return out;
+}
+
+// The tile field is exact up to s/4 from the blocks; a renormalised bake reads values up to
+// about 2·band + a voxel + 2·amplitude.
+void checkVoxel(double tileSize, double amplitude, const BakeSettings& s)
+{
+    const double need = (2.0 * s.halfWidth * s.voxelSize + s.voxelSize + 2.0 * amplitude) * 1.01;
+    if (need > tileSize / 4) {
+        fail<ValueError>("blocks: voxel size ", s.voxelSize, " m is too coarse for a ", tileSize,
+                         " m tile (the band needs ", need, " m, the tile field is exact to tile "
+                         "size / 4)");
+    }
+}
+
+} // namespace
+
+const Schema<TileParams>& tileSchema()
+{
+    static const Schema<TileParams> s = makeTileSchema();
+    return s;
+}
+
+const Schema<BlocksParams>& blocksSchema()
+{
+    static const Schema<BlocksParams> s = makeBlocksSchema();
+    return s;
+}
+
+TileParams::TileParams() { tileSchema().reset(*this); }
+json TileParams::toJson() const { return tileSchema().toJson(*this); }
+TileParams TileParams::fromJson(const json& j) { return tileSchema().fromJson(fromLegacy(j)); }
+
+BlocksParams::BlocksParams() { blocksSchema().reset(*this); }
+
+std::shared_ptr<const BlockTile> makeTile(const TileParams& params, Task& task)
+{
+    tileSchema().validate(params);
+    if (!params.relief.image.empty() && params.relief.amplitude > 0) {
+        // Fail before generating: unreadable or multi-channel reliefs are errors.
+        readGrayImage(params.relief.image, "relief");
+    }
+    return std::make_shared<const BlockTile>(generateTile(params, task));
+}
+
+BlocksResult bakeTile(std::shared_ptr<const BlockTile> tile, const BlocksParams& params,
+                      const json& inputs, Task& task)
+{
+    if (!tile) fail<ValueError>("blocks: no tile");
+    BakeSettings s = params.bake.settings();
+    checkVoxel(tile->size(), tile->params.relief.amplitude, s);
+    s.withAttribute = true;
+    s.attributeName = "block_id";
+    TileFieldOptions opt;
+    opt.periods = params.periods;
+    BlocksResult r;
+    r.tile = tile;
+    r.bake = bake(*tileField(tile, opt), s, task.interrupter());
+    task.check();
+    // Provenance: the table with the tile's own (resolved) parameters, and the inputs.
+    BlocksParams used = params;
+    used.tile = tile->params;
+    json prov = blocksSchema().toJson(used);
+    for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
+    const std::string text = prov.dump();
+    stampProvenance(*r.bake.surface, kBlocksTool, text);
+    stampProvenance(*r.bake.attribute, kBlocksTool, text);
+    r.bake.surface->insertMeta("rockvdb:tile", openvdb::StringMetadata(tileToJson(*tile).dump()));
+    return r;
+}
+
+BlocksResult runBlocks(const BlocksParams& params, Task& task)
+{
+    blocksSchema().validate(params);
+    // The bake settings are checked before generating: a bad voxel size fails at once.
+    checkVoxel(params.tile.tileSize, params.tile.relief.amplitude, params.bake.settings());
+    task.phase("generation", 0.3);
+    auto tile = makeTile(params.tile, task);
+    task.phase("bake", 0.7);
+    BlocksResult r = bakeTile(tile, params, json::object(), task);
+    task.done();
+    return r;
+}
+
+} // namespace blocks
+} // namespace rockvdb
