@@ -236,7 +236,8 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
                                                         const BlockTile& tile,
                                                         const PlacementRules& rules,
                                                         AmplifyStats& stats,
-                                                        const Strata* strata, int tileIndex)
+                                                        const Strata* strata, int tileIndex,
+                                                        Task* task)
 {
     rules.validate();
     const auto t0 = std::chrono::steady_clock::now();
@@ -270,38 +271,36 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
     const size_t nb = tile.blocks.size();
     std::vector<std::vector<uint8_t>> flags(cells.size(), std::vector<uint8_t>(nb, 0));
     const double h = 0.05; // central-difference step for the terrain gradient (m)
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, cells.size(), 1),
-        [&](const tbb::blocked_range<size_t>& r) {
-            for (size_t c = r.begin(); c != r.end(); ++c) {
-                const Vec3d shift = Vec3d(cells[c].ix, cells[c].iy, cells[c].iz) * s;
-                for (size_t b = 0; b < nb; ++b) {
-                    const auto& anchors = tile.blocks[b].anchors;
-                    const size_t n = std::min<size_t>(size_t(rules.anchors), anchors.size());
-                    size_t pass = 0;
-                    for (size_t k = 0; k < n; ++k) {
-                        const Vec3d w = Vec3d(anchors[k][0], anchors[k][1], anchors[k][2]) + shift;
-                        if (!rules.region.isInside(w)) continue;
-                        if (rules.mask) {
-                            // Nearest pixel centre; outside the image counts as masked out.
-                            const long i = std::lround(w[0] / rules.maskCellSize);
-                            const long j = std::lround(w[1] / rules.maskCellSize);
-                            if (i < 0 || j < 0 || i >= rules.mask->width || j >= rules.mask->height) continue;
-                            if (rules.mask->at(int(i), int(j)) < 0.5f) continue;
-                        }
-                        if (strata && strata->tileAt(w) != tileIndex) continue;
-                        const double d = ground.eval(w);
-                        if (d < rules.distanceMin || d > rules.distanceMax) continue;
-                        const Vec3d g(ground.eval(w + Vec3d(h, 0, 0)) - ground.eval(w - Vec3d(h, 0, 0)),
-                                      ground.eval(w + Vec3d(0, h, 0)) - ground.eval(w - Vec3d(0, h, 0)),
-                                      ground.eval(w + Vec3d(0, 0, h)) - ground.eval(w - Vec3d(0, 0, h)));
-                        const double len = g.length();
-                        if (len <= 0) continue;
-                        if (std::abs(g[2] / len) < rules.maxSlope) ++pass;
-                    }
-                    flags[c][b] = double(pass) > rules.fraction * double(n) ? 1 : 0;
+    Task quiet;
+    parallelFor(task ? *task : quiet, cells.size(), 1, [&](size_t c) {
+        const Vec3d shift = Vec3d(cells[c].ix, cells[c].iy, cells[c].iz) * s;
+        for (size_t b = 0; b < nb; ++b) {
+            const auto& anchors = tile.blocks[b].anchors;
+            const size_t n = std::min<size_t>(size_t(rules.anchors), anchors.size());
+            size_t pass = 0;
+            for (size_t k = 0; k < n; ++k) {
+                const Vec3d w = Vec3d(anchors[k][0], anchors[k][1], anchors[k][2]) + shift;
+                if (!rules.region.isInside(w)) continue;
+                if (rules.mask) {
+                    // Nearest pixel centre; outside the image counts as masked out.
+                    const long i = std::lround(w[0] / rules.maskCellSize);
+                    const long j = std::lround(w[1] / rules.maskCellSize);
+                    if (i < 0 || j < 0 || i >= rules.mask->width || j >= rules.mask->height) continue;
+                    if (rules.mask->at(int(i), int(j)) < 0.5f) continue;
                 }
+                if (strata && strata->tileAt(w) != tileIndex) continue;
+                const double d = ground.eval(w);
+                if (d < rules.distanceMin || d > rules.distanceMax) continue;
+                const Vec3d g(ground.eval(w + Vec3d(h, 0, 0)) - ground.eval(w - Vec3d(h, 0, 0)),
+                              ground.eval(w + Vec3d(0, h, 0)) - ground.eval(w - Vec3d(0, h, 0)),
+                              ground.eval(w + Vec3d(0, 0, h)) - ground.eval(w - Vec3d(0, 0, h)));
+                const double len = g.length();
+                if (len <= 0) continue;
+                if (std::abs(g[2] / len) < rules.maxSlope) ++pass;
             }
-        });
+            flags[c][b] = double(pass) > rules.fraction * double(n) ? 1 : 0;
+        }
+    });
     auto grid = std::make_shared<PresenceGrid>();
     const double amp = tile.params.relief.amplitude;
     for (size_t c = 0; c < cells.size(); ++c) {
@@ -347,7 +346,7 @@ openvdb::FloatGrid::Ptr splitMaterial(openvdb::FloatGrid& ids)
 FieldPtr amplifiedTerrain(FieldPtr terrain,
                           const std::vector<std::shared_ptr<const BlockTile>>& tiles,
                           const PlacementRules& rules, AmplifyStats& stats,
-                          const Strata* strata, double carveGap)
+                          const Strata* strata, double carveGap, Task* task)
 {
     if (!terrain) fail<ValueError>("amplify: the terrain is required");
     if (tiles.empty()) fail<ValueError>("amplify: at least one tile is required");
@@ -358,7 +357,7 @@ FieldPtr amplifiedTerrain(FieldPtr terrain,
         if (!strata && i > 0) break; // without strata only the first tile is used
         const size_t before = stats.replicated;
         blocks::TileFieldOptions o;
-        o.presence = computePresence(*terrain, *tiles[i], rules, stats, strata, int(i));
+        o.presence = computePresence(*terrain, *tiles[i], rules, stats, strata, int(i), task);
         o.idOffset = float(i) * kMaterialStride;
         if (stats.replicated > before) parts.push_back(blocks::tileField(tiles[i], o));
     }

@@ -11,6 +11,7 @@
 #include <core/Bake.h>
 #include <core/Field.h>
 #include <core/Heightfield.h>
+#include <core/Task.h>
 #include <core/Image.h>
 
 #include <openvdb/openvdb.h>
@@ -118,12 +119,13 @@ std::vector<std::string> describe(const AmplifyStats& stats);
 
 /// @brief The set of present copies for one tile over a terrain (computed on construction).
 /// With @a strata, an anchor also needs the strata's tile at its position to be @a tileIndex.
+/// @a task (optional) is stepped per batch of cells and its cancel throws Interrupted.
 std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
                                                         const blocks::BlockTile& tile,
                                                         const PlacementRules& rules,
                                                         AmplifyStats& stats,
                                                         const Strata* strata = nullptr,
-                                                        int tileIndex = 0);
+                                                        int tileIndex = 0, Task* task = nullptr);
 
 /// Attribute ids of the amplified terrain: tile·kMaterialStride + block (terrain: kNoId).
 constexpr float kMaterialStride = 65536.0f;
@@ -145,7 +147,8 @@ openvdb::FloatGrid::Ptr splitMaterial(openvdb::FloatGrid& ids);
 FieldPtr amplifiedTerrain(FieldPtr terrain,
                           const std::vector<std::shared_ptr<const blocks::BlockTile>>& tiles,
                           const PlacementRules& rules, AmplifyStats& stats,
-                          const Strata* strata = nullptr, double carveGap = 0.0);
+                          const Strata* strata = nullptr, double carveGap = 0.0,
+                          Task* task = nullptr);
 
 } // namespace amplify
 } // namespace rockvdb

@@ -209,6 +209,7 @@ _ROCK_TILES = _table("rock_tiles")
 _ROCK_PILE = _table("rock_pile")
 _DETAIL = _table("detail")
 _BLOCK_TILE = _table("block_tile")
+_AMPLIFY = _table("amplify")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -550,75 +551,54 @@ def load_tile(path):
     return BlockTile(_rockvdb.load_tile(_path(path, "path", "load_tile")))
 
 
-def amplify(terrain, tiles, strata=None, max_slope=None, distance_range=None, anchors=None,
-            fraction=None, voxel_size=0.1, half_width=3.0, region=None, roi=None, mask=None,
-            mask_cell_size=0.0, carve=0.0, mixed_tile_sizes=False, cell_size=1.0,
-            height_scale=1.0, base_depth=1.0, stats=None):
-    """Amplify a terrain with block tiles (vdb_amplify from Python; implicit-blocks §5).
-
-    terrain: a pyopenvdb.FloatGrid level set, or a heightfield image path (cell_size (m,
-    default 1), height_scale (default 1), base_depth (m, default 1) apply). tiles: BlockTile
-    objects or tile paths (.tile / .vdb). strata: a dict or JSON file path (see vdb_amplify
-    --strata) naming tiles by file stem or index, required for several tiles. A copy of a block
-    is kept when more than fraction of its anchors lie within distance_range (m) of the
-    terrain on ground steeper than max_slope (|g.z| < max_slope); left as None (the
-    default), each takes vdb_amplify's default, shown by vdb_amplify --help. voxel_size: metres (default 0.1); half_width: voxels
-    (default 3); region: the bake box (xmin, ymin, zmin, xmax, ymax, zmax, m) for chunked
-    baking; roi: the box anchors must lie in; mask: an image path or a 2D array (row j at
-    y = j * mask_cell_size; 0 = cell_size) where blocks are allowed (>= 0.5); carve > 0: the
-    carving variant with that gap (m); mixed_tile_sizes: allow tiles of different sizes.
-    stats: a dict to fill with #R ('replicated'), block field bytes, active voxels and the
-    time per phase. Returns (surface, block_id, material): material is 0 on bare terrain and
-    1 + the tile's index on its blocks."""
+def _amplify(terrain, tiles, mask=None, stats=None, **params):
     fn = "amplify"
-    if not isinstance(terrain, (pyopenvdb.FloatGrid, str, _os.PathLike)):
-        raise _type_error(fn, "terrain", "a pyopenvdb.FloatGrid or a heightfield path", terrain)
+    if terrain is None or not isinstance(terrain, (pyopenvdb.FloatGrid, str, _os.PathLike)):
+        raise _type_error(fn, "terrain", "a pyopenvdb.FloatGrid level set or a terrain path",
+                          terrain)
+    if not isinstance(terrain, pyopenvdb.FloatGrid):
+        terrain = _os.fspath(terrain)
     if isinstance(tiles, (BlockTile, str, _os.PathLike)) or not hasattr(tiles, "__iter__"):
         raise _type_error(fn, "tiles", "a list of BlockTile objects or tile paths", tiles)
-    loaded, names = [], []
+    loaded, names, sources = [], [], {"tiles": []}
     for i, t in enumerate(tiles):
         if isinstance(t, BlockTile):
             loaded.append(t._tile)
             names.append(str(i))
+            sources["tiles"].append(None)
         else:
             p = _path(t, f"tiles[{i}]", fn)
             loaded.append(_rockvdb.load_tile(p))
             names.append(_os.path.splitext(_os.path.basename(p))[0])
-    if isinstance(strata, (str, _os.PathLike)):
-        with open(strata) as f:
-            strata = _json.load(f)
-    elif strata is not None and not isinstance(strata, dict):
-        raise _type_error(fn, "strata", "a dict or a JSON file path", strata)
+            sources["tiles"].append(p)
     mask_array = None
     if isinstance(mask, (str, _os.PathLike)):
+        sources["mask"] = _os.fspath(mask)
         mask_array = _rockvdb.read_image(_os.fspath(mask), "mask")
     elif mask is not None:
         if not hasattr(mask, "__array__"):
             raise _type_error(fn, "mask", "an image path or a 2D numpy array", mask)
         mask_array = mask
-    options = {"strata": strata, "max_slope": _opt(max_slope, _float, "max_slope", fn),
-               "distance_range": _opt(distance_range, _floats, 2, "distance_range", fn),
-               "anchors": _opt(anchors, _int, "anchors", fn),
-               "fraction": _opt(fraction, _float, "fraction", fn),
-               "voxel_size": _float(voxel_size, "voxel_size", fn),
-               "half_width": _float(half_width, "half_width", fn),
-               "region": _opt(region, _floats, 6, "region", fn),
-               "roi": _opt(roi, _floats, 6, "roi", fn),
-               "mask_cell_size": _float(mask_cell_size, "mask_cell_size", fn),
-               "carve": _float(carve, "carve", fn),
-               "mixed_tile_sizes": _bool(mixed_tile_sizes, "mixed_tile_sizes", fn),
-               "cell_size": _float(cell_size, "cell_size", fn),
-               "height_scale": _float(height_scale, "height_scale", fn),
-               "base_depth": _float(base_depth, "base_depth", fn)}
     if stats is not None and not isinstance(stats, dict):
         raise _type_error(fn, "stats", "a dict", stats)
-    if not isinstance(terrain, pyopenvdb.FloatGrid):
-        terrain = _os.fspath(terrain)
     surface, block_id, material, st = _rockvdb.amplify(terrain, loaded, names, mask_array,
-                                                       _json.dumps(options))
+                                                       _stage_params(_AMPLIFY, fn, params),
+                                                       _json.dumps(sources))
     if stats is not None:
         stats.update(st)
     return surface, block_id, material
+
+
+amplify = _stage_function(
+    _AMPLIFY, _amplify, "amplify",
+    "Amplify a terrain with block tiles (vdb_amplify from Python; implicit-blocks §5).\n\n"
+    "terrain: a pyopenvdb.FloatGrid level set, or a path (heightfield image, procedural "
+    "heightfield .json, level-set .vdb). tiles: BlockTile objects or tile paths (.tile / "
+    ".vdb); strata name them by file stem, or by index for BlockTile objects. mask: an image "
+    "path or a 2D array over the terrain's xy (blocks only where it reads >= 0.5).",
+    "Returns (surface, block_id, material); stats (a dict) receives counts and times. Ctrl-C "
+    "raises KeyboardInterrupt.",
+    before=["terrain", "tiles"], after=[("mask", None), ("stats", None)])
 
 
 def coverage(surface, ids, max_nz=0.6, region=None):

@@ -2,7 +2,7 @@
 // pyopenvdb.FloatGrid objects, CSG, heightfields and I/O helpers.
 #include "GridCaster.h"
 
-#include <amplify/Amplify.h>
+#include <amplify/AmplifyStage.h>
 #include <blocks/BlocksStage.h>
 #include <core/GridField.h>
 #include <core/Bake.h>
@@ -161,83 +161,40 @@ py::tuple bakeTile(const PyTile& t, const std::string& params)
     return py::make_tuple(py::cast(r.bake.surface), py::cast(r.bake.attribute));
 }
 
-// rockvdb.amplify: the terrain (a level-set grid or a heightfield path), tiles with their
-// names, an optional mask array and the options the Python wrapper gathers (JSON).
+// rockvdb.amplify: the terrain (a level-set grid or a path), tiles with their names, an
+// optional mask image and the table's parameters (JSON); the stage's runAmplify does the rest.
 py::tuple amplifyTerrain(py::object terrain, const std::vector<PyTile>& tiles,
                          const std::vector<std::string>& names, std::optional<GrayImage> mask,
-                         const std::string& optionsJson)
+                         const std::string& params, const std::string& sources)
 {
-    const json o = json::parse(optionsJson);
-    // Presence rules the caller leaves out (null) keep PlacementRules' defaults, the ones
-    // vdb_amplify shows: they live there alone.
-    amplify::PlacementRules rules;
-    if (!o.at("max_slope").is_null()) rules.maxSlope = o.at("max_slope");
-    if (!o.at("distance_range").is_null()) {
-        rules.distanceMin = o.at("distance_range").at(0);
-        rules.distanceMax = o.at("distance_range").at(1);
-    }
-    if (!o.at("anchors").is_null()) rules.anchors = o.at("anchors");
-    if (!o.at("fraction").is_null()) rules.fraction = o.at("fraction");
-    rules.validate();
-    std::vector<std::shared_ptr<const blocks::BlockTile>> list;
-    for (const auto& t : tiles) list.push_back(t.tile);
-    amplify::checkTileSizes(list, o.at("mixed_tile_sizes"));
-    std::unique_ptr<amplify::Strata> strata;
-    if (!o.at("strata").is_null()) {
-        strata = std::make_unique<amplify::Strata>(amplify::Strata::fromJson(o.at("strata"), names));
-    } else if (list.size() > 1) {
-        throw ValueError("amplify: several tiles need strata to say where each one goes");
-    }
-    FieldPtr ground;
-    json p = {{"names", names}, {"strata", o.at("strata")}, {"max_slope", rules.maxSlope},
-              {"distance_range", {rules.distanceMin, rules.distanceMax}}, {"anchors", rules.anchors},
-              {"fraction", rules.fraction}, {"carve", o.at("carve")}};
+    const amplify::AmplifyParams p = amplify::amplifySchema().fromJson(parseParams(params, "amplify"));
+    amplify::AmplifyInputs in;
     if (py::isinstance<py::str>(terrain)) {
-        const std::string path = terrain.cast<std::string>();
-        const double cellSize = o.at("cell_size"), heightScale = o.at("height_scale");
-        ground = amplify::heightfieldTerrain(
-            std::make_shared<Heightfield>(loadHeightfield(path, cellSize, heightScale)),
-            o.at("base_depth"), rules);
-        p.update({{"terrain", path}, {"cell_size", cellSize}, {"height_scale", heightScale},
-                  {"base_depth", o.at("base_depth")}});
+        in.terrainPath = terrain.cast<std::string>();
+        in.names["terrain"] = in.terrainPath;
     } else {
-        ground = amplify::levelSetTerrain(terrain.cast<Grid>(), rules);
-        p["terrain"] = "level set";
+        Grid g = terrain.is_none() ? Grid() : terrain.cast<Grid>();
+        if (!g) throw py::type_error("amplify: the terrain grid is None");
+        in.terrainGrid = g;
+        in.names["terrain"] = gridSource(*g);
     }
-    if (!o.at("roi").is_null()) {
-        const auto r = o.at("roi").get<std::array<double, 6>>();
-        rules.restrictTo(BBoxd(Vec3d(r[0], r[1], r[2]), Vec3d(r[3], r[4], r[5])));
-        p["roi"] = r;
+    for (const auto& t : tiles) in.tiles.push_back(t.tile);
+    in.tileNames = names;
+    // How provenance names the tiles and mask: paths as given (a tile object by its params).
+    json src = parseParams(sources, "amplify");
+    for (size_t i = 0; i < src["tiles"].size() && i < tiles.size(); ++i) {
+        if (src["tiles"][i].is_null()) src["tiles"][i] = tiles[i].tile->params.toJson();
     }
-    if (mask) {
-        rules.mask = std::make_shared<const GrayImage>(std::move(*mask));
-        const double mc = o.at("mask_cell_size");
-        rules.maskCellSize = mc > 0 ? mc : double(o.at("cell_size"));
-        rules.validate();
-        p["mask_cell_size"] = rules.maskCellSize;
-    }
-    BakeSettings s;
-    s.voxelSize = o.at("voxel_size");
-    s.halfWidth = o.at("half_width");
-    if (!o.at("region").is_null()) {
-        const auto r = o.at("region").get<std::array<double, 6>>();
-        s.region = BBoxd(Vec3d(r[0], r[1], r[2]), Vec3d(r[3], r[4], r[5]));
-        p["region"] = r;
-    }
-    amplify::AmplifyStats stats;
-    amplify::AmplifyResult r;
+    for (auto it = src.begin(); it != src.end(); ++it) in.names[it.key()] = it.value();
+    if (mask) in.mask = std::make_shared<const GrayImage>(std::move(*mask));
+    amplify::AmplifyRun r;
     {
         py::gil_scoped_release release;
-        auto field = amplify::amplifiedTerrain(ground, list, rules, stats, strata.get(),
-                                               o.at("carve"));
-        r = amplify::bakeAmplified(*field, s, stats);
+        PyTaskHost host;
+        Task task(&host);
+        r = amplify::runAmplify(p, in, task);
     }
-    p["voxel_size"] = s.voxelSize;
-    p["half_width"] = s.halfWidth;
-    p["replicated"] = stats.replicated;
-    for (const auto& g : {r.surface, r.blockId, r.material}) {
-        stampProvenance(*g, "rockvdb.amplify", p.dump());
-    }
+    const amplify::AmplifyStats& stats = r.stats;
     py::dict st;
     st["replicated"] = stats.replicated;
     st["cells"] = stats.cells;
@@ -246,7 +203,8 @@ py::tuple amplifyTerrain(py::object terrain, const std::vector<PyTile>& tiles,
     st["presence_seconds"] = stats.presenceSeconds;
     st["bake_seconds"] = stats.bakeSeconds;
     st["split_seconds"] = stats.splitSeconds;
-    return py::make_tuple(py::cast(r.surface), py::cast(r.blockId), py::cast(r.material), st);
+    return py::make_tuple(py::cast(r.grids.surface), py::cast(r.grids.blockId),
+                          py::cast(r.grids.material), st);
 }
 
 } // namespace
@@ -354,14 +312,14 @@ PYBIND11_MODULE(_rockvdb, m)
     m.def("amplify", [](py::object terrain, const std::vector<PyTile>& tiles,
                         const std::vector<std::string>& names,
                         std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>> mask,
-                        const std::string& options) {
+                        const std::string& params, const std::string& sources) {
         std::optional<GrayImage> img;
         if (mask) {
             if (mask->ndim() != 2) throw ValueError("amplify: mask must be a 2D array (rows = y)");
             img = GrayImage{int(mask->shape(1)), int(mask->shape(0)),
                             std::vector<float>(mask->data(), mask->data() + mask->size())};
         }
-        return amplifyTerrain(std::move(terrain), tiles, names, std::move(img), options);
+        return amplifyTerrain(std::move(terrain), tiles, names, std::move(img), params, sources);
     });
 
     m.def("sphere", [](double radius, const V3& c) {
@@ -437,6 +395,7 @@ PYBIND11_MODULE(_rockvdb, m)
         if (stage == "detail") return detail::detailSchema().describe().dump();
         if (stage == "block_tile") return blocks::blocksSchema().describe().dump();
         if (stage == "tile") return blocks::tileSchema().describe().dump();
+        if (stage == "amplify") return amplify::amplifySchema().describe().dump();
         throw ValueError("schema: no stage '" + stage + "'");
     }, py::arg("stage"));
 

@@ -72,7 +72,7 @@ def test_flat_terrain_writes_the_bare_terrain(inputs, tmp_path):
 def test_bad_input(inputs, tmp_path):
     out = tmp_path / "o.vdb"
     one_line_error(run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--tiles",
-                        f"{inputs['tile']},{inputs['tile']}", "-o", str(out)]), 2, "need --strata")
+                        f"{inputs['tile']},{inputs['tile']}", "-o", str(out)]), 2, "need strata (--strata")
     strata = tmp_path / "strata.json"
     strata.write_text('{"layers": [{"tile": "eq", "top": 5}, {"tile": "granite"}]}')
     one_line_error(amplify(inputs, inputs["cliff"], out, "--strata", str(strata)), 2,
@@ -92,8 +92,9 @@ def test_bad_input(inputs, tmp_path):
     one_line_error(run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--tiles",
                         str(bad), "-o", str(out)]), 2, "tile file")
     one_line_error(amplify(inputs, inputs["cliff"], out, "--distance-range", "1,0"), 2,
-                   "distance range")
-    one_line_error(amplify(inputs, inputs["cliff"], out, "--max-slope", "2"), 2, "max slope")
+                   "amplify: distance-range needs va <= vb (got 1, 0)")
+    one_line_error(amplify(inputs, inputs["cliff"], out, "--max-slope", "2"), 2,
+                   "amplify: max-slope must be in [0, 1] (got 2.0)")
     assert not out.exists()
 
 

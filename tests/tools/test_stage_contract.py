@@ -245,6 +245,56 @@ def test_block_tile_replays_from_its_own_provenance(tmp_path):
     assert_same_file(first, tmp_path / "again.vdb")
 
 
+# ---- terrain amplification -----------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def cliff(tmp_path_factory):
+    """A 10 m cliff (EXR heights in metres, 1 m cells) and a 10 m block tile."""
+    import numpy as np
+    d = tmp_path_factory.mktemp("cliff")
+    x = np.arange(41, dtype=np.float32)
+    h = 10 * np.clip((20 - x) / 4 + 0.5, 0, 1)
+    rockvdb.write_heightfield(str(d / "cliff.exr"), np.tile(h, (41, 1)))
+    run([tool("vdb_blocks"), "-q", "--tile-size", "10", "--point-radius", "0.5",
+         "--voxel-size", "0.25", "--seed", "3", "-o", str(d / "eq.vdb"), "--tile",
+         str(d / "eq.tile")], check=True)
+    return d
+
+
+@pytest.mark.parametrize("args, kwargs", [
+    ([], {}),  # nothing but the required inputs
+    (["--max-slope", "0.7", "--distance-range=-2,2", "--carve", "0.1", "--voxel-size", "0.1",
+      "--roi", "0,0,-5,30,40,20"],
+     {"max_slope": 0.7, "distance_range": (-2, 2), "carve": 0.1, "voxel_size": 0.1,
+      "roi": (0, 0, -5, 30, 40, 20)}),
+])
+def test_amplify_cli_and_python_give_the_same_file(tmp_path, cliff, args, kwargs):
+    terrain, tile = str(cliff / "cliff.exr"), str(cliff / "eq.tile")
+    run([tool("vdb_amplify"), "-q", "--terrain", terrain, "--tiles", tile, *args, "-o",
+         str(tmp_path / "cli.vdb")], check=True)
+    stats = {}
+    grids = rockvdb.amplify(terrain, [tile], stats=stats, **kwargs)
+    assert stats["replicated"] > 20
+    rockvdb.write(str(tmp_path / "py.vdb"), list(grids))
+    assert_same_file(tmp_path / "cli.vdb", tmp_path / "py.vdb")
+
+
+def test_amplify_replays_from_its_own_provenance(tmp_path, cliff):
+    first = tmp_path / "a.vdb"
+    strata = tmp_path / "strata.json"
+    strata.write_text(json.dumps({"layers": [{"tile": "eq", "top": 4}, {"tile": "eq"}]}))
+    run([tool("vdb_amplify"), "-q", "--terrain", str(cliff / "cliff.exr"), "--tiles",
+         str(cliff / "eq.tile"), "--strata", str(strata), "--voxel-size", "0.1", "-o",
+         str(first)], check=True)
+    prov = json.loads(vdb.read(str(first), "surface").metadata["rockvdb:params"])
+    assert prov["strata"]["layers"][0]["top"] == 4  # the content, not the path
+    strata.unlink()
+    (tmp_path / "prov.json").write_text(json.dumps(prov))
+    run([tool("vdb_amplify"), "-q", "--params", str(tmp_path / "prov.json"), "-o",
+         str(tmp_path / "again.vdb")], check=True)
+    assert_same_file(first, tmp_path / "again.vdb")
+
+
 # ---- Ctrl-C and SIGTERM ---------------------------------------------------------------------
 
 LONG_RUNS = {
@@ -255,9 +305,24 @@ LONG_RUNS = {
                                              str(tile_file), "--support", str(big_ball(tmp)),
                                              "--keep-deep"],
     "blocks": lambda tmp, tile_file: [tool("vdb_blocks"), "--voxel-size", "0.04"],
+    "amplify": lambda tmp, tile_file: [tool("vdb_amplify"), "--terrain", str(big_cliff(tmp)),
+                                       "--tiles", str(big_cliff(tmp).with_suffix(".tile")),
+                                       "--voxel-size", "0.03"],
     "detail": lambda tmp, tile_file: [tool("vdb_detail"), str(fine_ball(tmp)),
                                       "--gabor-amplitude", "0.02", "--gabor-frequency", "8"],
 }
+
+
+def big_cliff(tmp):
+    import numpy as np
+    path = tmp / "bigcliff.exr"
+    if not path.exists():
+        x = np.arange(41, dtype=np.float32)
+        rockvdb.write_heightfield(str(path), np.tile(10 * np.clip((20 - x) / 4 + 0.5, 0, 1), (41, 1)))
+        run([tool("vdb_blocks"), "-q", "--tile-size", "10", "--point-radius", "0.5",
+             "--voxel-size", "0.25", "-o", str(tmp / "t.vdb"), "--tile",
+             str(path.with_suffix(".tile"))], check=True)
+    return path
 
 
 def fine_ball(tmp):
@@ -297,9 +362,11 @@ def test_interrupt_stops_within_a_second_and_writes_nothing(tmp_path, tile_file,
 @pytest.mark.parametrize("args", [
     ["vdb_detail", "BALL", "--gabor-amplitude", "0.03"],
     ["vdb_blocks", "--voxel-size", "0.1"],
+    ["vdb_amplify", "--terrain", "CLIFF", "--tiles", "TILE", "--voxel-size", "0.1"],
 ])
-def test_progress_only_goes_up_and_ends_at_100_for(tmp_path, ball_vdb, args):
-    args = [str(ball_vdb) if a == "BALL" else a for a in args]
+def test_progress_only_goes_up_and_ends_at_100_for(tmp_path, ball_vdb, cliff, args):
+    swap = {"BALL": str(ball_vdb), "CLIFF": str(cliff / "cliff.exr"), "TILE": str(cliff / "eq.tile")}
+    args = [swap.get(a, a) for a in args]
     seen = progress_of([tool(args[0]), *args[1:], "-o", str(tmp_path / "o.vdb")])
     assert len(seen) >= 3 and seen == sorted(seen) and seen[-1] == 100, seen
 

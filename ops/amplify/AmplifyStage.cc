@@ -1,0 +1,183 @@
+#include "AmplifyStage.h"
+
+#include <core/Error.h>
+#include <core/Expression.h>
+#include <core/VdbIO.h>
+
+namespace rockvdb {
+namespace amplify {
+
+using nlohmann::json;
+
+namespace {
+
+ParamInfo row(const char* name, ParamType type, const char* unit, json def, Range range,
+              const char* help, size_t count = 1)
+{
+    ParamInfo p;
+    p.name = name;
+    p.type = type;
+    p.unit = unit;
+    p.defaultValue = std::move(def);
+    p.range = range;
+    p.help = help;
+    p.count = count;
+    return p;
+}
+
+Schema<AmplifyParams> makeSchema()
+{
+    using P = AmplifyParams;
+    const PlacementRules rules; // the presence rules' defaults live there (Amplify.h)
+    Schema<P> s("amplify",
+        "Amplify a terrain with fractured blocks (Paris et al., §5): the blocks of a tile "
+        "virtually tile space, and a copy of block i in cell c is kept when more than fraction "
+        "of its anchors lie within distance-range of the terrain surface on ground steeper "
+        "than max-slope (|g.u_z| < max-slope). The kept copies are united with the terrain.");
+    s.member(row("terrain-grid", ParamType::Text, "", "surface", Range::any(),
+                 "Level-set grid name in a .vdb terrain"), &P::terrainGrid);
+    s.member(row("cell-size", ParamType::Real, "m", 1.0, Range::openClosed(0, 1e6),
+                 "Heightfield: distance between pixel centres"), &P::cellSize);
+    s.member(row("height-scale", ParamType::Real, "", 1.0, Range::closed(-1e6, 1e6),
+                 "Heightfield: metres per image unit"), &P::heightScale);
+    s.member(row("base-depth", ParamType::Real, "m", 1.0, Range::openClosed(0, 1e6),
+                 "Heightfield: floor depth below the lowest sample"), &P::baseDepth);
+    s.add(row("strata", ParamType::Json, "", nullptr, Range::any(),
+              "Strata, a JSON file (or object): {\"normal\": [0,0,1], \"noise\": {\"amplitude\": "
+              "1, \"frequency\": 0.05}, \"layers\": [{\"tile\": \"equi\", \"top\": 12}, "
+              "{\"tile\": \"tabular\"}]}, layers naming tiles by file stem (or index); needed "
+              "for several tiles"),
+          [](const P& p) { return p.strata; },
+          [](P& p, const json& j) { p.strata = j.is_string() ? readJsonFile(j.get<std::string>()) : j; });
+    s.member(row("mixed-tile-sizes", ParamType::Bool, "", false, Range::any(),
+                 "Allow tiles of different sizes"), &P::mixedTileSizes);
+    s.member(row("roi", ParamType::Reals, "m", nullptr, Range::closed(-1e9, 1e9),
+                 "Region of interest xmin,ymin,zmin,xmax,ymax,zmax: only anchors inside count "
+                 "(heightfields: also within the footprint)", 6), &P::roi);
+    s.member(row("mask-cell-size", ParamType::Real, "m", 0.0, Range::closed(0, 1e6),
+                 "Mask pixel spacing (0 = the heightfield's cell size)"), &P::maskCellSize);
+    s.member(row("carve", ParamType::Real, "m", 0.0, Range::halfOpen(0, 10),
+                 "Carving variant: blocks replace the terrain's skin where present, the terrain "
+                 "cut back to the blocks dilated by this gap (0 = plain union)"), &P::carve);
+    s.add(row("max-slope", ParamType::Real, "", rules.maxSlope, Range::closed(0, 1),
+              "epsilon: replicate where |g.u_z| < this"),
+          [](const P& p) { return json(p.rules.maxSlope); },
+          [](P& p, const json& j) { p.rules.maxSlope = j.get<double>(); });
+    s.add(row("distance-range", ParamType::Reals, "m",
+              json::array({rules.distanceMin, rules.distanceMax}), Range::closed(-1e4, 1e4),
+              "[va, vb]: anchor distance to the surface", 2),
+          [](const P& p) { return json::array({p.rules.distanceMin, p.rules.distanceMax}); },
+          [](P& p, const json& j) {
+              p.rules.distanceMin = j.at(0).get<double>();
+              p.rules.distanceMax = j.at(1).get<double>();
+          });
+    s.add(row("anchors", ParamType::Int, "", rules.anchors, Range::closed(1, 16),
+              "Anchors tested per block"),
+          [](const P& p) { return json(p.rules.anchors); },
+          [](P& p, const json& j) { p.rules.anchors = j.get<int>(); });
+    s.add(row("fraction", ParamType::Real, "", rules.fraction, Range::halfOpen(0, 1),
+              "Share of anchors that must pass (more than)"),
+          [](const P& p) { return json(p.rules.fraction); },
+          [](P& p, const json& j) { p.rules.fraction = j.get<double>(); });
+    addBakeRows(s, &P::bake, 0.05, 3.0);
+    s.rule([](const P& p) {
+        if (p.rules.distanceMin > p.rules.distanceMax) {
+            fail<ValueError>("amplify: distance-range needs va <= vb (got ", p.rules.distanceMin,
+                             ", ", p.rules.distanceMax, ")");
+        }
+    });
+    return s;
+}
+
+bool endsWith(const std::string& s, const char* ext)
+{
+    const std::string e(ext);
+    return s.size() > e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
+}
+
+} // namespace
+
+const Schema<AmplifyParams>& amplifySchema()
+{
+    static const Schema<AmplifyParams> s = makeSchema();
+    return s;
+}
+
+AmplifyParams::AmplifyParams() { amplifySchema().reset(*this); }
+
+AmplifyRun runAmplify(const AmplifyParams& params, const AmplifyInputs& in, Task& task)
+{
+    amplifySchema().validate(params);
+    const BakeSettings settings = params.bake.settings();
+    PlacementRules rules = params.rules;
+    rules.validate();
+    if (in.tiles.empty()) fail<ValueError>("amplify: at least one tile is required");
+    if (in.tiles.size() > 1 && params.strata.is_null()) {
+        fail<ValueError>("amplify: ", in.tiles.size(), " tiles need strata (--strata, strata=) "
+                         "to say where each one goes");
+    }
+    checkTileSizes(in.tiles, params.mixedTileSizes);
+    std::unique_ptr<Strata> strata;
+    if (!params.strata.is_null()) {
+        std::vector<std::string> names = in.tileNames;
+        for (size_t i = names.size(); i < in.tiles.size(); ++i) names.push_back(std::to_string(i));
+        strata = std::make_unique<Strata>(Strata::fromJson(params.strata, names));
+    }
+
+    // The terrain: a level set, a procedural heightfield (.json), or a heightfield image.
+    FieldPtr ground;
+    double cellSize = params.cellSize;
+    const std::string& path = in.terrainPath;
+    if (in.terrainGrid) {
+        ground = levelSetTerrain(in.terrainGrid, rules);
+    } else if (endsWith(path, ".vdb") || path == "-") {
+        ground = levelSetTerrain(readLevelSet(path, params.terrainGrid), rules);
+    } else if (endsWith(path, ".json")) {
+        ExpressionContext ctx;
+        const auto slash = path.find_last_of('/');
+        ctx.baseDir = slash == std::string::npos ? "." : path.substr(0, slash);
+        auto node = heightfieldFromJson(readJsonFile(path), ctx);
+        if (!node) {
+            fail<ValueError>("amplify: a JSON terrain must be a heightfield node (sea_cliff, "
+                             "noise_terrain or heightfield); bake other expressions with "
+                             "vdb_primitive expr and pass the .vdb (", path, ")");
+        }
+        cellSize = node->heightfield->cellSize;
+        ground = heightfieldTerrain(node->heightfield, node->baseDepth, rules);
+    } else if (!path.empty()) {
+        ground = heightfieldTerrain(
+            std::make_shared<Heightfield>(loadHeightfield(path, cellSize, params.heightScale)),
+            params.baseDepth, rules);
+    } else {
+        fail<ValueError>("amplify: the terrain is required");
+    }
+    if (params.roi) {
+        const auto& r = *params.roi;
+        rules.restrictTo(BBoxd(Vec3d(r[0], r[1], r[2]), Vec3d(r[3], r[4], r[5])));
+    }
+    if (in.mask) {
+        rules.mask = in.mask;
+        rules.maskCellSize = params.maskCellSize > 0 ? params.maskCellSize : cellSize;
+        rules.validate();
+    }
+
+    AmplifyRun r;
+    task.phase("presence", 0.3);
+    auto field = amplifiedTerrain(ground, in.tiles, rules, r.stats, strata.get(), params.carve,
+                                  &task);
+    task.phase("bake", 0.7);
+    r.grids = bakeAmplified(*field, settings, r.stats, task.interrupter());
+    task.check();
+
+    json prov = amplifySchema().toJson(params);
+    for (auto it = in.names.begin(); it != in.names.end(); ++it) prov[it.key()] = it.value();
+    const std::string text = prov.dump();
+    for (const auto& g : {r.grids.surface, r.grids.blockId, r.grids.material}) {
+        stampProvenance(*g, kAmplifyTool, text);
+    }
+    task.done();
+    return r;
+}
+
+} // namespace amplify
+} // namespace rockvdb
