@@ -17,15 +17,15 @@ std::string number(double v)
     return os.str();
 }
 
-const char* typeWord(const ParamInfo& info)
+std::string typeWord(const ParamInfo& info)
 {
     switch (info.type) {
     case ParamType::Bool: return "true or false";
     case ParamType::Int: return "an integer";
     case ParamType::Real: return "a number";
     case ParamType::Text: return "a string";
-    case ParamType::Ints: return "a list of integers";
-    case ParamType::Reals: return "a list of numbers";
+    case ParamType::Ints: return "a list of " + std::to_string(info.count) + " integers";
+    case ParamType::Reals: return "a list of " + std::to_string(info.count) + " numbers";
     case ParamType::Json: return "a JSON object or a file path";
     }
     return "a value";
@@ -116,9 +116,8 @@ const ParamInfo* SchemaBase::find(const std::string& name) const
 json SchemaBase::coerce(const ParamInfo& info, const json& v) const
 {
     auto wrongType = [&]() {
-        fail<ParamTypeError>(mOp, ": ", info.name, " must be ", typeWord(info),
-                             info.count > 1 ? " of " + std::to_string(info.count) : std::string(),
-                             " (got ", v.dump(), ")");
+        fail<ParamTypeError>(mOp, ": ", info.name, " must be ", typeWord(info), " (got ",
+                             v.dump(), ")");
     };
     auto number = [&](const json& x, bool integer) -> json {
         if (!x.is_number() || x.is_boolean()) wrongType();

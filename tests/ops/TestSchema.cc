@@ -1,0 +1,209 @@
+// core/Schema and core/Task: the parameter tables every stage is built on, and the task that
+// carries progress and the cancel.
+#include <core/Error.h>
+#include <core/Schema.h>
+#include <core/Task.h>
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <mutex>
+#include <optional>
+#include <vector>
+
+using namespace rockvdb;
+using nlohmann::json;
+
+namespace {
+
+struct Toy
+{
+    Toy() { schema().reset(*this); }
+    int n;
+    double size;
+    bool fill;
+    std::string mode;
+    std::array<double, 2> range;
+    std::optional<std::array<double, 3>> axis;
+
+    static const Schema<Toy>& schema()
+    {
+        static const Schema<Toy> s = [] {
+            Schema<Toy> t("toy", "A toy stage.");
+            auto row = [](const char* name, ParamType type, json def, Range r, size_t count = 1) {
+                ParamInfo p;
+                p.name = name;
+                p.type = type;
+                p.defaultValue = def;
+                p.range = r;
+                p.count = count;
+                p.help = "help";
+                return p;
+            };
+            t.member(row("n", ParamType::Int, 5, Range::closed(3, 64)), &Toy::n);
+            t.member(row("tile-size", ParamType::Real, 20.0, Range::above(0)), &Toy::size);
+            t.member(row("fill", ParamType::Bool, true, Range::any()), &Toy::fill);
+            ParamInfo mode = row("mode", ParamType::Text, "fast", Range::any());
+            mode.choices = {"fast", "exact"};
+            t.member(mode, &Toy::mode);
+            t.member(row("range", ParamType::Reals, json::array({-1.0, 2.0}), Range::closed(-10, 10), 2),
+                     &Toy::range);
+            t.member(row("axis", ParamType::Reals, nullptr, Range::any(), 3), &Toy::axis);
+            t.rule([](const Toy& p) {
+                if (p.range[0] > p.range[1]) fail<ValueError>("toy: range needs min <= max");
+            });
+            return t;
+        }();
+        return s;
+    }
+};
+
+std::string message(const json& j)
+{
+    try {
+        Toy::schema().fromJson(j);
+    } catch (const ValueError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+} // namespace
+
+TEST(Schema, DefaultsComeFromTheTableAlone)
+{
+    const Toy t;
+    EXPECT_EQ(t.n, 5);
+    EXPECT_EQ(t.size, 20.0);
+    EXPECT_TRUE(t.fill);
+    EXPECT_EQ(t.mode, "fast");
+    EXPECT_EQ(t.range[1], 2.0);
+    EXPECT_FALSE(t.axis.has_value());
+    // fromJson({}) and the default constructor agree, and toJson records every row.
+    const json all = Toy::schema().toJson(Toy::schema().fromJson(json::object()));
+    EXPECT_EQ(all, Toy::schema().toJson(t));
+    EXPECT_EQ(all.size(), Toy::schema().params().size());
+    EXPECT_TRUE(all.at("axis").is_null());
+}
+
+TEST(Schema, JsonRoundTripsEveryRow)
+{
+    const json j = {{"n", 7}, {"tile-size", 3.5}, {"fill", false}, {"mode", "exact"},
+                    {"range", {0, 1}}, {"axis", {0, 0, 1}}};
+    const Toy t = Toy::schema().fromJson(j);
+    EXPECT_EQ(t.n, 7);
+    EXPECT_FALSE(t.fill);
+    ASSERT_TRUE(t.axis.has_value());
+    EXPECT_EQ((*t.axis)[2], 1.0);
+    const Toy back = Toy::schema().fromJson(Toy::schema().toJson(t));
+    EXPECT_EQ(Toy::schema().toJson(back), Toy::schema().toJson(t));
+}
+
+TEST(Schema, MessagesNameOpParameterRangeAndValue)
+{
+    EXPECT_EQ(message({{"n", 100}}), "toy: n must be in [3, 64] (got 100)");
+    EXPECT_EQ(message({{"n", 4.5}}), "toy: n must be an integer (got 4.5)");
+    EXPECT_EQ(message({{"n", "5"}}), "toy: n must be an integer (got \"5\")");
+    EXPECT_EQ(message({{"tile-size", 0}}), "toy: tile-size must be > 0 (got 0)");
+    EXPECT_EQ(message({{"mode", "slow"}}), "toy: mode must be one of fast, exact (got 'slow')");
+    EXPECT_EQ(message({{"range", {1}}}), "toy: range must be a list of 2 numbers (got [1])");
+    EXPECT_EQ(message({{"range", {3, 1}}}), "toy: range needs min <= max");
+    EXPECT_EQ(message({{"fill", 1}}), "toy: fill must be true or false (got 1)");
+    // NaN never passes a range.
+    EXPECT_NE(message({{"tile-size", std::nan("")}}), "");
+    // Integral doubles are integers (JSON from other tools writes 5.0).
+    EXPECT_EQ(Toy::schema().fromJson({{"n", 5.0}}).n, 5);
+    // Wrong types are ParamTypeErrors (Python: TypeError as well as ValueError).
+    EXPECT_THROW(Toy::schema().fromJson({{"n", "5"}}), ParamTypeError);
+}
+
+TEST(Schema, UnknownKeysSuggestTheClosestName)
+{
+    EXPECT_EQ(message({{"tile_size", 1}}), "toy: unknown parameter 'tile_size' (did you mean 'tile-size'?)");
+    EXPECT_EQ(message({{"nn", 1}}), "toy: unknown parameter 'nn' (did you mean 'n'?)");
+    EXPECT_EQ(message({{"zzzzzzzz", 1}}), "toy: unknown parameter 'zzzzzzzz'");
+    EXPECT_EQ(closestName("voxle-size", {"voxel-size", "half-width"}), "voxel-size");
+}
+
+TEST(Schema, ValidateChecksMembersSetFromCpp)
+{
+    Toy t;
+    t.n = 2;
+    EXPECT_THROW(Toy::schema().validate(t), ValueError);
+    t.n = 5;
+    EXPECT_NO_THROW(Toy::schema().validate(t));
+}
+
+TEST(Schema, DescribeIsWhatInterfacesRead)
+{
+    const json d = Toy::schema().describe();
+    EXPECT_EQ(d["op"], "toy");
+    ASSERT_EQ(d["params"].size(), 6u);
+    EXPECT_EQ(d["params"][1]["python"], "tile_size");
+    EXPECT_EQ(d["params"][1]["range"], "> 0");
+    EXPECT_EQ(d["params"][0]["range"], "in [3, 64]");
+    EXPECT_EQ(d["params"][4]["default"], json::array({-1.0, 2.0}));
+}
+
+namespace {
+
+struct Recorder : TaskHost
+{
+    std::atomic<bool> cancel{false};
+    std::vector<double> seen;
+    std::mutex m;
+    bool cancelled() override { return cancel.load(); }
+    void progress(const char*, double f) override
+    {
+        std::lock_guard<std::mutex> lock(m);
+        seen.push_back(f);
+    }
+};
+
+} // namespace
+
+TEST(Task, ProgressOnlyGoesUpAcrossPhasesAndEndsAtOne)
+{
+    Recorder host;
+    Task task(&host);
+    task.phase("a", 0.25);
+    std::vector<int> out(1000);
+    parallelFor(task, out.size(), 7, [&](size_t i) { out[i] = int(i); });
+    task.phase("b", 0.75);
+    task.step(0.5);
+    task.step(0.2); // a later report below the last one is not passed on
+    task.done();
+    ASSERT_FALSE(host.seen.empty());
+    for (size_t i = 1; i < host.seen.size(); ++i) EXPECT_GT(host.seen[i], host.seen[i - 1]);
+    EXPECT_DOUBLE_EQ(host.seen.back(), 1.0);
+    EXPECT_NEAR(task.reported(), 1.0, 0.0);
+    for (size_t i = 0; i < out.size(); ++i) ASSERT_EQ(out[i], int(i));
+}
+
+TEST(Task, CancelStopsAParallelLoopEarly)
+{
+    Recorder host;
+    Task task(&host);
+    task.phase("loop", 1.0);
+    std::atomic<size_t> done{0};
+    EXPECT_THROW(parallelFor(task, 100000, 10, [&](size_t i) {
+                     if (++done == 500) host.cancel = true;
+                     (void)i;
+                 }),
+                 Interrupted);
+    EXPECT_LT(done.load(), 100000u); // chunks after the cancel never ran
+    EXPECT_THROW(task.check(), Interrupted);
+}
+
+TEST(Task, InterrupterAdapterMapsPercentIntoThePhase)
+{
+    Recorder host;
+    Task task(&host);
+    task.phase("first", 0.5);
+    task.phase("bake", 0.5);
+    EXPECT_FALSE(task.interrupter()->wasInterrupted(50));
+    EXPECT_NEAR(task.reported(), 0.75, 1e-12);
+    host.cancel = true;
+    EXPECT_TRUE(task.interrupter()->wasInterrupted());
+}
