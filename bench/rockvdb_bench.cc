@@ -214,13 +214,13 @@ void detailGroup(bool quick)
     auto sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.41f, openvdb::Vec3f(0), dx);
     BakeSettings s;
     s.voxelSize = dx;
-    auto run = [&](const detail::DetailParams& p) {
+    auto run = [&](const detailing::DetailParams& p) {
         const auto t0 = std::chrono::steady_clock::now();
-        const BakeResult r = detail::detailLevelSet(sphere, p, s);
+        const BakeResult r = detailing::detailLevelSet(sphere, p, s);
         return std::make_pair(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                               size_t(r.surface->activeVoxelCount()));
     };
-    detail::DetailParams none = detail::DetailParams::fromJson(nlohmann::json::object());
+    detailing::DetailParams none = detailing::DetailParams::fromJson(nlohmann::json::object());
     const auto ref = run(none);
     std::printf("| plain re-bake (reference) | %.2f s | %zu | %.2f M | 1.0x |\n", ref.first, ref.second,
                 double(ref.second) / ref.first / 1e6);
@@ -232,7 +232,7 @@ void detailGroup(bool quick)
         {"warp + Gabor", {{"warp-amplitude", 0.03}, {"warp-scale", 0.6}, {"gabor-amplitude", 0.03}, {"gabor-frequency", 6.0}, {"direction-axis", {0, 0, 1}}}},
     };
     for (const Case& k : cases) {
-        const auto m = run(detail::DetailParams::fromJson(k.j));
+        const auto m = run(detailing::DetailParams::fromJson(k.j));
         std::printf("| %s | %.2f s | %zu | %.2f M | %.1fx |\n", k.name, m.first, m.second,
                     double(m.second) / m.first / 1e6, m.first / ref.first);
     }

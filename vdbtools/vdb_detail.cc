@@ -10,7 +10,7 @@
 #include <cstdio>
 
 using namespace rockvdb;
-using namespace rockvdb::detail;
+using namespace rockvdb::detailing;
 
 int main(int argc, char** argv)
 {

@@ -17,7 +17,7 @@
 
 #include <core/Field.h>
 #include <core/Task.h>
-#include <detail/Relief.h>
+#include <relief/Relief.h>
 
 #include <nlohmann/json_fwd.hpp>
 
@@ -50,7 +50,7 @@ struct AuthoredBlock
     std::vector<std::array<double, 4>> planes;
 };
 
-using detail::ReliefParams;
+using relief::ReliefParams;
 
 /// Everything that defines a tile; 0 / negative values mean "the type's default". Defaults,
 /// ranges and help live in one table, tileSchema() (BlocksStage.h); a default-constructed

@@ -5,7 +5,7 @@
 #include <core/Image.h>
 #include <core/Noise.h>
 #include <core/Random.h>
-#include <detail/Relief.h>
+#include <relief/Relief.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -256,7 +256,7 @@ public:
                 w.f[i] = std::min(len, 1.0f);
             }
             for (int i = 0; i < n; ++i) {
-                const float disp = detail::triplanar(w.gx[i], w.gy[i], w.gz[i], w.dxy[i],
+                const float disp = relief::triplanar(w.gx[i], w.gy[i], w.gz[i], w.dxy[i],
                                                      w.dxz[i], w.dyz[i], pexp);
                 const float scale = w.f[i] * disp;
                 w.qx[i] = x[i] + w.gx[i] * scale;
@@ -321,7 +321,7 @@ private:
     }
 
     std::vector<BlockShape> mShapes;
-    detail::Relief mRelief;
+    relief::Relief mRelief;
     float mR, mP, mMargin = 0.5f;
 };
 

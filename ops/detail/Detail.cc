@@ -18,7 +18,9 @@
 #include <memory>
 
 namespace rockvdb {
-namespace detail {
+namespace detailing {
+
+using namespace relief;
 
 using json = nlohmann::json;
 
@@ -739,5 +741,5 @@ openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
     return out;
 }
 
-} // namespace detail
+} // namespace detailing
 } // namespace rockvdb

@@ -8,7 +8,7 @@
 // Field to bake with renormalisation.
 #pragma once
 
-#include "Relief.h"
+#include <relief/Relief.h>
 
 #include <core/Bake.h>
 #include <core/Field.h>
@@ -22,7 +22,9 @@
 #include <vector>
 
 namespace rockvdb {
-namespace detail {
+namespace detailing {
+
+using relief::ReliefParams;
 
 /// Where the noise's tangent direction W comes from (gabor §3): b = n ∧ W, t = b ∧ n.
 enum class DirectionKind { Axis, Skeleton, Curvature };
@@ -133,5 +135,5 @@ openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
                                        const openvdb::FloatGrid& detailed,
                                        const openvdb::FloatGrid& ids);
 
-} // namespace detail
+} // namespace detailing
 } // namespace rockvdb

@@ -7,7 +7,7 @@
 #include <algorithm>
 
 namespace rockvdb {
-namespace detail {
+namespace detailing {
 
 using nlohmann::json;
 
@@ -237,5 +237,5 @@ DetailResult runDetail(const DetailStageParams& params, const DetailInputs& in, 
     return r;
 }
 
-} // namespace detail
+} // namespace detailing
 } // namespace rockvdb

@@ -19,7 +19,7 @@
 #include <vector>
 
 namespace rockvdb {
-namespace detail {
+namespace detailing {
 
 /// The tool the entry point records as the generator of what it makes.
 constexpr const char* kDetailTool = "vdb_detail";
@@ -77,5 +77,5 @@ struct DetailResult
 /// reverse) and bad parameters; Interrupted when the task is cancelled.
 DetailResult runDetail(const DetailStageParams& params, const DetailInputs& inputs, Task& task);
 
-} // namespace detail
+} // namespace detailing
 } // namespace rockvdb

@@ -13,7 +13,7 @@
 #include <vector>
 
 namespace rockvdb {
-namespace detail {
+namespace detailing {
 
 struct GaborImpulse
 {
@@ -51,5 +51,5 @@ private:
     uint64_t mSeed;
 };
 
-} // namespace detail
+} // namespace detailing
 } // namespace rockvdb

@@ -372,17 +372,17 @@ PYBIND11_MODULE(_rockvdb, m)
 
     m.def("detail", [](Grid grid, const std::string& params, std::optional<Grid> blendMask) {
         if (!grid) throw py::type_error("detail: the input grid is None");
-        const detail::DetailStageParams p =
-            detail::detailSchema().fromJson(parseParams(params, "detail"));
-        detail::DetailInputs in;
+        const detailing::DetailStageParams p =
+            detailing::detailSchema().fromJson(parseParams(params, "detail"));
+        detailing::DetailInputs in;
         in.grid = grid;
         if (blendMask) in.blendMask = *blendMask;
-        detail::DetailResult r;
+        detailing::DetailResult r;
         {
             py::gil_scoped_release release;
             PyTaskHost host;
             Task task(&host);
-            r = detail::runDetail(p, in, task);
+            r = detailing::runDetail(p, in, task);
         }
         return r.bake.surface;
     }, py::arg("grid"), py::arg("params"), py::arg("blend_mask") = std::nullopt);
@@ -392,7 +392,7 @@ PYBIND11_MODULE(_rockvdb, m)
     m.def("schema", [](const std::string& stage) {
         if (stage == "rock_tiles") return rockpile::tilesSchema().describe().dump();
         if (stage == "rock_pile") return rockpile::pileSchema().describe().dump();
-        if (stage == "detail") return detail::detailSchema().describe().dump();
+        if (stage == "detail") return detailing::detailSchema().describe().dump();
         if (stage == "block_tile") return blocks::blocksSchema().describe().dump();
         if (stage == "tile") return blocks::tileSchema().describe().dump();
         if (stage == "amplify") return amplify::amplifySchema().describe().dump();

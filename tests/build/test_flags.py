@@ -36,3 +36,30 @@ def test_ops_sources_keep_the_determinism_flags(commands):
         flags = c.split()
         assert "-ffp-contract=off" in flags, f
         assert not any(x.startswith("-march") for x in flags), f
+
+
+# Each folder of ops/ is one library; a layer includes only the layers below it.
+LAYERS = {"core": set(), "relief": {"core"}, "blocks": {"core", "relief"},
+          "amplify": {"core", "relief", "blocks"}, "detail": {"core", "relief"},
+          "rockpile": {"core"}}
+
+
+def test_stage_libraries_include_only_the_layers_below():
+    import re
+    ops = os.path.join(ROOT, "ops")
+    seen = set()
+    for layer, below in LAYERS.items():
+        folder = os.path.join(ops, layer)
+        for name in os.listdir(folder):
+            if not name.endswith((".cc", ".h")):
+                continue
+            text = open(os.path.join(folder, name)).read()
+            for used in re.findall(r'#include <(\w+)/\w+\.h>', text):
+                if used in LAYERS and used != layer:
+                    assert used in below, f"ops/{layer}/{name} includes {used}/"
+                    seen.add((layer, used))
+    # The layering is real: the upper layers do use the lower ones.
+    assert {("blocks", "relief"), ("amplify", "blocks"), ("detail", "relief")} <= seen
+    cmake = open(os.path.join(ops, "CMakeLists.txt")).read()
+    for layer in LAYERS:
+        assert f"rockvdb_layer(rockvdb_{layer}" in cmake, layer

@@ -10,7 +10,7 @@
 #include <limits>
 
 namespace rockvdb {
-namespace detail {
+namespace relief {
 
 namespace {
 int wrap(int i, int n) { return ((i % n) + n) % n; }
@@ -99,5 +99,5 @@ double Relief::slopeBound() const
     return double(mAmp) * 2.8 * noise::kGradientBound2 * mFbm.gradientSum() * double(mInvSum);
 }
 
-} // namespace detail
+} // namespace relief
 } // namespace rockvdb

@@ -12,7 +12,7 @@
 #include <vector>
 
 namespace rockvdb {
-namespace detail {
+namespace relief {
 
 /// Relief d of the gradient-based warp (§4.2): procedural turbulence or a tiled image. The
 /// initial values are neutral (no warp); each stage's table (blocks, detail) holds the
@@ -95,5 +95,5 @@ inline float triplanar(float gx, float gy, float gz, float dxy, float dxz, float
     return (az * dxy + ay * dxz + ax * dyz) / sum;
 }
 
-} // namespace detail
+} // namespace relief
 } // namespace rockvdb
