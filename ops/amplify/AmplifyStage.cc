@@ -11,20 +11,6 @@ using nlohmann::json;
 
 namespace {
 
-ParamInfo row(const char* name, ParamType type, const char* unit, json def, Range range,
-              const char* help, size_t count = 1)
-{
-    ParamInfo p;
-    p.name = name;
-    p.type = type;
-    p.unit = unit;
-    p.defaultValue = std::move(def);
-    p.range = range;
-    p.help = help;
-    p.count = count;
-    return p;
-}
-
 Schema<AmplifyParams> makeSchema()
 {
     using P = AmplifyParams;
@@ -34,36 +20,36 @@ Schema<AmplifyParams> makeSchema()
         "virtually tile space, and a copy of block i in cell c is kept when more than fraction "
         "of its anchors lie within distance-range of the terrain surface on ground steeper "
         "than max-slope (|g.u_z| < max-slope). The kept copies are united with the terrain.");
-    s.member(row("terrain-grid", ParamType::Text, "", "surface", Range::any(),
+    s.member(param("terrain-grid", ParamType::Text, "", "surface", Range::any(),
                  "Level-set grid name in a .vdb terrain"), &P::terrainGrid);
-    s.member(row("cell-size", ParamType::Real, "m", 1.0, Range::openClosed(0, 1e6),
+    s.member(param("cell-size", ParamType::Real, "m", 1.0, Range::openClosed(0, 1e6),
                  "Heightfield: distance between pixel centres"), &P::cellSize);
-    s.member(row("height-scale", ParamType::Real, "", 1.0, Range::closed(-1e6, 1e6),
+    s.member(param("height-scale", ParamType::Real, "", 1.0, Range::closed(-1e6, 1e6),
                  "Heightfield: metres per image unit"), &P::heightScale);
-    s.member(row("base-depth", ParamType::Real, "m", 1.0, Range::openClosed(0, 1e6),
+    s.member(param("base-depth", ParamType::Real, "m", 1.0, Range::openClosed(0, 1e6),
                  "Heightfield: floor depth below the lowest sample"), &P::baseDepth);
-    s.add(row("strata", ParamType::Json, "", nullptr, Range::any(),
+    s.add(param("strata", ParamType::Json, "", nullptr, Range::any(),
               "Strata, a JSON file (or object): {\"normal\": [0,0,1], \"noise\": {\"amplitude\": "
               "1, \"frequency\": 0.05}, \"layers\": [{\"tile\": \"equi\", \"top\": 12}, "
               "{\"tile\": \"tabular\"}]}, layers naming tiles by file stem (or index); needed "
               "for several tiles"),
           [](const P& p) { return p.strata; },
-          [](P& p, const json& j) { p.strata = j.is_string() ? readJsonFile(j.get<std::string>()) : j; });
-    s.member(row("mixed-tile-sizes", ParamType::Bool, "", false, Range::any(),
+          [](P& p, const json& j) { p.strata = jsonOrFile(j); });
+    s.member(param("mixed-tile-sizes", ParamType::Bool, "", false, Range::any(),
                  "Allow tiles of different sizes"), &P::mixedTileSizes);
-    s.member(row("roi", ParamType::Reals, "m", nullptr, Range::closed(-1e9, 1e9),
+    s.member(param("roi", ParamType::Reals, "m", nullptr, Range::closed(-1e9, 1e9),
                  "Region of interest xmin,ymin,zmin,xmax,ymax,zmax: only anchors inside count "
                  "(heightfields: also within the footprint)", 6), &P::roi);
-    s.member(row("mask-cell-size", ParamType::Real, "m", 0.0, Range::closed(0, 1e6),
+    s.member(param("mask-cell-size", ParamType::Real, "m", 0.0, Range::closed(0, 1e6),
                  "Mask pixel spacing (0 = the heightfield's cell size)"), &P::maskCellSize);
-    s.member(row("carve", ParamType::Real, "m", 0.0, Range::halfOpen(0, 10),
+    s.member(param("carve", ParamType::Real, "m", 0.0, Range::halfOpen(0, 10),
                  "Carving variant: blocks replace the terrain's skin where present, the terrain "
                  "cut back to the blocks dilated by this gap (0 = plain union)"), &P::carve);
-    s.add(row("max-slope", ParamType::Real, "", rules.maxSlope, Range::closed(0, 1),
+    s.add(param("max-slope", ParamType::Real, "", rules.maxSlope, Range::closed(0, 1),
               "epsilon: replicate where |g.u_z| < this"),
           [](const P& p) { return json(p.rules.maxSlope); },
           [](P& p, const json& j) { p.rules.maxSlope = j.get<double>(); });
-    s.add(row("distance-range", ParamType::Reals, "m",
+    s.add(param("distance-range", ParamType::Reals, "m",
               json::array({rules.distanceMin, rules.distanceMax}), Range::closed(-1e4, 1e4),
               "[va, vb]: anchor distance to the surface", 2),
           [](const P& p) { return json::array({p.rules.distanceMin, p.rules.distanceMax}); },
@@ -71,11 +57,11 @@ Schema<AmplifyParams> makeSchema()
               p.rules.distanceMin = j.at(0).get<double>();
               p.rules.distanceMax = j.at(1).get<double>();
           });
-    s.add(row("anchors", ParamType::Int, "", rules.anchors, Range::closed(1, 16),
+    s.add(param("anchors", ParamType::Int, "", rules.anchors, Range::closed(1, 16),
               "Anchors tested per block"),
           [](const P& p) { return json(p.rules.anchors); },
           [](P& p, const json& j) { p.rules.anchors = j.get<int>(); });
-    s.add(row("fraction", ParamType::Real, "", rules.fraction, Range::halfOpen(0, 1),
+    s.add(param("fraction", ParamType::Real, "", rules.fraction, Range::halfOpen(0, 1),
               "Share of anchors that must pass (more than)"),
           [](const P& p) { return json(p.rules.fraction); },
           [](P& p, const json& j) { p.rules.fraction = j.get<double>(); });

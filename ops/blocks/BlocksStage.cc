@@ -14,23 +14,7 @@ using nlohmann::json;
 
 namespace {
 
-ParamInfo row(const char* name, ParamType type, const char* unit, json def, Range range,
-              const char* help, size_t count = 1)
-{
-    ParamInfo p;
-    p.name = name;
-    p.type = type;
-    p.unit = unit;
-    p.defaultValue = std::move(def);
-    p.range = range;
-    p.help = help;
-    p.count = count;
-    return p;
-}
-
 json vec(const Vec3d& v) { return {v[0], v[1], v[2]}; }
-
-json jsonValue(const json& v) { return v.is_string() ? readJsonFile(v.get<std::string>()) : v; }
 
 /// The tile's rows on any Params that holds a TileParams: @a at(p) gives it (const or not).
 template<typename P, typename Access>
@@ -46,24 +30,24 @@ void addTileRows(Schema<P>& s, Access at)
         bind(std::move(info), [m](const T& t) { return schema_detail::Conv<V>::get(t.*m); },
              [m](T& t, const json& j) { schema_detail::Conv<V>::set(t.*m, j); });
     };
-    ParamInfo type = row("type", ParamType::Text, "", "equidimensional", Range::any(),
+    ParamInfo type = param("type", ParamType::Text, "", "equidimensional", Range::any(),
                          "Block type (§4.1, Fig. 2)");
     type.choices = {"equidimensional", "prismatic", "polyhedral", "rhombohedral", "tabular",
                     "columnar"};
     bind(type, [](const T& t) { return json(blockTypeName(t.type)); },
          [](T& t, const json& j) { t.type = blockTypeFromString(j.get<std::string>()); });
-    member(row("tile-size", ParamType::Real, "m", 20.0, Range::openClosed(0, 1e4), "Tile side s"),
+    member(param("tile-size", ParamType::Real, "m", 20.0, Range::openClosed(0, 1e4), "Tile side s"),
            &T::tileSize);
-    member(row("point-radius", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
+    member(param("point-radius", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
                "Poisson radius of the sample points (0 = 0.034 x tile size, ~14 500 points)"),
            &T::pointRadius);
-    member(row("neighbour-radius", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
+    member(param("neighbour-radius", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
                "Longest graph edge (0 = 2 x point radius)"), &T::neighbourRadius);
-    member(row("disc-count", ParamType::Int, "", -1, Range::closed(-1, 10000),
+    member(param("disc-count", ParamType::Int, "", -1, Range::closed(-1, 10000),
                "Generated fracture discs (-1 = the type's default, 0 = none)"), &T::discCount);
-    member(row("disc-spacing", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
+    member(param("disc-spacing", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
                "Poisson radius of the disc centres (0 = the type's default)"), &T::discSpacing);
-    bind(row("disc-radius", ParamType::Reals, "m", nullptr, Range::closed(0, 4e4),
+    bind(param("disc-radius", ParamType::Reals, "m", nullptr, Range::closed(0, 4e4),
              "Disc radius range min,max (default: the type's)", 2),
          [](const T& t) {
              return t.discRadiusMin > 0 ? json::array({t.discRadiusMin, t.discRadiusMax}) : json();
@@ -72,16 +56,16 @@ void addTileRows(Schema<P>& s, Access at)
              t.discRadiusMin = j.is_null() ? 0.0 : j.at(0).get<double>();
              t.discRadiusMax = j.is_null() ? 0.0 : j.at(1).get<double>();
          });
-    member(row("jitter", ParamType::Real, "degrees", -1.0, Range::closed(-1, 90),
+    member(param("jitter", ParamType::Real, "degrees", -1.0, Range::closed(-1, 90),
                "Random tilt of the set normals (-1 = the type's default)"), &T::jitterDeg);
-    member(row("irregular-fraction", ParamType::Real, "", -1.0, Range::closed(-1, 1),
+    member(param("irregular-fraction", ParamType::Real, "", -1.0, Range::closed(-1, 1),
                "Share of discs with a random normal (-1 = the type's default)"),
            &T::irregularFraction);
-    member(row("axis", ParamType::Reals, "", json::array({0.0, 0.0, 1.0}), Range::closed(-1e6, 1e6),
+    member(param("axis", ParamType::Reals, "", json::array({0.0, 0.0, 1.0}), Range::closed(-1e6, 1e6),
                "Dominant axis: bedding normal / column axis", 3), &T::axis);
-    member(row("oblique-angle", ParamType::Real, "degrees", 60.0, Range::closed(30, 90),
+    member(param("oblique-angle", ParamType::Real, "degrees", 60.0, Range::closed(30, 90),
                "Rhombohedral: angle between the three set normals"), &T::obliqueDeg);
-    bind(row("fractures", ParamType::Json, "", nullptr, Range::any(),
+    bind(param("fractures", ParamType::Json, "", nullptr, Range::any(),
              "Extra fracture discs, a JSON file (or list): [{\"center\":[x,y,z],"
              "\"normal\":[x,y,z],\"radius\":r}, ...] (tile coordinates, m)"),
          [](const T& t) {
@@ -93,9 +77,9 @@ void addTileRows(Schema<P>& s, Access at)
              return a;
          },
          [](T& t, const json& j) {
-             t.extraDiscs = j.is_null() ? std::vector<Disc>() : fracturesFromJson(jsonValue(j));
+             t.extraDiscs = j.is_null() ? std::vector<Disc>() : fracturesFromJson(jsonOrFile(j));
          });
-    bind(row("authored", ParamType::Json, "", nullptr, Range::any(),
+    bind(param("authored", ParamType::Json, "", nullptr, Range::any(),
              "Authored blocks, a JSON file (or list): [{\"type\":\"box\",\"center\":[..],"
              "\"size\":[..],\"rotate\":[..]} or {\"type\":\"polytope\",\"planes\":"
              "[[nx,ny,nz,d],...]}, ...]"),
@@ -106,44 +90,44 @@ void addTileRows(Schema<P>& s, Access at)
              return a;
          },
          [](T& t, const json& j) {
-             t.authored = j.is_null() ? std::vector<AuthoredBlock>() : authoredListFromJson(jsonValue(j));
+             t.authored = j.is_null() ? std::vector<AuthoredBlock>() : authoredListFromJson(jsonOrFile(j));
          });
-    member(row("min-points", ParamType::Int, "", 8, Range::closed(1, 100000),
+    member(param("min-points", ParamType::Int, "", 8, Range::closed(1, 100000),
                "Clusters with fewer points join a neighbour whose joint hull holds no third "
                "cluster's point, else stay blocks (without fill: are dropped)"), &T::minPoints);
-    member(row("fill", ParamType::Bool, "", true, Range::any(),
+    member(param("fill", ParamType::Bool, "", true, Range::any(),
                "Grow each block to its fractures: neighbours share a separating plane (the "
                "disc's own where it separates them) and stand fracture-width apart; --no-fill: "
                "the paper's hull-only reading (neighbours about a point spacing apart, small "
                "clusters dropped)"), &T::fill);
-    member(row("fracture-width", ParamType::Real, "m", -1.0, Range::closed(-1, 1e3),
+    member(param("fracture-width", ParamType::Real, "m", -1.0, Range::closed(-1, 1e3),
                "Gap between neighbouring blocks across a fracture (-1 = 0.002 x tile size; "
                "unused without fill)"), &T::fractureWidth);
-    member(row("smooth-radius", ParamType::Real, "m", 0.25, Range::closed(0, 2.5e3),
+    member(param("smooth-radius", ParamType::Real, "m", 0.25, Range::closed(0, 2.5e3),
                "R of the smooth intersection of the hull planes"), &T::smoothRadius);
-    bind(row("warp-amplitude", ParamType::Real, "m", 0.05, Range::closed(0, 500),
+    bind(param("warp-amplitude", ParamType::Real, "m", 0.05, Range::closed(0, 500),
              "Relief warp amplitude (the surface moves at most this; 0 = off)"),
          [](const T& t) { return t.relief.amplitude; },
          [](T& t, const json& j) { t.relief.amplitude = j.get<double>(); });
-    bind(row("warp-relief", ParamType::Text, "", "turbulence", Range::any(),
+    bind(param("warp-relief", ParamType::Text, "", "turbulence", Range::any(),
              "Warp relief: 'turbulence' or an EXR / 16-bit PNG image (tiled; bright = bump)"),
          [](const T& t) { return t.relief.image.empty() ? std::string("turbulence") : t.relief.image; },
          [](T& t, const json& j) {
              const std::string v = j.get<std::string>();
              t.relief.image = v == "turbulence" ? std::string() : v;
          });
-    bind(row("warp-scale", ParamType::Real, "m", 1.5, Range::openClosed(0, 1e4),
+    bind(param("warp-scale", ParamType::Real, "m", 1.5, Range::openClosed(0, 1e4),
              "Warp: turbulence wavelength, or world size of one image tile"),
          [](const T& t) { return t.relief.scale; },
          [](T& t, const json& j) { t.relief.scale = j.get<double>(); });
-    bind(row("warp-octaves", ParamType::Int, "", 4, Range::closed(1, 12), "Warp: turbulence octaves"),
+    bind(param("warp-octaves", ParamType::Int, "", 4, Range::closed(1, 12), "Warp: turbulence octaves"),
          [](const T& t) { return t.relief.octaves; },
          [](T& t, const json& j) { t.relief.octaves = j.get<int>(); });
-    bind(row("warp-sharpness", ParamType::Real, "", 1.0, Range::closed(1, 64),
+    bind(param("warp-sharpness", ParamType::Real, "", 1.0, Range::closed(1, 64),
              "Warp: exponent p of the triplanar weights |g.u_i|^p (1 = the paper's)"),
          [](const T& t) { return t.relief.sharpness; },
          [](T& t, const json& j) { t.relief.sharpness = j.get<double>(); });
-    member(row("seed", ParamType::Int, "", 0, Range::atLeast(0),
+    member(param("seed", ParamType::Int, "", 0, Range::atLeast(0),
                "Random seed (same seed, same bits)"), &T::seed);
 }
 
@@ -164,7 +148,7 @@ Schema<BlocksParams> makeBlocksSchema()
         "intersection of its convex hull's planes, warped by a triplanar relief; baked with "
         "its block ids over periods.");
     addTileRows(s, [](auto& p) -> auto& { return p.tile; });
-    s.member(row("periods", ParamType::Ints, "", json::array({1, 1, 1}), Range::closed(1, 1024),
+    s.member(param("periods", ParamType::Ints, "", json::array({1, 1, 1}), Range::closed(1, 1024),
                  "Tile periods baked along x,y,z", 3), &BlocksParams::periods);
     addBakeRows(s, &BlocksParams::bake, 0.05, 3.0);
     return s;

@@ -40,36 +40,24 @@ void addBakeRows(Schema<P>& s, BakeParams P::*m, nlohmann::json voxelSize,
               [m, field](const P& p) { return Conv<T>::get((p.*m).*field); },
               [m, field](P& p, const nlohmann::json& j) { Conv<T>::set((p.*m).*field, j); });
     };
-    auto row = [](const char* name, ParamType type, const char* unit, nlohmann::json def,
-                  Range range, std::string help, size_t count = 1) {
-        ParamInfo p;
-        p.name = name;
-        p.type = type;
-        p.unit = unit;
-        p.defaultValue = std::move(def);
-        p.range = range;
-        p.help = std::move(help);
-        p.count = count;
-        return p;
-    };
     const std::string note = sizeNote;
-    bind(row("voxel-size", ParamType::Real, "m", voxelSize, Range::closed(1e-6, 1e6),
+    bind(param("voxel-size", ParamType::Real, "m", voxelSize, Range::closed(1e-6, 1e6),
              "Voxel edge length" + (voxelSize.is_null() ? note : std::string())),
          &BakeParams::voxelSize);
-    bind(row("half-width", ParamType::Real, "voxels", halfWidth, Range::closed(1, 64),
+    bind(param("half-width", ParamType::Real, "voxels", halfWidth, Range::closed(1, 64),
              "Narrow-band half width" + (halfWidth.is_null() ? note : std::string())),
          &BakeParams::halfWidth);
-    ParamInfo renorm = row("renormalize", ParamType::Text, "", "auto", Range::any(),
+    ParamInfo renorm = param("renormalize", ParamType::Text, "", "auto", Range::any(),
                            "Renormalise fields that are not exact distances: auto (those), on, off");
     renorm.choices = {"auto", "on", "off"};
     bind(renorm, &BakeParams::renormalize);
-    bind(row("tracker-steps", ParamType::Int, "", 0, Range::closed(0, 100),
+    bind(param("tracker-steps", ParamType::Int, "", 0, Range::closed(0, 100),
              "LevelSetTracker normalise steps after baking"), &BakeParams::trackerSteps);
-    bind(row("region", ParamType::Reals, "m", nullptr, Range::any(),
+    bind(param("region", ParamType::Reals, "m", nullptr, Range::any(),
              "Bake only voxel centres in [min, max): xmin,ymin,zmin,xmax,ymax,zmax "
              "(leaf-aligned regions chunk a bake bit for bit)", 6),
          &BakeParams::region);
-    bind(row("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0),
+    bind(param("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0),
              "Refuse bakes estimated above this (0 = 75% of RAM)"), &BakeParams::maxMemoryGB);
 }
 

@@ -1,5 +1,7 @@
 #include "Schema.h"
 
+#include "Expression.h"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -82,6 +84,25 @@ std::string Range::text() const
     if (lo) return std::string(minOpen ? "> " : ">= ") + number(min);
     if (hi) return std::string(maxOpen ? "< " : "<= ") + number(max);
     return "a finite number";
+}
+
+ParamInfo param(const char* name, ParamType type, const char* unit, json defaultValue,
+                Range range, std::string help, size_t count)
+{
+    ParamInfo p;
+    p.name = name;
+    p.type = type;
+    p.unit = unit;
+    p.defaultValue = std::move(defaultValue);
+    p.range = range;
+    p.help = std::move(help);
+    p.count = count;
+    return p;
+}
+
+json jsonOrFile(const json& value)
+{
+    return value.is_string() ? readJsonFile(value.get<std::string>()) : value;
 }
 
 std::string ParamInfo::pythonName() const

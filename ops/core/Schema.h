@@ -77,6 +77,13 @@ struct ParamInfo
     std::string pythonName() const;
 };
 
+/// @brief One row: the way every table spells its rows.
+ParamInfo param(const char* name, ParamType type, const char* unit, nlohmann::json defaultValue,
+                Range range, std::string help, size_t count = 1);
+
+/// @brief A Json row's value as JSON: a string is a file path, read; anything else is itself.
+nlohmann::json jsonOrFile(const nlohmann::json& value);
+
 /// @brief The name in @a names closest to @a key (edit distance, '_' counts as '-'), or "" when
 /// none is close enough to suggest.
 std::string closestName(const std::string& key, const std::vector<std::string>& names);

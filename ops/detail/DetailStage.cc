@@ -13,20 +13,6 @@ using nlohmann::json;
 
 namespace {
 
-ParamInfo row(const char* name, ParamType type, const char* unit, json def, Range range,
-              const char* help, size_t count = 1)
-{
-    ParamInfo p;
-    p.name = name;
-    p.type = type;
-    p.unit = unit;
-    p.defaultValue = std::move(def);
-    p.range = range;
-    p.help = help;
-    p.count = count;
-    return p;
-}
-
 Schema<DetailStageParams> makeSchema()
 {
     using P = DetailStageParams;
@@ -37,57 +23,57 @@ Schema<DetailStageParams> makeSchema()
         "noise in local frames (n, t, b), b = n ^ W): each point near the surface is projected "
         "on it and the field raised or lowered by D(noise)·(1 - |p p_S|/R)^6. Amplitudes are "
         "in metres and bound the displacement; 0 disables an operator.");
-    s.member(row("warp-amplitude", ParamType::Real, "m", 0.0, Range::closed(0, 1e3),
+    s.member(param("warp-amplitude", ParamType::Real, "m", 0.0, Range::closed(0, 1e3),
                  "Warp: largest displacement; 0 = off"), &P::warpAmplitude);
-    s.member(row("warp-relief", ParamType::Text, "", "turbulence", Range::any(),
+    s.member(param("warp-relief", ParamType::Text, "", "turbulence", Range::any(),
                  "Warp relief: 'turbulence' or an EXR / 16-bit PNG image (bright = bump)"),
              &P::warpRelief);
-    s.member(row("warp-scale", ParamType::Real, "m", 1.5, Range::above(0),
+    s.member(param("warp-scale", ParamType::Real, "m", 1.5, Range::above(0),
                  "Warp: turbulence wavelength, or world size of one image tile"), &P::warpScale);
-    s.member(row("warp-octaves", ParamType::Int, "", 4, Range::closed(1, 12),
+    s.member(param("warp-octaves", ParamType::Int, "", 4, Range::closed(1, 12),
                  "Warp: turbulence octaves"), &P::warpOctaves);
-    s.member(row("warp-sharpness", ParamType::Real, "", 8.0, Range::closed(1, 64),
+    s.member(param("warp-sharpness", ParamType::Real, "", 8.0, Range::closed(1, 64),
                  "Warp: exponent p of the projection weights |g.u_i|^p (8: the arches paper's "
                  "texture blend keeps one projection sharp; 1: the blocks paper's)"),
              &P::warpSharpness);
-    s.member(row("gabor-amplitude", ParamType::Real, "m", 0.0, Range::closed(0, 1e3),
+    s.member(param("gabor-amplitude", ParamType::Real, "m", 0.0, Range::closed(0, 1e3),
                  "Gabor: largest displacement; 0 = off"), &P::gaborAmplitude);
-    s.member(row("gabor-frequency", ParamType::Real, "cycles/m", 0.0, Range::atLeast(0),
+    s.member(param("gabor-frequency", ParamType::Real, "cycles/m", 0.0, Range::atLeast(0),
                  "Gabor: F0, below the voxel Nyquist limit; 0 = 1/(10 x amplitude), ridges ten "
                  "times as wide as they are high"), &P::gaborFrequency);
-    s.member(row("gabor-bandwidth", ParamType::Real, "1/m", 0.0, Range::atLeast(0),
+    s.member(param("gabor-bandwidth", ParamType::Real, "1/m", 0.0, Range::atLeast(0),
                  "Gabor: a; 0 = F0/2"), &P::gaborBandwidth);
-    s.member(row("gabor-orientation", ParamType::Real, "degrees", 0.0, Range::closed(-360, 360),
+    s.member(param("gabor-orientation", ParamType::Real, "degrees", 0.0, Range::closed(-360, 360),
                  "Gabor: frequency direction in the frame, from t towards b"),
              &P::gaborOrientation);
-    s.member(row("gabor-impulses", ParamType::Real, "", 16.0, Range::closed(1, 256),
+    s.member(param("gabor-impulses", ParamType::Real, "", 16.0, Range::closed(1, 256),
                  "Gabor: impulses per kernel"), &P::gaborImpulses);
-    s.member(row("gabor-falloff", ParamType::Real, "m", 0.0, Range::atLeast(0),
+    s.member(param("gabor-falloff", ParamType::Real, "m", 0.0, Range::atLeast(0),
                  "Gabor: R of K(r) = (1 - r/R)^6; 0 = 12 x amplitude, the smallest R that keeps "
                  "the field monotone along normals"), &P::gaborFalloff);
-    s.member(row("gabor-isotropic", ParamType::Bool, "", false, Range::any(),
+    s.member(param("gabor-isotropic", ParamType::Bool, "", false, Range::any(),
                  "Gabor: isotropic noise (no frames)"), &P::gaborIsotropic);
-    s.member(row("tilt", ParamType::Reals, "degrees", json::array({0.0, 0.0}),
+    s.member(param("tilt", ParamType::Reals, "degrees", json::array({0.0, 0.0}),
                  Range::closed(-360, 360),
                  "Gabor: projection tilt alpha (from the normal, 0..75), theta (azimuth from t "
                  "towards b)", 2), &P::tilt);
-    s.member(row("direction-axis", ParamType::Reals, "", nullptr, Range::closed(-1e6, 1e6),
+    s.member(param("direction-axis", ParamType::Reals, "", nullptr, Range::closed(-1e6, 1e6),
                  "W = this axis (default 0,0,1 when no direction is given)", 3),
              &P::directionAxis);
-    s.member(row("direction-skeleton", ParamType::Json, "", nullptr, Range::any(),
+    s.member(param("direction-skeleton", ParamType::Json, "", nullptr, Range::any(),
                  "W = weighted skeleton direction: a JSON file (or object) {\"segments\": "
                  "[{\"a\": [x,y,z], \"b\": [x,y,z], \"radius\": r}]}"), &P::directionSkeleton);
-    s.member(row("direction-curvature", ParamType::Bool, "", false, Range::any(),
+    s.member(param("direction-curvature", ParamType::Bool, "", false, Range::any(),
                  "W = principal direction of largest curvature of the input"),
              &P::directionCurvature);
-    ParamInfo singular = row("singular", ParamType::Text, "", "auto", Range::any(),
+    ParamInfo singular = param("singular", ParamType::Text, "", "auto", Range::any(),
                              "Near frame singularities: cancel the noise, or fade to isotropic "
                              "noise; auto = isotropic for curvature frames, cancel otherwise");
     singular.choices = {"auto", "cancel", "isotropic"};
     s.member(singular, &P::singular);
-    s.member(row("seed", ParamType::Int, "", 0, Range::atLeast(0),
+    s.member(param("seed", ParamType::Int, "", 0, Range::atLeast(0),
                  "Random seed (same seed, same bits)"), &P::seed);
-    s.member(row("blend", ParamType::Json, "", nullptr, Range::any(),
+    s.member(param("blend", ParamType::Json, "", nullptr, Range::any(),
                  "Blend towards a second parameter set where the blend mask reads 1: a JSON file "
                  "(or object) with warp_amplitude, gabor_amplitude, gabor_frequency, "
                  "gabor_orientation, gabor_falloff, tilt; the parameters are interpolated, not "
@@ -102,11 +88,6 @@ Schema<DetailStageParams> makeSchema()
         }
     });
     return s;
-}
-
-json jsonValue(const json& v)
-{
-    return v.is_string() ? readJsonFile(v.get<std::string>()) : v;
 }
 
 } // namespace
@@ -147,12 +128,12 @@ DetailParams DetailStageParams::engine() const
         const auto& a = *directionAxis;
         p.direction.axis = Vec3d(a[0], a[1], a[2]);
     } else if (!directionSkeleton.is_null()) {
-        p.direction = DirectionField::fromSkeletonJson(jsonValue(directionSkeleton));
+        p.direction = DirectionField::fromSkeletonJson(jsonOrFile(directionSkeleton));
     } else if (directionCurvature) {
         p.direction.kind = DirectionKind::Curvature;
     }
     if (!blend.is_null()) {
-        const json b = jsonValue(blend);
+        const json b = jsonOrFile(blend);
         if (!b.is_object()) fail<ValueError>("detail: blend must be a JSON object");
         // Keys as in Python (warp_amplitude) or as on the command line (warp-amplitude).
         json k = json::object();

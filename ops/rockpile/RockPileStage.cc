@@ -9,60 +9,46 @@ using nlohmann::json;
 
 namespace {
 
-ParamInfo row(const char* name, ParamType type, const char* unit, json def, Range range,
-              const char* help, size_t count = 1)
-{
-    ParamInfo p;
-    p.name = name;
-    p.type = type;
-    p.unit = unit;
-    p.defaultValue = std::move(def);
-    p.range = range;
-    p.help = help;
-    p.count = count;
-    return p;
-}
-
 Schema<TileParams> makeTilesSchema()
 {
     using T = TileParams;
     Schema<T> s("rockpile", "Generate a rock tile set: cubes of n³ cells with seeds, each rock "
                             "the discrete anisotropic Voronoi cell of its seed, eroded except "
                             "near its contacts.");
-    ParamInfo tiling = row("tiling", ParamType::Text, "", "aperiodic", Range::any(),
+    ParamInfo tiling = param("tiling", ParamType::Text, "", "aperiodic", Range::any(),
                            "aperiodic (2-colour corner cubes) or periodic (one cube, arches §5)");
     tiling.choices = {"aperiodic", "periodic"};
     s.add(tiling, [](const T& p) { return json(p.tiling == Tiling::Periodic ? "periodic" : "aperiodic"); },
           [](T& p, const json& j) { p.tiling = j == "periodic" ? Tiling::Periodic : Tiling::Aperiodic; });
-    s.member(row("n", ParamType::Int, "cells", 5, Range::closed(3, 64),
+    s.member(param("n", ParamType::Int, "cells", 5, Range::closed(3, 64),
                  "Cells per cube edge (aperiodic >= 4, periodic >= 3)"), &T::n);
-    s.add(row("seeds-per-cell", ParamType::Ints, "", json::array({1, 1}), Range::closed(1, 64),
+    s.add(param("seeds-per-cell", ParamType::Ints, "", json::array({1, 1}), Range::closed(1, 64),
               "Seeds per cell n_k in [min, max] (s = max)", 2),
           [](const T& p) { return json::array({p.seedsMin, p.seedsMax}); },
           [](T& p, const json& j) { p.seedsMin = j.at(0); p.seedsMax = j.at(1); });
-    s.member(row("anisotropy", ParamType::Reals, "", json::array({1.0, 1.0, 1.0}),
+    s.member(param("anisotropy", ParamType::Reals, "", json::array({1.0, 1.0, 1.0}),
                  Range::openClosed(0, 100),
                  "alpha, beta, gamma: relative rock extents along each seed's random frame "
                  "(5,5,1: flat rocks)", 3), &T::anisotropy);
-    s.member(row("anisotropy-jitter", ParamType::Real, "", 0.25, Range::halfOpen(0, 1),
+    s.member(param("anisotropy-jitter", ParamType::Real, "", 0.25, Range::halfOpen(0, 1),
                  "Each extent uniform in [v(1 - j), v]"), &T::anisotropyJitter);
-    s.member(row("g-max", ParamType::Real, "", 2.0, Range::closed(1, 16),
+    s.member(param("g-max", ParamType::Real, "", 2.0, Range::closed(1, 16),
                  "g_k uniform in [1, g-max] (relative rock size)"), &T::gMax);
-    s.member(row("voxels-per-cell", ParamType::Int, "", 10, Range::closed(4, 64),
+    s.member(param("voxels-per-cell", ParamType::Int, "", 10, Range::closed(4, 64),
                  "m: n_G = m n voxels per cube edge"), &T::voxelsPerCell);
-    s.member(row("cube-size", ParamType::Real, "m", 1.0, Range::above(0), "Cube edge"),
+    s.member(param("cube-size", ParamType::Real, "m", 1.0, Range::above(0), "Cube edge"),
              &T::cubeSize);
-    s.add(row("contact-radii", ParamType::Reals, "cells", json::array({0.08, 0.3}),
+    s.add(param("contact-radii", ParamType::Reals, "cells", json::array({0.08, 0.3}),
               Range::closed(0, 1.5), "a, b: no erosion within a of a contact, full beyond b", 2),
           [](const T& p) { return json::array({p.contactInner, p.contactOuter}); },
           [](T& p, const json& j) { p.contactInner = j.at(0); p.contactOuter = j.at(1); });
-    s.member(row("erosion-steps", ParamType::Int, "", 6, Range::closed(0, 100),
+    s.member(param("erosion-steps", ParamType::Int, "", 6, Range::closed(0, 100),
                  "Spheroidal erosion iterations"), &T::erosionSteps);
-    s.member(row("erosion-rate", ParamType::Real, "", 0.5, Range::openClosed(0, 1),
+    s.member(param("erosion-rate", ParamType::Real, "", 0.5, Range::openClosed(0, 1),
                  "Erosion per step at full exposure"), &T::erosionRate);
-    s.member(row("poisson-radius", ParamType::Real, "cells", 0.0, Range::halfOpen(0, 1),
+    s.member(param("poisson-radius", ParamType::Real, "cells", 0.0, Range::halfOpen(0, 1),
                  "Periodic: seed spacing (0 = 0.8; else >= 0.3)"), &T::poissonRadius);
-    s.member(row("seed", ParamType::Int, "", 0, Range::atLeast(0),
+    s.member(param("seed", ParamType::Int, "", 0, Range::atLeast(0),
                  "Random seed (same seed, same bits)"), &T::seed);
     s.rule([](const T& p) {
         if (p.tiling == Tiling::Aperiodic && p.n < 4) {
@@ -89,28 +75,28 @@ Schema<PileParams> makePileSchema()
 {
     using P = PileParams;
     Schema<P> s("rockpile", "Fill a support object with a tile set's rocks.");
-    s.member(row("threshold", ParamType::Real, "", 0.5, Range::openClosed(0, 1),
+    s.member(param("threshold", ParamType::Real, "", 0.5, Range::openClosed(0, 1),
                  "Place a rock when this fraction of its anchors (voxel centres and seed) is "
                  "inside"), &P::threshold);
-    s.add(row("keep-deep", ParamType::Bool, "", false, Range::any(),
+    s.add(param("keep-deep", ParamType::Bool, "", false, Range::any(),
               "Keep rocks deeper than twice the largest embedding radius (dropped by default)"),
           [](const P& p) { return json(!p.dropDeep); },
           [](P& p, const json& j) { p.dropDeep = !j.get<bool>(); });
-    s.member(row("material", ParamType::Int, "", -1, Range::halfOpen(-1, 1 << 24),
+    s.member(param("material", ParamType::Int, "", -1, Range::halfOpen(-1, 1 << 24),
                  "Also write grid 'material' holding this id on every rock voxel (to unite the "
                  "pile with other stages' material grids); -1 = none"), &P::material);
-    s.add(row("support-grid", ParamType::Text, "", "", Range::any(),
+    s.add(param("support-grid", ParamType::Text, "", "", Range::any(),
               "Level set to read from a .vdb support (empty: 'surface', else the file's only "
               "level set)"),
           [](const P& p) { return json(p.support.grid); },
           [](P& p, const json& j) { p.support.grid = j.get<std::string>(); });
-    ParamInfo up = row("up", ParamType::Text, "", "z", Range::any(),
+    ParamInfo up = param("up", ParamType::Text, "", "z", Range::any(),
                        "Up axis of a mesh support: z (rockvdb) or y (Blender's OBJ export "
                        "default, Houdini)");
     up.choices = {"z", "y"};
     s.add(up, [](const P& p) { return json(p.support.up == UpAxis::Y ? "y" : "z"); },
           [](P& p, const json& j) { p.support.up = j == "y" ? UpAxis::Y : UpAxis::Z; });
-    s.member(row("seed", ParamType::Int, "", 0, Range::atLeast(0),
+    s.member(param("seed", ParamType::Int, "", 0, Range::atLeast(0),
                  "Lattice colours (and a JSON support's noise)"), &P::seed);
     return s;
 }
