@@ -159,15 +159,12 @@ def _stage_params(table, fn, params):
 def _shown(value):
     if isinstance(value, list):
         return "(" + ", ".join(_shown(v) for v in value) + ")"
-    if isinstance(value, str):
-        return repr(value)
     return repr(value)
 
 
 def _stage_function(table, impl, name, head, tail, before=(), after=()):
     """A public function over impl with the table's keywords in its signature (defaults as the
     table gives them) and a docstring listing each with its unit, default, range and help."""
-    import functools
     import inspect
     P = inspect.Parameter
     params = [P(b, P.POSITIONAL_OR_KEYWORD) for b in before]
@@ -187,21 +184,18 @@ def _stage_function(table, impl, name, head, tail, before=(), after=()):
         params.append(P(a, P.KEYWORD_ONLY, default=d))
     lines += ["", tail]
 
-    @functools.wraps(impl)
     def call(*args, **kwargs):
+        # Only what the caller gave goes on (left out, a row takes its table default in C++);
+        # unknown keywords reach _stage_params, which names the closest one.
         bound = sig.bind(*args, **{k: v for k, v in kwargs.items() if k in sig.parameters})
-        extra = {k: v for k, v in kwargs.items() if k not in sig.parameters}
-        fixed = {k: v for k, v in bound.arguments.items()
-                 if k in before or k in dict(after)}
-        table_args = {k: v for k, v in bound.arguments.items() if k not in fixed}
-        return impl(**fixed, **table_args, **extra)
+        unknown = {k: v for k, v in kwargs.items() if k not in sig.parameters}
+        return impl(**bound.arguments, **unknown)
 
     sig = inspect.Signature(params)
     call.__signature__ = sig
     call.__doc__ = "\n".join(lines)
     call.__name__ = call.__qualname__ = name
-    call.__wrapped__ = None
-    del call.__wrapped__
+    call.__module__ = __name__
     return call
 
 
