@@ -405,7 +405,9 @@ void Tool::addParams(CLI::App& where, const SchemaBase& schema)
             for (size_t k = 1; k < info.count; ++k) type += std::string(",") + names[int(info.type)];
             b.option->type_name(type);
         }
-        if (!info.defaultValue.is_null()) b.option->default_str(cliText(info.defaultValue));
+        // An unset (null) default shows nothing, not the storage's empty "[]".
+        b.option->default_str(info.defaultValue.is_null() ? std::string()
+                                                          : cliText(info.defaultValue));
         mBound.push_back(b);
     }
 }
