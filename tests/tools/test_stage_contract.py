@@ -402,8 +402,10 @@ def test_python_calls_raise_keyboard_interrupt(tmp_path, tile_file, call):
     word, took = p.stdout.split()
     assert word == "KeyboardInterrupt", p.stdout
     # No watchdog in Python (a host such as Blender must never be killed): phases without a
-    # check (OpenVDB's fast sweeping in detail's band widening) run to their end first.
-    assert float(took) < 2.0
+    # check (OpenVDB's fast sweeping and gradient in detail's band widening, ~1.5 s alone, more
+    # when CTest runs another suite beside this one) run to their end first. A call that
+    # ignored the interrupt would print "finished" above; this bound is a sanity check.
+    assert float(took) < 4.0
 
 
 # ---- progress --------------------------------------------------------------------------------
