@@ -60,9 +60,11 @@ Schema<DetailStageParams> makeSchema()
     s.member(param("direction-axis", ParamType::Reals, "", nullptr, Range::closed(-1e6, 1e6),
                  "W = this axis (default 0,0,1 when no direction is given)", 3),
              &P::directionAxis);
-    s.member(param("direction-skeleton", ParamType::Json, "", nullptr, Range::any(),
+    s.add(param("direction-skeleton", ParamType::Json, "", nullptr, Range::any(),
                  "W = weighted skeleton direction: a JSON file (or object) {\"segments\": "
-                 "[{\"a\": [x,y,z], \"b\": [x,y,z], \"radius\": r}]}"), &P::directionSkeleton);
+                 "[{\"a\": [x,y,z], \"b\": [x,y,z], \"radius\": r}]}"),
+          [](const P& p) { return p.directionSkeleton; },
+          [](P& p, const json& j) { p.directionSkeleton = j.is_null() ? j : jsonOrFile(j); });
     s.member(param("direction-curvature", ParamType::Bool, "", false, Range::any(),
                  "W = principal direction of largest curvature of the input"),
              &P::directionCurvature);
@@ -73,11 +75,13 @@ Schema<DetailStageParams> makeSchema()
     s.member(singular, &P::singular);
     s.member(param("seed", ParamType::Int, "", 0, Range::atLeast(0),
                  "Random seed (same seed, same bits)"), &P::seed);
-    s.member(param("blend", ParamType::Json, "", nullptr, Range::any(),
+    s.add(param("blend", ParamType::Json, "", nullptr, Range::any(),
                  "Blend towards a second parameter set where the blend mask reads 1: a JSON file "
                  "(or object) with warp_amplitude, gabor_amplitude, gabor_frequency, "
                  "gabor_orientation, gabor_falloff, tilt; the parameters are interpolated, not "
-                 "the results"), &P::blend);
+                 "the results"),
+          [](const P& p) { return p.blend; },
+          [](P& p, const json& j) { p.blend = j.is_null() ? j : jsonOrFile(j); });
     addBakeRows(s, &P::bake, nullptr, nullptr, " [default: the input's]");
     s.rule([](const P& p) {
         const int directions = int(p.directionAxis.has_value()) +

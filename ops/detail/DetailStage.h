@@ -40,11 +40,11 @@ struct DetailStageParams
     bool gaborIsotropic;
     std::array<double, 2> tilt;
     std::optional<std::array<double, 3>> directionAxis;
-    nlohmann::json directionSkeleton; ///< null, a file path or {"segments": [...]}
+    nlohmann::json directionSkeleton; ///< null or {"segments": [...]} (a file: its content)
     bool directionCurvature;
     std::string singular;
     uint64_t seed;
-    nlohmann::json blend;             ///< null, a file path or {"warp_amplitude": ...}
+    nlohmann::json blend;             ///< null or {"warp_amplitude": ...} (a file: its content)
     BakeParams bake;                  ///< voxel size and band default to the input's
 
     /// @brief The detail field's parameters (skeleton and blend files read here).

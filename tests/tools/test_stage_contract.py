@@ -191,6 +191,21 @@ def test_detail_replays_from_its_own_provenance(tmp_path, ball_vdb):
     assert_same_file(first, tmp_path / "again.vdb")
 
 
+def test_detail_records_a_skeleton_file_by_content(tmp_path, ball_vdb):
+    skeleton = tmp_path / "skel.json"
+    skeleton.write_text(json.dumps({"segments": [{"a": [0, 0, -1], "b": [0, 0, 1], "radius": 2}]}))
+    first = tmp_path / "d.vdb"
+    run([tool("vdb_detail"), "-q", str(ball_vdb), "--gabor-amplitude", "0.03",
+         "--direction-skeleton", str(skeleton), "-o", str(first)], check=True)
+    prov = json.loads(vdb.read(str(first), "surface").metadata["rockvdb:params"])
+    assert prov["direction-skeleton"]["segments"][0]["radius"] == 2
+    skeleton.unlink()  # the replay needs only the file's own provenance (and its input)
+    (tmp_path / "prov.json").write_text(json.dumps(prov))
+    run([tool("vdb_detail"), "-q", "--params", str(tmp_path / "prov.json"), "-o",
+         str(tmp_path / "again.vdb")], check=True)
+    assert_same_file(first, tmp_path / "again.vdb")
+
+
 def test_detail_keywords_are_the_tables():
     with pytest.raises(TypeError, match=r"unexpected keyword argument 'gabor_amplitde' "
                                         r"\(did you mean 'gabor_amplitude'\?\)"):
