@@ -1,17 +1,17 @@
 // rockvdb_bench — each issue's numbers beside a reference run in the same process.
 // usage: rockvdb_bench [--quick] [foundation] [blocks] [amplify] [detail] [rockpile]   (no group: all of them)
-#include <amplify/Amplify.h>
-#include <blocks/BlockTile.h>
-#include <core/Heightfield.h>
-#include <core/Noise.h>
-#include <core/Bake.h>
-#include <core/Combinators.h>
-#include <core/Primitives.h>
-#include <core/Random.h>
-#include <core/VdbIO.h>
-#include <detail/Detail.h>
-#include <rockpile/RockPile.h>
-#include <rockpile/RockTiles.h>
+#include <rockvdb/amplify/Amplify.h>
+#include <rockvdb/blocks/BlockTile.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Heightfield.h>
+#include <rockvdb/core/Noise.h>
+#include <rockvdb/core/Primitives.h>
+#include <rockvdb/core/Random.h>
+#include <rockvdb/core/VdbIO.h>
+#include <rockvdb/detail/Detail.h>
+#include <rockvdb/rockpile/RockPile.h>
+#include <rockvdb/rockpile/RockTiles.h>
 #include <openvdb/tools/Composite.h>
 
 #include <nlohmann/json.hpp>
@@ -104,12 +104,12 @@ void blocksGroup(bool quick)
                            {BlockType::Tabular, 14554, 30, 82, 143, 16.3}};
     std::vector<std::shared_ptr<const BlockTile>> tiles;
     for (const Paper& ref : paper) {
-        TileParams p;
+        BlockTileParams p;
         p.type = ref.type;
         p.seed = 7;
         std::shared_ptr<const BlockTile> tile;
         const double t = bestOf(quick ? 1 : 3, [&] { tile = std::make_shared<const BlockTile>(generateTile(p)); });
-        const TileStats& st = tile->stats;
+        const BlockTileStats& st = tile->stats;
         std::printf("| %s | %zu | %zu | %zu | %.0f | %.3f s | %d / %d / %d / %d | %.1f s | %.0fx |\n",
                     blockTypeName(ref.type), st.points, st.discs, st.blocks, st.meanPoints, t,
                     ref.P, ref.D, ref.B, ref.Pi, ref.seconds, ref.seconds / t);
@@ -173,7 +173,7 @@ void amplifyGroup(bool quick)
     std::printf("|---|---|---|---|---|---|---|---|---|\n");
     // A 10 m equidimensional tile (blocks of ~2 m, as the paper's cliffs show) and anchors
     // down to 1.5 m inside the rock.
-    TileParams p;
+    BlockTileParams p;
     p.seed = 7;
     p.tileSize = 10;
     auto tile = std::make_shared<const BlockTile>(generateTile(p));
@@ -250,7 +250,7 @@ void rockpileGroup(bool quick)
     const double paperSeconds[] = {23, 73, 176};
     rockpile::TileSet five;
     for (int n : quick ? std::vector<int>{5} : std::vector<int>{5, 7}) {
-        rockpile::TileParams p;
+        rockpile::RockTileParams p;
         p.n = n;
         const auto t0 = Clock::now();
         rockpile::TileSet set = rockpile::generateTiles(p);
@@ -316,7 +316,7 @@ void fillGroup(bool quick)
         double share[2], seconds[2];
         size_t blocks = 0;
         for (int fill = 0; fill < 2; ++fill) {
-            TileParams p;
+            BlockTileParams p;
             p.type = BlockType(t);
             p.seed = 7;
             p.fill = fill == 1;

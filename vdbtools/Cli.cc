@@ -1,7 +1,7 @@
 #include "Cli.h"
 
-#include <core/Error.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
 #include <openvdb/Exceptions.h>

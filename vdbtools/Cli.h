@@ -9,9 +9,9 @@
 //   "<tool>: error: <message>".
 #pragma once
 
-#include <core/Bake.h>
-#include <core/Schema.h>
-#include <core/Task.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Schema.h>
+#include <rockvdb/core/Task.h>
 
 #include <CLI/CLI.hpp>
 #include <openvdb/util/NullInterrupter.h>

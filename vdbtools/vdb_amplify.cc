@@ -2,10 +2,10 @@
 // the stage's table, work in runAmplify (AmplifyStage.h).
 #include "Cli.h"
 
-#include <amplify/AmplifyStage.h>
-#include <core/Error.h>
-#include <core/Image.h>
-#include <core/VdbIO.h>
+#include <rockvdb/amplify/AmplifyStage.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Image.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <chrono>
 #include <cstdio>

@@ -2,10 +2,10 @@
 // stage's table, work in runBlocks / bakeTile (BlocksStage.h).
 #include "Cli.h"
 
-#include <blocks/BlocksStage.h>
-#include <core/Error.h>
-#include <core/Mesh.h>
-#include <core/VdbIO.h>
+#include <rockvdb/blocks/BlocksStage.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Mesh.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <cstdio>
 
@@ -51,7 +51,7 @@ int main(int argc, char** argv)
         }
         bar->clear();
         if (fromTile.empty()) {
-            const TileStats& s = r.tile->stats;
+            const BlockTileStats& s = r.tile->stats;
             char line[512];
             std::snprintf(line, sizeof line,
                           "%s tile %g m: #P %zu points, #D %zu discs, #B %zu blocks, mean #Pi %.1f "

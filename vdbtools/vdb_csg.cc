@@ -1,9 +1,9 @@
 // vdb_csg — union / intersection / difference of level-set files.
 #include "Cli.h"
 
-#include <core/Error.h>
-#include <core/GridCsg.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/GridCsg.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
 

@@ -3,9 +3,9 @@
 // work in runDetail (DetailStage.h).
 #include "Cli.h"
 
-#include <core/Error.h>
-#include <core/VdbIO.h>
-#include <detail/DetailStage.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/VdbIO.h>
+#include <rockvdb/detail/DetailStage.h>
 
 #include <cstdio>
 

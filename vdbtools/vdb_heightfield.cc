@@ -1,7 +1,7 @@
 // vdb_heightfield — a heightfield image to a narrow-band level set of the terrain solid.
 #include "Cli.h"
 
-#include <core/Heightfield.h>
+#include <rockvdb/core/Heightfield.h>
 
 using namespace rockvdb;
 

@@ -1,7 +1,7 @@
 // vdb_info — what is in a .vdb: grids, voxel size, active voxels, bounds, memory, provenance.
 #include "Cli.h"
 
-#include <core/VdbIO.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
 

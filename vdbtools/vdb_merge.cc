@@ -1,9 +1,9 @@
 // vdb_merge — merge the chunks of one bake (--region, leaf aligned) into one file.
 #include "Cli.h"
 
-#include <core/Error.h>
-#include <core/Merge.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Merge.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
 

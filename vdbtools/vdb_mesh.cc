@@ -1,8 +1,8 @@
 // vdb_mesh — level set to an OBJ or PLY mesh (tools::volumeToMesh).
 #include "Cli.h"
 
-#include <core/Mesh.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Mesh.h>
+#include <rockvdb/core/VdbIO.h>
 
 using namespace rockvdb;
 

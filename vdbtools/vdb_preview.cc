@@ -1,9 +1,9 @@
 // vdb_preview — a shaded PNG of a level set, camera framing its bounding box.
 #include "Cli.h"
 
-#include <core/Error.h>
-#include <core/Preview.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Preview.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <cstdio>
 

@@ -1,10 +1,10 @@
 // vdb_primitive — bake a primitive or a CSG expression of primitives into a level set.
 #include "Cli.h"
 
-#include <core/Combinators.h>
-#include <core/Error.h>
-#include <core/Expression.h>
-#include <core/Primitives.h>
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
+#include <rockvdb/core/Primitives.h>
 
 #include <nlohmann/json.hpp>
 

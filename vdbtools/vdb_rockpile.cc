@@ -2,9 +2,9 @@
 // piles: options from the stage's tables, work in runTiles / runPile (RockPileStage.h).
 #include "Cli.h"
 
-#include <core/Error.h>
-#include <core/VdbIO.h>
-#include <rockpile/RockPileStage.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/VdbIO.h>
+#include <rockvdb/rockpile/RockPileStage.h>
 
 #include <cstdio>
 
@@ -57,11 +57,11 @@ int main(int argc, char** argv)
         Task task(bar.get());
         char line[300];
         if (tiles->parsed()) {
-            const TileParams p = tilesSchema().fromJson(tool.givenParams(tilesSchema()));
+            const RockTileParams p = tilesSchema().fromJson(tool.givenParams(tilesSchema()));
             if (!library.empty()) requireWritable(library);
             const TilesResult r = runTiles(p, !library.empty(), task);
             bar->clear();
-            const TileStats& st = r.set.stats;
+            const RockTileStats& st = r.set.stats;
             std::snprintf(line, sizeof line, "%zu stones (%zu regions, %zu seeds, %zu contacts); "
                           "seeds %.3f s, voronoi + erosion %.3f s", st.stones, st.regions,
                           st.seeds, st.contacts, st.seedSeconds, st.voronoiSeconds);

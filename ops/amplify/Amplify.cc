@@ -1,9 +1,9 @@
 #include "Amplify.h"
 
-#include <core/Combinators.h>
-#include <core/Error.h>
-#include <core/GridField.h>
-#include <core/Noise.h>
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/GridField.h>
+#include <rockvdb/core/Noise.h>
 
 #include <nlohmann/json.hpp>
 

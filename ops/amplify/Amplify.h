@@ -7,12 +7,12 @@
 // Presence is decided once per (cell, block), in parallel, before baking.
 #pragma once
 
-#include <blocks/BlockTile.h>
-#include <core/Bake.h>
-#include <core/Field.h>
-#include <core/Heightfield.h>
-#include <core/Task.h>
-#include <core/Image.h>
+#include <rockvdb/blocks/BlockTile.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Field.h>
+#include <rockvdb/core/Heightfield.h>
+#include <rockvdb/core/Image.h>
+#include <rockvdb/core/Task.h>
 
 #include <openvdb/openvdb.h>
 

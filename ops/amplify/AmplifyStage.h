@@ -2,11 +2,11 @@
 // point, runAmplify (vdb_amplify and rockvdb.amplify are thin wrappers over it).
 #pragma once
 
-#include "Amplify.h"
+#include <rockvdb/amplify/Amplify.h>
 
-#include <core/BakeParams.h>
-#include <core/Schema.h>
-#include <core/Task.h>
+#include <rockvdb/core/BakeParams.h>
+#include <rockvdb/core/Schema.h>
+#include <rockvdb/core/Task.h>
 
 #include <nlohmann/json.hpp>
 

@@ -5,19 +5,19 @@
 // connected clusters G_i — split further until no disc separates two of their points — become
 // the blocks B_i: the smooth intersection of the planes of each cluster's convex hull,
 // warped by the gradient-based triplanar relief of §4.2, b_i(p) = c_i(ω⁻¹(p)).
-// With fill (TileParams::fill, the default) each hull is grown to its fractures before that:
+// With fill (BlockTileParams::fill, the default) each hull is grown to its fractures before that:
 // neighbouring clusters share one separating plane (the fracture disc's own plane where it
 // separates them), and each block takes its side of it w/2 away, so neighbours meet across
-// gaps of width w and never overlap (see BlockTile.cc); without, the paper's hull-only
+// gaps of width w and never overlap (see Fill.cc); without, the paper's hull-only
 // reading.
 //
 // This header is the stage's public face: the tile description (what the tile file stores),
 // its generation, its file I/O, and the tile Field. vdb_amplify consumes tiles through it.
 #pragma once
 
-#include <core/Field.h>
-#include <core/Task.h>
-#include <relief/Relief.h>
+#include <rockvdb/core/Field.h>
+#include <rockvdb/core/Task.h>
+#include <rockvdb/relief/Relief.h>
 
 #include <nlohmann/json_fwd.hpp>
 
@@ -54,10 +54,10 @@ using relief::ReliefParams;
 
 /// Everything that defines a tile; 0 / negative values mean "the type's default". Defaults,
 /// ranges and help live in one table, tileSchema() (BlocksStage.h); a default-constructed
-/// TileParams holds the table's defaults.
-struct TileParams
+/// BlockTileParams holds the table's defaults.
+struct BlockTileParams
 {
-    TileParams();
+    BlockTileParams();
 
     BlockType type;
     double tileSize;          ///< s, metres
@@ -83,7 +83,7 @@ struct TileParams
     ReliefParams relief;      ///< the warp (the table's warp-* rows)
     uint64_t seed;
 
-    /// @brief Fill in the type's defaults (documented in BlockTile.cc).
+    /// @brief Fill in the type's defaults (documented in BlockTileParams.cc).
     void resolveDefaults();
     /// @brief ValueError naming the parameter unless usable (call after resolveDefaults).
     void validate() const;
@@ -92,7 +92,7 @@ struct TileParams
     /// @brief From the table's JSON; also reads the '_'-spelt, nested-relief form of tile
     /// files written before the table. @throw ValueError naming the key for unknown keys or
     /// bad values.
-    static TileParams fromJson(const nlohmann::json& j);
+    static BlockTileParams fromJson(const nlohmann::json& j);
 };
 
 /// @brief User fractures from JSON: [{"center": [x,y,z], "normal": [x,y,z], "radius": r}].
@@ -117,10 +117,10 @@ struct Block
     std::vector<std::array<float, 3>> anchors;  ///< presence anchors, centroid first
     std::array<float, 3> boundsMin{}, boundsMax{}; ///< unwarped bounds
     int points = 0;        ///< cluster size
-    bool authored = false; ///< from TileParams::authored
+    bool authored = false; ///< from BlockTileParams::authored
 };
 
-struct TileStats
+struct BlockTileStats
 {
     size_t points = 0, edges = 0, cutEdges = 0, discs = 0, blocks = 0;
     size_t droppedClusters = 0, droppedPoints = 0, visibilitySplits = 0, wrapCuts = 0;
@@ -134,18 +134,18 @@ struct TileStats
 
 struct BlockTile
 {
-    TileParams params;
+    BlockTileParams params;
     std::vector<Disc> discs; ///< every disc used, user discs last
     std::vector<Block> blocks;
-    TileStats stats;
+    BlockTileStats stats;
 
     double size() const { return params.tileSize; }
 };
 
 /// @brief Generate a tile (§4.1–4.2): sampling, graph, fractures, clusters, hulls; the task
 /// is checked between phases and per round of growing (a cancel throws Interrupted).
-BlockTile generateTile(const TileParams& params, Task& task);
-BlockTile generateTile(const TileParams& params);
+BlockTile generateTile(const BlockTileParams& params, Task& task);
+BlockTile generateTile(const BlockTileParams& params);
 
 /// @brief The tile file: JSON "rockvdb-tile" version 1 (parameters, discs, blocks, stats).
 nlohmann::json tileToJson(const BlockTile& tile);

@@ -1,9 +1,9 @@
 #include "BlocksStage.h"
 
-#include <core/Error.h>
-#include <core/Expression.h>
-#include <core/Image.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
+#include <rockvdb/core/Image.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <algorithm>
 
@@ -16,11 +16,11 @@ namespace {
 
 json vec(const Vec3d& v) { return {v[0], v[1], v[2]}; }
 
-/// The tile's rows on any Params that holds a TileParams: @a at(p) gives it (const or not).
+/// The tile's rows on any Params that holds a BlockTileParams: @a at(p) gives it (const or not).
 template<typename P, typename Access>
 void addTileRows(Schema<P>& s, Access at)
 {
-    using T = TileParams;
+    using T = BlockTileParams;
     auto bind = [&](ParamInfo info, auto get, auto set) {
         s.add(std::move(info), [at, get](const P& p) { return json(get(at(p))); },
               [at, set](P& p, const json& j) { set(at(p), j); });
@@ -131,9 +131,9 @@ void addTileRows(Schema<P>& s, Access at)
                "Random seed (same seed, same bits)"), &T::seed);
 }
 
-Schema<TileParams> makeTileSchema()
+Schema<BlockTileParams> makeTileSchema()
 {
-    Schema<TileParams> s("blocks", "A periodic tile of fractured rock blocks (implicit blocks §4).");
+    Schema<BlockTileParams> s("blocks", "A periodic tile of fractured rock blocks (implicit blocks §4).");
     addTileRows(s, [](auto& p) -> auto& { return p; });
     return s;
 }
@@ -194,9 +194,9 @@ void checkVoxel(double tileSize, double amplitude, const BakeSettings& s)
 
 } // namespace
 
-const Schema<TileParams>& tileSchema()
+const Schema<BlockTileParams>& tileSchema()
 {
-    static const Schema<TileParams> s = makeTileSchema();
+    static const Schema<BlockTileParams> s = makeTileSchema();
     return s;
 }
 
@@ -206,13 +206,13 @@ const Schema<BlocksParams>& blocksSchema()
     return s;
 }
 
-TileParams::TileParams() { tileSchema().reset(*this); }
-json TileParams::toJson() const { return tileSchema().toJson(*this); }
-TileParams TileParams::fromJson(const json& j) { return tileSchema().fromJson(fromLegacy(j)); }
+BlockTileParams::BlockTileParams() { tileSchema().reset(*this); }
+json BlockTileParams::toJson() const { return tileSchema().toJson(*this); }
+BlockTileParams BlockTileParams::fromJson(const json& j) { return tileSchema().fromJson(fromLegacy(j)); }
 
 BlocksParams::BlocksParams() { blocksSchema().reset(*this); }
 
-std::shared_ptr<const BlockTile> makeTile(const TileParams& params, Task& task)
+std::shared_ptr<const BlockTile> makeTile(const BlockTileParams& params, Task& task)
 {
     tileSchema().validate(params);
     if (!params.relief.image.empty() && params.relief.amplitude > 0) {

@@ -2,12 +2,12 @@
 // (vdb_blocks, rockvdb.block_tile and BlockTile.bake are thin wrappers over them).
 #pragma once
 
-#include "BlockTile.h"
+#include <rockvdb/blocks/BlockTile.h>
 
-#include <core/Bake.h>
-#include <core/BakeParams.h>
-#include <core/Schema.h>
-#include <core/Task.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/BakeParams.h>
+#include <rockvdb/core/Schema.h>
+#include <rockvdb/core/Task.h>
 
 #include <nlohmann/json.hpp>
 
@@ -21,7 +21,7 @@ namespace blocks {
 constexpr const char* kBlocksTool = "vdb_blocks";
 
 /// @brief The tile's rows: what defines a tile (a tile file's "params").
-const Schema<TileParams>& tileSchema();
+const Schema<BlockTileParams>& tileSchema();
 
 /// vdb_blocks' options, rockvdb.block_tile's keywords: the tile's rows, the periods baked and
 /// the bake's rows (defaults in blocksSchema()).
@@ -29,7 +29,7 @@ struct BlocksParams
 {
     BlocksParams();
 
-    TileParams tile;
+    BlockTileParams tile;
     std::array<int, 3> periods;
     BakeParams bake;
 };
@@ -44,7 +44,7 @@ struct BlocksResult
 };
 
 /// @brief Generate a tile (the task checked between phases).
-std::shared_ptr<const BlockTile> makeTile(const TileParams& params, Task& task);
+std::shared_ptr<const BlockTile> makeTile(const BlockTileParams& params, Task& task);
 
 /// @brief Bake @a tile over params.periods at params.bake: 'surface' and 'block_id', the tile
 /// description as metadata rockvdb:tile, provenance = the table's values (the tile's own

@@ -1,7 +1,7 @@
 // rockvdb — convex hulls of point clusters (the only translation unit that includes CGAL).
 #pragma once
 
-#include <core/Field.h>
+#include <rockvdb/core/Field.h>
 
 #include <array>
 #include <vector>

@@ -1,11 +1,13 @@
 // The block fields b_i = c_i ∘ ω⁻¹ (§4.2) and the tile field (their union, culled by cells).
-#include "BlockTile.h"
+#include <rockvdb/blocks/BlockTile.h>
 
-#include <core/Error.h>
-#include <core/Image.h>
-#include <core/Noise.h>
-#include <core/Random.h>
-#include <relief/Relief.h>
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/GridUtil.h>
+#include <rockvdb/core/Image.h>
+#include <rockvdb/core/Noise.h>
+#include <rockvdb/core/Random.h>
+#include <rockvdb/relief/Relief.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -72,7 +74,7 @@ float maxPlane(const PlaneSoA& P, const Vec3f& c)
 }
 
 // f = h_0 ∩̃ h_1 ∩̃ ... with a ∩̃ b = max(a, b) + R·k³/6, k = max(1 - |a - b|/R, 0) (§4.2 in
-// our sign convention, see core/Combinators.h).
+// our sign convention): core/Combinators.h's SmoothBlend, inlined into the loop.
 __attribute__((noinline)) void fold(const PlaneSoA& P, const std::vector<int>& act, float R, int n,
           const float* __restrict x, const float* __restrict y, const float* __restrict z,
           float* __restrict f)
@@ -83,15 +85,13 @@ __attribute__((noinline)) void fold(const PlaneSoA& P, const std::vector<int>& a
                     ad = P.d[size_t(k0)];
         for (int i = 0; i < n; ++i) f[i] = ax * x[i] + ay * y[i] + az * z[i] - ad;
     }
-    const float invR = R > 0 ? 1.0f / R : 0.0f, r6 = R / 6.0f;
+    const SmoothBlend blend(R);
     for (size_t a = 1; a < act.size(); ++a) {
         const size_t k = size_t(act[a]);
         const float ax = P.nx[k], ay = P.ny[k], az = P.nz[k], ad = P.d[k];
         if (R > 0) {
             for (int i = 0; i < n; ++i) {
-                const float h = ax * x[i] + ay * y[i] + az * z[i] - ad;
-                const float kk = std::max(1.0f - std::abs(f[i] - h) * invR, 0.0f);
-                f[i] = std::max(f[i], h) + r6 * kk * kk * kk;
+                f[i] = blend.intersection(f[i], ax * x[i] + ay * y[i] + az * z[i] - ad);
             }
         } else {
             for (int i = 0; i < n; ++i) f[i] = std::max(f[i], ax * x[i] + ay * y[i] + az * z[i] - ad);
@@ -113,7 +113,7 @@ __attribute__((noinline)) void foldGrad(const PlaneSoA& P, const std::vector<int
         gy[i] = P.ny[k0];
         gz[i] = P.nz[k0];
     }
-    const float invR = R > 0 ? 1.0f / R : 0.0f, r6 = R / 6.0f;
+    const SmoothBlend blend(R);
     for (size_t a = 1; a < act.size(); ++a) {
         const size_t k = size_t(act[a]);
         const float ax = P.nx[k], ay = P.ny[k], az = P.nz[k], ad = P.d[k];
@@ -122,14 +122,14 @@ __attribute__((noinline)) void foldGrad(const PlaneSoA& P, const std::vector<int
             for (int i = 0; i < n; ++i) {
                 const float h = ax * x[i] + ay * y[i] + az * z[i] - ad;
                 const float diff = f[i] - h;
-                const float kk = std::max(1.0f - std::abs(diff) * invR, 0.0f);
+                const float kk = blend.k(f[i], h);
                 const float half = 0.5f * kk * kk;
                 const float sel = diff >= 0.0f ? 1.0f : 0.0f;
                 const float wf = half + sel * (1.0f - 2.0f * half), wh = 1.0f - wf;
                 gx[i] = wf * gx[i] + wh * ax;
                 gy[i] = wf * gy[i] + wh * ay;
                 gz[i] = wf * gz[i] + wh * az;
-                f[i] = std::max(f[i], h) + r6 * kk * kk * kk;
+                f[i] = std::max(f[i], h) + blend.r6 * kk * kk * kk;
             }
         } else {
             for (int i = 0; i < n; ++i) {
@@ -531,8 +531,6 @@ private:
             }
         }
     }
-
-    static int floorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 
     std::shared_ptr<const BlockTile> mTile;
     TileFieldOptions mOpt;

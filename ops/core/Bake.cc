@@ -1,6 +1,7 @@
 #include "Bake.h"
 
-#include "Error.h"
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/GridUtil.h>
 
 #include <openvdb/tools/LevelSetTracker.h>
 #include <openvdb/tools/SignedFloodFill.h>
@@ -159,18 +160,10 @@ public:
         result.stats.fillSeconds = since(t1);
 
         const auto t2 = Clock::now();
-        auto surface = FloatGrid::create(mD.background);
         auto xform = openvdb::math::Transform::createLinearTransform(mS.voxelSize);
-        surface->setTransform(xform);
-        surface->setGridClass(openvdb::GRID_LEVEL_SET);
-        surface->setName(mS.gridName);
+        auto surface = emptyLevelSet(mS.gridName, xform, mD.background);
         FloatGrid::Ptr attribute;
-        if (mS.withAttribute) {
-            attribute = FloatGrid::create(kNoId);
-            attribute->setTransform(xform);
-            attribute->setGridClass(openvdb::GRID_UNKNOWN);
-            attribute->setName(mS.attributeName);
-        }
+        if (mS.withAttribute) attribute = emptyAttribute(mS.attributeName, xform, kNoId);
         FloatTree& tree = surface->tree();
         std::vector<Node1T*> nodes1;
         std::vector<Node2T*> nodes2;
@@ -347,8 +340,6 @@ private:
         }
         return out;
     }
-
-    static int floorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 
     bool overlaps(const Node& n) const
     {

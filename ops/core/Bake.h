@@ -15,7 +15,7 @@
 // thread count and for any leaf-aligned chunking of the region.
 #pragma once
 
-#include "Field.h"
+#include <rockvdb/core/Field.h>
 
 #include <openvdb/Grid.h>
 #include <openvdb/openvdb.h>

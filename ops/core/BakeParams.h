@@ -2,8 +2,8 @@
 // tracker steps, region and memory limit, named and checked the same way in every tool.
 #pragma once
 
-#include "Bake.h"
-#include "Schema.h"
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Schema.h>
 
 #include <array>
 #include <limits>

@@ -1,8 +1,8 @@
 #include "Combinators.h"
 
-#include "Error.h"
-#include "Noise.h"
-#include "Random.h"
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Noise.h>
+#include <rockvdb/core/Random.h>
 
 #include <openvdb/math/Mat3.h>
 

@@ -2,7 +2,7 @@
 // and id tags for attribute grids.
 #pragma once
 
-#include "Field.h"
+#include <rockvdb/core/Field.h>
 
 #include <openvdb/math/Mat4.h>
 
@@ -18,12 +18,35 @@ namespace rockvdb {
 /// intersection is max(a, b) + R·k³/6 (material removed along convex edges: the rounded
 /// edges of its Fig. 8) and the smooth union is min(a, b) - R·k³/6 (a fillet is added).
 /// With R = 0 both are the hard operators.
+///
+/// SmoothBlend holds one radius with 1/R and R/6 computed once, so a loop folding many
+/// values with one radius (the block tiles' hull planes) inlines and vectorises it; the
+/// per-call functions below are the same arithmetic.
 /// @{
+struct SmoothBlend
+{
+    float invR = 0.0f, r6 = 0.0f;
+
+    explicit SmoothBlend(float radius)
+        : invR(radius > 0.0f ? 1.0f / radius : 0.0f), r6(radius > 0.0f ? radius / 6.0f : 0.0f) {}
+
+    /// k(a, b) = max(1 - |a - b| / R, 0) (0 for R = 0).
+    float k(float a, float b) const { return std::max(1.0f - std::abs(a - b) * invR, 0.0f); }
+    /// R·k³/6: what the smooth operators add to the hard ones.
+    float term(float a, float b) const
+    {
+        const float kk = k(a, b);
+        return r6 * kk * kk * kk;
+    }
+    float intersection(float a, float b) const { return std::max(a, b) + term(a, b); }
+    float unite(float a, float b) const { return std::min(a, b) - term(a, b); }
+    float difference(float a, float b) const { return intersection(a, -b); }
+};
+
 inline float smoothBlendTerm(float a, float b, float radius)
 {
     if (!(radius > 0.0f)) return 0.0f;
-    const float k = std::max(1.0f - std::abs(a - b) / radius, 0.0f);
-    return radius * k * k * k * (1.0f / 6.0f);
+    return SmoothBlend(radius).term(a, b);
 }
 inline float smoothIntersection(float a, float b, float radius)
 {

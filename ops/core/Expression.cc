@@ -1,9 +1,9 @@
 #include "Expression.h"
 
-#include "Combinators.h"
-#include "Error.h"
-#include "Heightfield.h"
-#include "Primitives.h"
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Heightfield.h>
+#include <rockvdb/core/Primitives.h>
 
 #include <nlohmann/json.hpp>
 

@@ -22,7 +22,7 @@
 // Unknown keys are errors (they are usually typos); messages give the JSON path.
 #pragma once
 
-#include "Field.h"
+#include <rockvdb/core/Field.h>
 
 #include <nlohmann/json_fwd.hpp>
 

@@ -1,8 +1,8 @@
 #include "GridCsg.h"
 
-#include "Bake.h"
-#include "Error.h"
-#include "VdbIO.h"
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <openvdb/tools/Composite.h>
 #include <openvdb/tools/FastSweeping.h>

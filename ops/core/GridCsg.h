@@ -1,7 +1,7 @@
 // rockvdb — CSG on baked level-set grids (hard: tools::csg*, smooth: the §4.2 operator).
 #pragma once
 
-#include "Combinators.h"
+#include <rockvdb/core/Combinators.h>
 
 #include <openvdb/openvdb.h>
 

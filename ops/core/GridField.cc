@@ -1,7 +1,7 @@
 #include "GridField.h"
 
-#include "Error.h"
-#include "VdbIO.h"
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <openvdb/tools/ChangeBackground.h>
 #include <openvdb/tools/FastSweeping.h>

@@ -1,7 +1,7 @@
 // rockvdb — a baked level set as a Field (e.g. a 3D terrain with overhangs from Houdini).
 #pragma once
 
-#include "Field.h"
+#include <rockvdb/core/Field.h>
 
 #include <openvdb/openvdb.h>
 

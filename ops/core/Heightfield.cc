@@ -1,8 +1,8 @@
 #include "Heightfield.h"
 
-#include "Error.h"
-#include "Image.h"
-#include "Random.h"
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Image.h>
+#include <rockvdb/core/Random.h>
 
 #include <algorithm>
 #include <cmath>

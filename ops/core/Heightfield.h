@@ -10,8 +10,8 @@
 // it (steep slopes included), intersected with the footprint walls and the floor.
 #pragma once
 
-#include "Field.h"
-#include "Noise.h"
+#include <rockvdb/core/Field.h>
+#include <rockvdb/core/Noise.h>
 
 #include <memory>
 #include <string>

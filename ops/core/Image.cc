@@ -1,7 +1,7 @@
 #include "Image.h"
 
-#include "Error.h"
-#include "VdbIO.h"
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>

@@ -1,6 +1,6 @@
 #include "Merge.h"
 
-#include "Error.h"
+#include <rockvdb/core/Error.h>
 
 #include <openvdb/tools/SignedFloodFill.h>
 

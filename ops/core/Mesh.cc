@@ -1,7 +1,7 @@
 #include "Mesh.h"
 
-#include "Error.h"
-#include "VdbIO.h"
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/VolumeToMesh.h>

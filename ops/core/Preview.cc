@@ -1,9 +1,9 @@
 #include "Preview.h"
 
-#include "Error.h"
-#include "Image.h"
-#include "Random.h"
-#include "VdbIO.h"
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Image.h>
+#include <rockvdb/core/Random.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <openvdb/math/Ray.h>
 #include <openvdb/tools/RayIntersector.h>

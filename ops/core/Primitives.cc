@@ -1,7 +1,7 @@
 #include "Primitives.h"
 
-#include "Combinators.h"
-#include "Error.h"
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Error.h>
 
 #include <algorithm>
 #include <cmath>

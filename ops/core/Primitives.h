@@ -1,7 +1,7 @@
 // rockvdb — analytic primitive fields (world units: metres; negative inside).
 #pragma once
 
-#include "Field.h"
+#include <rockvdb/core/Field.h>
 
 #include <vector>
 

@@ -1,7 +1,7 @@
 #include "Sampling.h"
 
-#include "Error.h"
-#include "Random.h"
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Random.h>
 
 #include <algorithm>
 #include <cmath>

@@ -5,7 +5,7 @@
 // and thread count.
 #pragma once
 
-#include "Field.h"
+#include <rockvdb/core/Field.h>
 
 #include <array>
 #include <cstdint>

@@ -1,6 +1,6 @@
 #include "Schema.h"
 
-#include "Expression.h"
+#include <rockvdb/core/Expression.h>
 
 #include <algorithm>
 #include <cmath>

@@ -14,8 +14,8 @@
 // underscores ("cube_size"). Unknown keys are errors that suggest the closest name.
 #pragma once
 
-#include "Error.h"
-#include "Field.h"
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Field.h>
 
 #include <nlohmann/json.hpp>
 

@@ -16,7 +16,7 @@
 // parallelFor, which TBB propagates after cancelling the other chunks).
 #pragma once
 
-#include "Error.h"
+#include <rockvdb/core/Error.h>
 
 #include <openvdb/util/NullInterrupter.h>
 #include <tbb/blocked_range.h>

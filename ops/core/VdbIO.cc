@@ -1,6 +1,6 @@
 #include "VdbIO.h"
 
-#include "Error.h"
+#include <rockvdb/core/Error.h>
 
 #include <openvdb/io/File.h>
 #include <openvdb/io/Stream.h>

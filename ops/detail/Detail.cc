@@ -1,11 +1,11 @@
 #include "Detail.h"
 
-#include "Gabor.h"
+#include <rockvdb/detail/Gabor.h>
 
-#include <core/Error.h>
-#include <core/Expression.h>
-#include <core/GridField.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
+#include <rockvdb/core/GridField.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
 #include <openvdb/tools/Interpolation.h>

@@ -8,10 +8,10 @@
 // Field to bake with renormalisation.
 #pragma once
 
-#include <relief/Relief.h>
+#include <rockvdb/relief/Relief.h>
 
-#include <core/Bake.h>
-#include <core/Field.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Field.h>
 
 #include <openvdb/openvdb.h>
 

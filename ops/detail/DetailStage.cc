@@ -1,8 +1,8 @@
 #include "DetailStage.h"
 
-#include <core/Error.h>
-#include <core/Expression.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <algorithm>
 

@@ -5,11 +5,11 @@
 // engine() turns them into the DetailParams the detail field works with.
 #pragma once
 
-#include "Detail.h"
+#include <rockvdb/detail/Detail.h>
 
-#include <core/BakeParams.h>
-#include <core/Schema.h>
-#include <core/Task.h>
+#include <rockvdb/core/BakeParams.h>
+#include <rockvdb/core/Schema.h>
+#include <rockvdb/core/Task.h>
 
 #include <nlohmann/json.hpp>
 

@@ -1,7 +1,7 @@
 #include "Gabor.h"
 
-#include <core/Error.h>
-#include <core/Random.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Random.h>
 
 #include <algorithm>
 #include <cmath>

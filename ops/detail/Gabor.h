@@ -7,7 +7,7 @@
 // no frame. Impulses are a pure function of (seed, cell): same noise for any thread count.
 #pragma once
 
-#include <core/Field.h>
+#include <rockvdb/core/Field.h>
 
 #include <cstdint>
 #include <vector>

@@ -1,7 +1,7 @@
 #include "Relief.h"
 
-#include <core/Error.h>
-#include <core/Random.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Random.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>

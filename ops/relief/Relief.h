@@ -3,8 +3,8 @@
 // arches-material-stacks-terrain.txt §6).
 #pragma once
 
-#include <core/Image.h>
-#include <core/Noise.h>
+#include <rockvdb/core/Image.h>
+#include <rockvdb/core/Noise.h>
 
 #include <cmath>
 #include <cstdint>

@@ -1,11 +1,12 @@
 #include "RockPile.h"
 
-#include <core/Error.h>
-#include <core/Expression.h>
-#include <core/GridField.h>
-#include <core/Mesh.h>
-#include <core/Random.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
+#include <rockvdb/core/GridField.h>
+#include <rockvdb/core/GridUtil.h>
+#include <rockvdb/core/Mesh.h>
+#include <rockvdb/core/Random.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
 #include <openvdb/points/PointConversion.h>
@@ -29,9 +30,7 @@ namespace {
 
 constexpr uint64_t kColourStream = 0xc0105;
 
-Coord mul(const Coord& c, int s) { return Coord(c[0] * s, c[1] * s, c[2] * s); }
-
-int floorDiv(double v) { return int(std::floor(v)); }
+int floorToInt(double v) { return int(std::floor(v)); }
 
 std::vector<double> rockRadii(const TileSet& set)
 {
@@ -118,7 +117,7 @@ std::vector<Instance> selectRocks(const TileSet& set, const Field& support, cons
     p.validate();
     using Clock = std::chrono::steady_clock;
     const auto t0 = Clock::now();
-    const TileParams& tp = set.params;
+    const RockTileParams& tp = set.params;
     const int n = tp.n, m = tp.voxelsPerCell, span = n * m;
     const double dx = tp.voxelSize();
     const BBoxd bb = support.bounds();
@@ -143,8 +142,8 @@ std::vector<Instance> selectRocks(const TileSet& set, const Field& support, cons
     auto lattice = [&](double w) { return (w / dx + 0.5) / double(span); };
     Coord lo, hi;
     for (int a = 0; a < 3; ++a) {
-        lo[a] = floorDiv(lattice(bb.min()[a])) - 1;
-        hi[a] = floorDiv(lattice(bb.max()[a])) + 1;
+        lo[a] = floorToInt(lattice(bb.min()[a])) - 1;
+        hi[a] = floorToInt(lattice(bb.max()[a])) + 1;
     }
     if (double(hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]) > 1e7) {
         fail<ValueError>("rockpile: the support spans more than 10^7 cubes of ", tp.cubeSize,
@@ -155,7 +154,7 @@ std::vector<Instance> selectRocks(const TileSet& set, const Field& support, cons
     for (int i = lo[0]; i <= hi[0]; ++i)
         for (int j = lo[1]; j <= hi[1]; ++j)
             for (int k = lo[2]; k <= hi[2]; ++k) {
-                const Coord P(i, j, k), shift = mul(P, span);
+                const Coord P(i, j, k), shift = scaled(P, span);
                 if (periodic) {
                     features.push_back({0, shift});
                     continue;
@@ -320,14 +319,8 @@ Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PilePa
             }
         });
     auto xf = openvdb::math::Transform::createLinearTransform(dx);
-    pile.surface = openvdb::FloatGrid::create(bg);
-    pile.surface->setTransform(xf);
-    pile.surface->setGridClass(openvdb::GRID_LEVEL_SET);
-    pile.surface->setName("surface");
-    pile.rockId = openvdb::FloatGrid::create(-1.0f);
-    pile.rockId->setTransform(xf->copy());
-    pile.rockId->setGridClass(openvdb::GRID_UNKNOWN);
-    pile.rockId->setName("rock_id");
+    pile.surface = emptyLevelSet("surface", xf, bg);
+    pile.rockId = emptyAttribute("rock_id", xf->copy(), -1.0f);
     for (size_t g = 0; g < groups; ++g) {
         pile.surface->tree().addLeaf(surfaceLeaves[g]);
         pile.rockId->tree().addLeaf(idLeaves[g]);

@@ -8,10 +8,10 @@
 // lie inside the support, unless it lies deeper than twice the largest embedding radius.
 #pragma once
 
-#include "RockTiles.h"
+#include <rockvdb/rockpile/RockTiles.h>
 
-#include <core/Field.h>
-#include <core/Mesh.h>
+#include <rockvdb/core/Field.h>
+#include <rockvdb/core/Mesh.h>
 
 #include <openvdb/openvdb.h>
 

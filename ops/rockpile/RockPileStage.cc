@@ -1,6 +1,6 @@
 #include "RockPileStage.h"
 
-#include <core/VdbIO.h>
+#include <rockvdb/core/VdbIO.h>
 
 namespace rockvdb {
 namespace rockpile {
@@ -9,9 +9,9 @@ using nlohmann::json;
 
 namespace {
 
-Schema<TileParams> makeTilesSchema()
+Schema<RockTileParams> makeTilesSchema()
 {
-    using T = TileParams;
+    using T = RockTileParams;
     Schema<T> s("rockpile", "Generate a rock tile set: cubes of n³ cells with seeds, each rock "
                             "the discrete anisotropic Voronoi cell of its seed, eroded except "
                             "near its contacts.");
@@ -103,9 +103,9 @@ Schema<PileParams> makePileSchema()
 
 } // namespace
 
-const Schema<TileParams>& tilesSchema()
+const Schema<RockTileParams>& tilesSchema()
 {
-    static const Schema<TileParams> s = makeTilesSchema();
+    static const Schema<RockTileParams> s = makeTilesSchema();
     return s;
 }
 
@@ -115,10 +115,10 @@ const Schema<PileParams>& pileSchema()
     return s;
 }
 
-TileParams::TileParams() { tilesSchema().reset(*this); }
-TileParams TileParams::fromJson(const json& j) { return tilesSchema().fromJson(j); }
-json TileParams::toJson() const { return tilesSchema().toJson(*this); }
-void TileParams::validate() const { tilesSchema().validate(*this); }
+RockTileParams::RockTileParams() { tilesSchema().reset(*this); }
+RockTileParams RockTileParams::fromJson(const json& j) { return tilesSchema().fromJson(j); }
+json RockTileParams::toJson() const { return tilesSchema().toJson(*this); }
+void RockTileParams::validate() const { tilesSchema().validate(*this); }
 
 PileParams::PileParams() { pileSchema().reset(*this); }
 
@@ -129,7 +129,7 @@ void PileParams::validate() const
             halfWidth);
 }
 
-TilesResult runTiles(const TileParams& params, bool library, Task& task)
+TilesResult runTiles(const RockTileParams& params, bool library, Task& task)
 {
     params.validate();
     TilesResult r;

@@ -7,11 +7,11 @@
 // rockvdb:params fed back as `vdb_rockpile <subcommand> --params` remakes it bit for bit.
 #pragma once
 
-#include "RockPile.h"
-#include "RockTiles.h"
+#include <rockvdb/rockpile/RockPile.h>
+#include <rockvdb/rockpile/RockTiles.h>
 
-#include <core/Schema.h>
-#include <core/Task.h>
+#include <rockvdb/core/Schema.h>
+#include <rockvdb/core/Task.h>
 
 #include <nlohmann/json.hpp>
 
@@ -21,8 +21,8 @@ namespace rockpile {
 /// The tool both entry points record as the generator of what they make.
 constexpr const char* kToolName = "vdb_rockpile";
 
-/// @brief The table of TileParams (`vdb_rockpile tiles`, rockvdb.rock_tiles).
-const Schema<TileParams>& tilesSchema();
+/// @brief The table of RockTileParams (`vdb_rockpile tiles`, rockvdb.rock_tiles).
+const Schema<RockTileParams>& tilesSchema();
 /// @brief The table of PileParams (`vdb_rockpile pile`, rockvdb.rock_pile).
 const Schema<PileParams>& pileSchema();
 
@@ -36,7 +36,7 @@ struct TilesResult
 
 /// @brief Generate a tile set (phases: voronoi + erosion, tile grid, library), every grid
 /// stamped with provenance {"tiles": params}.
-TilesResult runTiles(const TileParams& params, bool library, Task& task);
+TilesResult runTiles(const RockTileParams& params, bool library, Task& task);
 
 /// @brief The tile set of a file written by `tiles` (its grid 'rho').
 /// @throw IoError for unreadable files, ValueError when the file holds no tile set.

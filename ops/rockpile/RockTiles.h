@@ -22,8 +22,8 @@
 // extents still apply when set) and a Gaussian erosion resistance around the contacts.
 #pragma once
 
-#include <core/Field.h>
-#include <core/Task.h>
+#include <rockvdb/core/Field.h>
+#include <rockvdb/core/Task.h>
 
 #include <nlohmann/json_fwd.hpp>
 #include <openvdb/openvdb.h>
@@ -41,10 +41,10 @@ enum class Tiling { Aperiodic, Periodic };
 
 /// Everything that defines a tile set. Lengths in cells unless stated (a cell is
 /// cubeSize / n metres). Defaults, ranges and help live in one table, tilesSchema()
-/// (RockPileStage.cc); a default-constructed TileParams holds the table's defaults.
-struct TileParams
+/// (RockPileStage.cc); a default-constructed RockTileParams holds the table's defaults.
+struct RockTileParams
 {
-    TileParams();
+    RockTileParams();
 
     Tiling tiling;
     int n;                  ///< cells per cube edge (aperiodic: >= 4)
@@ -66,7 +66,7 @@ struct TileParams
     uint64_t seed;
 
     /// @brief tilesSchema().fromJson: unknown keys and bad values are ValueErrors.
-    static TileParams fromJson(const nlohmann::json& j);
+    static RockTileParams fromJson(const nlohmann::json& j);
     nlohmann::json toJson() const;
     /// @throw ValueError naming the parameter ("rockpile: n must be ...").
     void validate() const;
@@ -104,7 +104,7 @@ struct Seed
 using Colouring = std::function<int(int, int, int)>;
 
 /// The seeds of cell @a cell (global cell coordinates) under @a colouring.
-std::vector<Seed> cellSeeds(const TileParams& p, const openvdb::Coord& cell,
+std::vector<Seed> cellSeeds(const RockTileParams& p, const openvdb::Coord& cell,
                             const Colouring& colouring);
 
 /// A contact point c_ij kept between two rocks (tile voxel units, global).
@@ -134,7 +134,7 @@ struct Rock
 
 /// @brief Rock k of cell @a cell: the discrete Voronoi cell of seed @a index among the seeds
 /// of the 27 cells around it, its contacts and @a p.erosionSteps steps of spheroidal erosion.
-Rock makeRock(const TileParams& p, const openvdb::Coord& cell, int index,
+Rock makeRock(const RockTileParams& p, const openvdb::Coord& cell, int index,
               const Colouring& colouring);
 
 /// The regions of a tile set: 2 vertex, 12 edge, 48 face, 256 centre (aperiodic), or the one
@@ -147,7 +147,7 @@ struct Region
     std::vector<size_t> rocks;    ///< indices into TileSet::rocks
 };
 
-struct TileStats
+struct RockTileStats
 {
     size_t stones = 0, regions = 0, seeds = 0, contacts = 0;
     double seedSeconds = 0, voronoiSeconds = 0, erosionSeconds = 0, levelSetSeconds = 0;
@@ -155,20 +155,20 @@ struct TileStats
 
 struct TileSet
 {
-    TileParams params;
+    RockTileParams params;
     std::vector<Region> regions;
     std::vector<Rock> rocks;
-    TileStats stats;
+    RockTileStats stats;
 };
 
 /// @brief Every unique rock of the tile set, in parallel (deterministic); @a task is stepped
 /// per batch of rocks (a cancel throws Interrupted).
-TileSet generateTiles(const TileParams& p, Task& task);
-TileSet generateTiles(const TileParams& p);
+TileSet generateTiles(const RockTileParams& p, Task& task);
+TileSet generateTiles(const RockTileParams& p);
 
 /// @brief The rocks whose seeds lie in the cube at lattice position @a cube under
 /// @a colouring (each computed from that cube's point of view).
-std::vector<Rock> cubeRocks(const TileParams& p, const openvdb::Coord& cube,
+std::vector<Rock> cubeRocks(const RockTileParams& p, const openvdb::Coord& cube,
                             const Colouring& colouring);
 
 /// @brief A narrow-band level set of the rock surface (r = 0) in tile voxels shifted by

@@ -2,22 +2,22 @@
 // pyopenvdb.FloatGrid objects, CSG, heightfields and I/O helpers.
 #include "GridCaster.h"
 
-#include <amplify/AmplifyStage.h>
-#include <blocks/BlocksStage.h>
-#include <core/GridField.h>
-#include <core/Bake.h>
-#include <core/Combinators.h>
-#include <core/Error.h>
-#include <core/Expression.h>
-#include <core/GridCsg.h>
-#include <core/Heightfield.h>
-#include <core/Image.h>
-#include <core/Mesh.h>
-#include <core/Preview.h>
-#include <core/Primitives.h>
-#include <core/VdbIO.h>
-#include <detail/DetailStage.h>
-#include <rockpile/RockPileStage.h>
+#include <rockvdb/amplify/AmplifyStage.h>
+#include <rockvdb/blocks/BlocksStage.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
+#include <rockvdb/core/GridCsg.h>
+#include <rockvdb/core/GridField.h>
+#include <rockvdb/core/Heightfield.h>
+#include <rockvdb/core/Image.h>
+#include <rockvdb/core/Mesh.h>
+#include <rockvdb/core/Preview.h>
+#include <rockvdb/core/Primitives.h>
+#include <rockvdb/core/VdbIO.h>
+#include <rockvdb/detail/DetailStage.h>
+#include <rockvdb/rockpile/RockPileStage.h>
 
 #include <nlohmann/json.hpp>
 #include <pybind11/numpy.h>
@@ -295,7 +295,7 @@ PYBIND11_MODULE(_rockvdb, m)
         }, py::arg("periods") = std::array<int, 3>{1, 1, 1}, py::arg("periodic") = false,
            "The tile as a Field (union of its blocks; periodic=True tiles all of space)");
     m.def("generate_tile", [](const std::string& params) {
-        const blocks::TileParams p = blocks::tileSchema().fromJson(parseParams(params, "blocks"));
+        const blocks::BlockTileParams p = blocks::tileSchema().fromJson(parseParams(params, "blocks"));
         std::shared_ptr<const blocks::BlockTile> t;
         {
             py::gil_scoped_release release;
@@ -400,7 +400,7 @@ PYBIND11_MODULE(_rockvdb, m)
     }, py::arg("stage"));
 
     m.def("rock_tiles", [](const std::string& params) {
-        const rockpile::TileParams p = rockpile::tilesSchema().fromJson(parseParams(params, "rockpile"));
+        const rockpile::RockTileParams p = rockpile::tilesSchema().fromJson(parseParams(params, "rockpile"));
         py::gil_scoped_release release;
         PyTaskHost host;
         Task task(&host);

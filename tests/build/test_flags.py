@@ -54,7 +54,7 @@ def test_stage_libraries_include_only_the_layers_below():
             if not name.endswith((".cc", ".h")):
                 continue
             text = open(os.path.join(folder, name)).read()
-            for used in re.findall(r'#include <(\w+)/\w+\.h>', text):
+            for used in re.findall(r'#include <rockvdb/(\w+)/\w+\.h>', text):
                 if used in LAYERS and used != layer:
                     assert used in below, f"ops/{layer}/{name} includes {used}/"
                     seen.add((layer, used))
@@ -63,3 +63,20 @@ def test_stage_libraries_include_only_the_layers_below():
     cmake = open(os.path.join(ops, "CMakeLists.txt")).read()
     for layer in LAYERS:
         assert f"rockvdb_layer(rockvdb_{layer}" in cmake, layer
+
+
+def test_headers_are_included_with_the_rockvdb_prefix():
+    """Outside its own folder a header is reached only as <rockvdb/LAYER/Name.h>; a bare
+    <core/...> would need the ops/ folder on the include path, which no target exports."""
+    import re
+    bare = re.compile(r'#include [<"](?:%s)/' % "|".join(LAYERS))
+    checked = 0
+    for top in ("ops", "vdbtools", "python", "tests", "bench"):
+        for dirpath, _, names in os.walk(os.path.join(ROOT, top)):
+            for name in names:
+                if not name.endswith((".cc", ".h")):
+                    continue
+                text = open(os.path.join(dirpath, name)).read()
+                checked += 1
+                assert not bare.search(text), os.path.join(dirpath, name)
+    assert checked > 60

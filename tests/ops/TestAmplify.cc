@@ -1,12 +1,12 @@
 // Terrain amplification (implicit-blocks §5): slope rule, union property, chunks,
 // determinism, and a flat terrain that qualifies nowhere.
-#include <amplify/Amplify.h>
-#include <blocks/BlockTile.h>
-#include <core/Bake.h>
-#include <core/Combinators.h>
-#include <core/Error.h>
-#include <core/Heightfield.h>
-#include <core/VdbIO.h>
+#include <rockvdb/amplify/Amplify.h>
+#include <rockvdb/blocks/BlockTile.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Heightfield.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include "GridCompare.h"
 
@@ -40,7 +40,7 @@ std::shared_ptr<Heightfield> cliff(bool flat = false)
 
 std::shared_ptr<const blocks::BlockTile> smallTile()
 {
-    blocks::TileParams p;
+    blocks::BlockTileParams p;
     p.type = blocks::BlockType::Equidimensional;
     p.tileSize = 10;
     p.pointRadius = 0.5;
@@ -73,7 +73,7 @@ Scene scene(bool flat = false, const amplify::Strata* strata = nullptr, double h
     rules.region = BBoxd(Vec3d(1, 1, -1e30), Vec3d(31, 31, 1e30));
     std::vector<std::shared_ptr<const blocks::BlockTile>> tiles{smallTile()};
     if (strata) {
-        blocks::TileParams p;
+        blocks::BlockTileParams p;
         p.type = blocks::BlockType::Tabular;
         p.tileSize = 10;
         p.pointRadius = 0.5;
@@ -205,7 +205,7 @@ TEST(Amplify, ABlockStraddlingACellFaceIsComplete)
     initialize();
     auto terrain = cliffTerrain();
     // Tabular blocks are long: some reach well past their cell's faces.
-    blocks::TileParams tp;
+    blocks::BlockTileParams tp;
     tp.type = blocks::BlockType::Tabular;
     tp.tileSize = 10;
     tp.pointRadius = 0.5;

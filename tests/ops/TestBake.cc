@@ -1,9 +1,9 @@
 // The generic baker against OpenVDB's own sphere, analytic measures, determinism, chunking.
-#include <core/Bake.h>
-#include <core/Combinators.h>
-#include <core/Error.h>
-#include <core/Primitives.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Primitives.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include "GridCompare.h"
 

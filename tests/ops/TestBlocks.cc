@@ -1,13 +1,13 @@
 // Block tiles (implicit-blocks §4): periodicity, disjoint convex blocks, visibility, type
 // signatures, user control, the warp's bounds, determinism and the tile file.
-#include <blocks/BlockTile.h>
-#include <core/Bake.h>
-#include <core/Combinators.h>
-#include <core/Error.h>
-#include <core/Primitives.h>
-#include <core/Random.h>
-#include <core/Sampling.h>
-#include <core/VdbIO.h>
+#include <rockvdb/blocks/BlockTile.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Primitives.h>
+#include <rockvdb/core/Random.h>
+#include <rockvdb/core/Sampling.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include "GridCompare.h"
 
@@ -29,9 +29,9 @@ using namespace rockvdb::blocks;
 namespace {
 
 // A small, quick tile (10 m, ~4 600 points).
-TileParams small(BlockType type, uint64_t seed = 3)
+BlockTileParams small(BlockType type, uint64_t seed = 3)
 {
-    TileParams p;
+    BlockTileParams p;
     p.type = type;
     p.tileSize = 10.0;
     p.pointRadius = 0.5;
@@ -39,7 +39,7 @@ TileParams small(BlockType type, uint64_t seed = 3)
     return p;
 }
 
-std::shared_ptr<const BlockTile> make(const TileParams& p)
+std::shared_ptr<const BlockTile> make(const BlockTileParams& p)
 {
     return std::make_shared<const BlockTile>(generateTile(p));
 }
@@ -137,7 +137,7 @@ TEST(Sampling, PoissonPeriodicKeepsItsRadiusAcrossFaces)
 TEST(Blocks, TileFieldIsPeriodic)
 {
     initialize();
-    TileParams p = small(BlockType::Equidimensional);
+    BlockTileParams p = small(BlockType::Equidimensional);
     p.relief.amplitude = 0.05;
     auto tile = make(p);
     TileFieldOptions o;
@@ -200,7 +200,7 @@ TEST(Blocks, BlocksAreConvexAndDisjoint)
 {
     initialize();
     for (double amp : {0.0, 0.05}) {
-        TileParams p = small(BlockType::Polyhedral);
+        BlockTileParams p = small(BlockType::Polyhedral);
         p.relief.amplitude = amp;
         auto tile = make(p);
         ASSERT_GT(tile->blocks.size(), 10u);
@@ -224,7 +224,7 @@ TEST(Blocks, NoDiscSeparatesTwoPointsOfACluster)
     // §4.1's visibility, on the clusters as split (with fill, a small cluster then joins a
     // neighbour across its fracture by design: see NoClusterBecomesAVoid).
     for (BlockType t : {BlockType::Equidimensional, BlockType::Tabular}) {
-        TileParams p = small(t);
+        BlockTileParams p = small(t);
         p.fill = false;
         auto tile = make(p);
         const double s = tile->size();
@@ -258,7 +258,7 @@ TEST(Blocks, TypeSignatures)
     // Full-size tiles (20 m, ~14 600 points) with the paper's parameters.
     std::map<BlockType, std::shared_ptr<const BlockTile>> tiles;
     for (int t = 0; t < 6; ++t) {
-        TileParams p;
+        BlockTileParams p;
         p.type = BlockType(t);
         p.seed = 11;
         tiles[p.type] = make(p);
@@ -382,7 +382,7 @@ TEST(Blocks, TypeSignatures)
 
 TEST(Blocks, UserDiscSplitsABlockAndAuthoredBoxIsOneBlock)
 {
-    TileParams p = small(BlockType::Equidimensional, 5);
+    BlockTileParams p = small(BlockType::Equidimensional, 5);
     auto base = make(p);
     // The largest block, and a user disc through its centroid.
     size_t big = 0;
@@ -394,7 +394,7 @@ TEST(Blocks, UserDiscSplitsABlockAndAuthoredBoxIsOneBlock)
     std::array<Vec3d, 3> axes;
     extents(B.cluster, &axes);
     const Vec3d centroid = v3(B.anchors[0]);
-    TileParams cut = p;
+    BlockTileParams cut = p;
     cut.extraDiscs.push_back({centroid, axes[0], 5.0}); // across its longest extent
     auto split = make(cut);
     // Where did B's points go? Points are identical (same seed): match by position.
@@ -420,7 +420,7 @@ TEST(Blocks, UserDiscSplitsABlockAndAuthoredBoxIsOneBlock)
     EXPECT_GE(parts.size(), 2u) << "the user disc should split the block";
 
     // An authored box: one block whose planes are the box's faces, holding every point in it.
-    TileParams au = p;
+    BlockTileParams au = p;
     AuthoredBlock box;
     const Vec3d c(5, 5, 5), half(2.0, 1.5, 1.0);
     for (int a = 0; a < 3; ++a) {
@@ -456,7 +456,7 @@ TEST(Blocks, UserDiscSplitsABlockAndAuthoredBoxIsOneBlock)
 
 TEST(Blocks, ZeroAmplitudeIsTheSmoothPolytope)
 {
-    TileParams p = small(BlockType::Rhombohedral);
+    BlockTileParams p = small(BlockType::Rhombohedral);
     p.relief.amplitude = 0.0;
     auto tile = make(p);
     for (size_t j = 0; j < std::min<size_t>(tile->blocks.size(), 8); ++j) {
@@ -481,10 +481,10 @@ TEST(Blocks, WarpMovesTheSurfaceAtMostTheAmplitudeWithoutFragments)
 {
     initialize();
     const double amp = 0.08, dx = 0.04;
-    TileParams p = small(BlockType::Equidimensional, 8);
+    BlockTileParams p = small(BlockType::Equidimensional, 8);
     p.relief.amplitude = amp;
     p.relief.scale = 1.0;
-    TileParams flat = p;
+    BlockTileParams flat = p;
     flat.relief.amplitude = 0.0;
     auto warped = make(p);
     auto plain = make(flat);
@@ -516,7 +516,7 @@ TEST(Blocks, WarpMovesTheSurfaceAtMostTheAmplitudeWithoutFragments)
 TEST(Blocks, DeterministicAcrossThreadsAndThroughTheTileFile)
 {
     initialize();
-    TileParams p = small(BlockType::Tabular, 4);
+    BlockTileParams p = small(BlockType::Tabular, 4);
     auto tile = make(p);
     auto f = tileField(tile, TileFieldOptions{});
     BakeSettings s = settings(0.1);
@@ -545,7 +545,7 @@ TEST(Blocks, DeterministicAcrossThreadsAndThroughTheTileFile)
 TEST(Blocks, BadParametersAreClearErrors)
 {
     EXPECT_THROW(blockTypeFromString("granite"), ValueError);
-    TileParams p = small(BlockType::Equidimensional);
+    BlockTileParams p = small(BlockType::Equidimensional);
     p.pointRadius = 6.0; // >= tile / 2
     EXPECT_THROW(generateTile(p), ValueError);
     p = small(BlockType::Equidimensional);
@@ -557,9 +557,9 @@ TEST(Blocks, BadParametersAreClearErrors)
     p.resolveDefaults(); // negative = default, so make it explicit
     p.discRadiusMax = p.discRadiusMin / 2;
     EXPECT_THROW(p.validate(), ValueError);
-    EXPECT_THROW(TileParams::fromJson(nlohmann::json::parse(R"({"fractures": [{"center": [1,2]}]})")),
+    EXPECT_THROW(BlockTileParams::fromJson(nlohmann::json::parse(R"({"fractures": [{"center": [1,2]}]})")),
                  ValueError);
-    EXPECT_THROW(TileParams::fromJson(nlohmann::json::parse(R"({"colour": 3})")), ValueError);
+    EXPECT_THROW(BlockTileParams::fromJson(nlohmann::json::parse(R"({"colour": 3})")), ValueError);
     EXPECT_THROW(tileFromJson(nlohmann::json::parse(R"({"format": "other"})")), ValueError);
 }
 
@@ -568,7 +568,7 @@ TEST(Blocks, DegenerateClustersBecomePointsSegmentsAndThickPolygons)
     // With min_points 1 the tiny clusters stay: 1 point → a point primitive, 2 → a segment,
     // 3 coplanar → a thick polygon. Points and segments hold their points half a point
     // radius deep; a thick polygon, its points despite the rounding.
-    TileParams p = small(BlockType::Polyhedral, 6);
+    BlockTileParams p = small(BlockType::Polyhedral, 6);
     p.fill = false; // the hull-only reading keeps them as the paper makes them
     p.minPoints = 1;
     p.relief.amplitude = 0.0;
@@ -603,7 +603,7 @@ TEST(Blocks, CellCulledTileFieldEqualsTheGenericUnionBitwise)
     // The tile field visits only blocks whose cells and bounds can reach a batch, and prunes
     // planes per batch; baked, it must give exactly the union of all its block fields.
     initialize();
-    TileParams p = small(BlockType::Rhombohedral, 12);
+    BlockTileParams p = small(BlockType::Rhombohedral, 12);
     auto tile = make(p);
     std::vector<FieldPtr> parts;
     for (size_t j = 0; j < tile->blocks.size(); ++j) parts.push_back(blockField(tile, j));
@@ -622,10 +622,10 @@ TEST(Blocks, FillReachesTheTileUpToItsFractures)
     // half of it empty; neighbours never overlap (each pair on its side of one plane).
     initialize();
     for (int t = 0; t < 6; ++t) {
-        TileParams filled;
+        BlockTileParams filled;
         filled.type = BlockType(t);
         filled.seed = 3;
-        TileParams hullOnly = filled;
+        BlockTileParams hullOnly = filled;
         hullOnly.fill = false;
         const auto tile = make(filled);
         const Occupancy f = occupancy(tile, 2500);
@@ -657,7 +657,7 @@ TEST(Blocks, NoClusterBecomesAVoid)
     // fracture, but never a cluster's worth (a void would leave points half a block away).
     initialize();
     for (BlockType type : {BlockType::Equidimensional, BlockType::Polyhedral, BlockType::Columnar}) {
-        TileParams p;
+        BlockTileParams p;
         p.type = type;
         p.seed = 11;
         p.smoothRadius = 0;
@@ -688,7 +688,7 @@ TEST(Blocks, FracturesAreGapsOfTheRequestedWidth)
     // shared face, the two rounded blocks' surfaces stand w apart (warp off: it moves each
     // surface by up to A).
     initialize();
-    TileParams p = small(BlockType::Equidimensional);
+    BlockTileParams p = small(BlockType::Equidimensional);
     p.fractureWidth = 0.05;
     p.relief.amplitude = 0;
     auto tile = make(p);

@@ -1,13 +1,13 @@
 // Smooth operator of implicit-blocks §4.2, primitives' analytic distances, transforms, warps,
 // noise bounds, CSG identities on grids.
-#include <core/Bake.h>
-#include <core/Combinators.h>
-#include <core/Error.h>
-#include <core/GridCsg.h>
-#include <core/Noise.h>
-#include <core/Primitives.h>
-#include <core/Random.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/GridCsg.h>
+#include <rockvdb/core/Noise.h>
+#include <rockvdb/core/Primitives.h>
+#include <rockvdb/core/Random.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <gtest/gtest.h>
 #include <openvdb/tools/LevelSetMeasure.h>

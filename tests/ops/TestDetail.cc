@@ -1,11 +1,11 @@
 // Surface detail (issue 5): the re-baked result is a valid narrow-band level set whose band
 // satisfies the Eikonal equation, the candidate mask changes nothing, and the Gabor noise is
 // normalised as its analytic variance says.
-#include <core/Bake.h>
-#include <core/GridField.h>
-#include <core/VdbIO.h>
-#include <detail/Detail.h>
-#include <detail/Gabor.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/GridField.h>
+#include <rockvdb/core/VdbIO.h>
+#include <rockvdb/detail/Detail.h>
+#include <rockvdb/detail/Gabor.h>
 
 #include "GridCompare.h"
 

@@ -1,9 +1,9 @@
 // Heightfields: exact distance to tilted planes (also at 60°), image round trips, errors.
-#include <core/Bake.h>
-#include <core/Error.h>
-#include <core/Heightfield.h>
-#include <core/Image.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Heightfield.h>
+#include <rockvdb/core/Image.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <gtest/gtest.h>
 

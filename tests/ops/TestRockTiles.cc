@@ -2,10 +2,10 @@
 // compatible neighbours, contacts on both rocks' surfaces, no voxel in two rocks, erosion,
 // anisotropic (flat, not needle) rocks, determinism across threads, level-set distances and
 // the library, and bad parameters.
-#include <core/Error.h>
-#include <core/Random.h>
-#include <core/VdbIO.h>
-#include <rockpile/RockTiles.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Random.h>
+#include <rockvdb/core/VdbIO.h>
+#include <rockvdb/rockpile/RockTiles.h>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -22,9 +22,9 @@ using openvdb::Coord;
 
 namespace {
 
-TileParams small()
+RockTileParams small()
 {
-    TileParams p;
+    RockTileParams p;
     p.n = 5;
     p.voxelsPerCell = 6;
     p.seed = 3;
@@ -76,7 +76,7 @@ std::array<double, 3> extents(const Rock& r)
 TEST(RockTiles, RocksStraddlingASharedFaceAreTheSameFromEitherCube)
 {
     initialize();
-    const TileParams p = small();
+    const RockTileParams p = small();
     const int n = p.n;
     // Cube (0,0,0) under colouring A and its +x neighbour (1,0,0) under colouring B: they agree
     // on the 4 vertices of the shared face x = 1 and nowhere else is B forced to agree.
@@ -117,7 +117,7 @@ TEST(RockTiles, RocksStraddlingASharedFaceAreTheSameFromEitherCube)
 TEST(RockTiles, ContactsLieOnBothRocksAndNoVoxelIsInTwoRocks)
 {
     initialize();
-    const TileParams p = small();
+    const RockTileParams p = small();
     const Colouring col = randomColouring(5);
     const auto rocks = cubeRocks(p, Coord(0), col);
     // Keys name rock content (a region recurs); the seed position names the copy.
@@ -175,7 +175,7 @@ TEST(RockTiles, ContactsLieOnBothRocksAndNoVoxelIsInTwoRocks)
 TEST(RockTiles, ErosionRemovesVolumeButKeepsContacts)
 {
     initialize();
-    TileParams p = small();
+    RockTileParams p = small();
     const Colouring col = randomColouring(9);
     for (int steps : {0, 6}) {
         p.erosionSteps = steps;
@@ -197,7 +197,7 @@ TEST(RockTiles, ErosionRemovesVolumeButKeepsContacts)
     // Periodic tiles (arches §5): the Gaussian resistance of width r (the Poisson disk
     // radius, half the seed spacing) still lets the rocks erode: ~0.79 of the cells remain
     // (with r the full spacing, 0.97: the cells' voxel staircase stays).
-    TileParams q = small();
+    RockTileParams q = small();
     q.tiling = Tiling::Periodic;
     q.n = 4;
     q.voxelsPerCell = 10;
@@ -216,7 +216,7 @@ TEST(RockTiles, ErosionRemovesVolumeButKeepsContacts)
 TEST(RockTiles, AnisotropicDistanceMakesFlatRocks)
 {
     initialize();
-    TileParams p = small();
+    RockTileParams p = small();
     p.voxelsPerCell = 10;
     p.anisotropyJitter = 0;
     const Colouring col = randomColouring(2);
@@ -248,7 +248,7 @@ TEST(RockTiles, AnisotropicDistanceMakesFlatRocks)
 TEST(RockTiles, DeterministicAcrossThreadCounts)
 {
     initialize();
-    TileParams p = small();
+    RockTileParams p = small();
     p.n = 4;
     TileSet one, two;
     {
@@ -269,7 +269,7 @@ TEST(RockTiles, DeterministicAcrossThreadCounts)
 TEST(RockTiles, LevelSetsAreDistancesToTheSampledSurface)
 {
     initialize();
-    const TileParams p = small();
+    const RockTileParams p = small();
     const auto rocks = cubeRocks(p, Coord(0), randomColouring(4));
     const double dx = p.voxelSize(), hw = 3.0;
     // The surface r = ρ − ½ = 0 sampled where it crosses the voxel edges, found here
@@ -324,7 +324,7 @@ TEST(RockTiles, LevelSetsAreDistancesToTheSampledSurface)
     EXPECT_LT(worst, 0.25) << "max error, voxels";
 
     // The library holds each rock's level set bit for bit, at the slot its metadata names.
-    TileParams q = small();
+    RockTileParams q = small();
     q.n = 4;
     const TileSet set = generateTiles(q);
     const auto library = libraryGrid(set, hw);
@@ -353,7 +353,7 @@ TEST(RockTiles, LevelSetsAreDistancesToTheSampledSurface)
 
 TEST(RockTiles, BadParametersAreClearErrors)
 {
-    auto message = [](TileParams p) {
+    auto message = [](RockTileParams p) {
         try {
             p.validate();
         } catch (const ValueError& e) {
@@ -361,25 +361,25 @@ TEST(RockTiles, BadParametersAreClearErrors)
         }
         return std::string();
     };
-    TileParams p;
+    RockTileParams p;
     p.n = 1;
     EXPECT_EQ(message(p), "rockpile: n must be in [3, 64] (got 1)");
-    p = TileParams();
+    p = RockTileParams();
     p.seedsMin = 0;
     EXPECT_EQ(message(p), "rockpile: seeds-per-cell must be in [1, 64] (got 0)");
-    p = TileParams();
+    p = RockTileParams();
     p.contactInner = 0.5;
     p.contactOuter = 0.2;
     EXPECT_NE(message(p).find("a < b"), std::string::npos);
-    p = TileParams();
+    p = RockTileParams();
     p.gMax = 0.5;
     EXPECT_EQ(message(p), "rockpile: g-max must be in [1, 16] (got 0.5)");
 }
 
 // ---- piles (§6) ---------------------------------------------------------------------------
 
-#include <core/Primitives.h>
-#include <rockpile/RockPile.h>
+#include <rockvdb/core/Primitives.h>
+#include <rockvdb/rockpile/RockPile.h>
 
 namespace {
 
@@ -413,7 +413,7 @@ double correlation(const std::vector<float>& s, int size, int lag, int margin)
 TEST(RockPile, AnchorsAreInsideTheSupport)
 {
     initialize();
-    TileParams p = small();
+    RockTileParams p = small();
     const TileSet set = generateTiles(p);
     const auto support = sphere(Vec3d(0.3, -0.2, 0.1), 1.3);
     PileParams pp;
@@ -438,7 +438,7 @@ TEST(RockPile, AnchorsAreInsideTheSupport)
 TEST(RockPile, PeriodicTilingRepeatsAndAperiodicDoesNot)
 {
     initialize();
-    auto lagCorrelation = [](TileParams p) {
+    auto lagCorrelation = [](RockTileParams p) {
         p.voxelsPerCell = 5;
         const TileSet set = generateTiles(p);
         const int span = p.n * p.voxelsPerCell;
@@ -452,10 +452,10 @@ TEST(RockPile, PeriodicTilingRepeatsAndAperiodicDoesNot)
         return std::make_pair(correlation(s, size, span, margin),
                               correlation(s, size, span / 2, margin));
     };
-    TileParams periodic = small();
+    RockTileParams periodic = small();
     periodic.tiling = Tiling::Periodic;
     periodic.n = 4;
-    TileParams aperiodic = small();
+    RockTileParams aperiodic = small();
     aperiodic.n = 4;
     const auto per = lagCorrelation(periodic), aper = lagCorrelation(aperiodic);
     EXPECT_GT(per.first, 0.9);          // the pattern repeats at the tile period

@@ -1,8 +1,8 @@
 // core/Schema and core/Task: the parameter tables every stage is built on, and the task that
 // carries progress and the cancel.
-#include <core/Error.h>
-#include <core/Schema.h>
-#include <core/Task.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Schema.h>
+#include <rockvdb/core/Task.h>
 
 #include <gtest/gtest.h>
 

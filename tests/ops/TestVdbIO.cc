@@ -1,9 +1,9 @@
 // .vdb I/O: round trips with provenance, atomic writes, and every kind of bad input.
-#include <core/Bake.h>
-#include <core/Error.h>
-#include <core/Mesh.h>
-#include <core/Primitives.h>
-#include <core/VdbIO.h>
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Mesh.h>
+#include <rockvdb/core/Primitives.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <gtest/gtest.h>
 #include <openvdb/tools/LevelSetSphere.h>

@@ -1,0 +1,115 @@
+// Previews (core/Preview.h): the framing follows the grid's bounds, ids tint what they cover,
+// the same call gives the same pixels, and bad settings or palettes are refused.
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Preview.h>
+#include <rockvdb/core/Primitives.h>
+#include <rockvdb/core/VdbIO.h>
+
+#include <gtest/gtest.h>
+
+using namespace rockvdb;
+using openvdb::FloatGrid;
+
+namespace {
+
+BakeResult bakeAt(const FieldPtr& f, double dx, bool ids = false)
+{
+    BakeSettings s;
+    s.voxelSize = dx;
+    s.withAttribute = ids;
+    return bake(*f, s);
+}
+
+PreviewSettings small()
+{
+    PreviewSettings s;
+    s.width = 160;
+    s.height = 120;
+    return s;
+}
+
+} // namespace
+
+TEST(Preview, FramingFollowsTheBoundsAndPixelsRepeat)
+{
+    initialize();
+    PreviewStats a, b, m;
+    auto g1 = bakeAt(sphere(Vec3d(0), 1.0), 0.05).surface;
+    auto g2 = bakeAt(sphere(Vec3d(0), 2.0), 0.1).surface; // the same sphere in voxels
+    auto g3 = bakeAt(sphere(Vec3d(5, -3, 2), 1.0), 0.05).surface;
+    const auto p1 = renderPreview(*g1, small(), nullptr, &a);
+    renderPreview(*g2, small(), nullptr, &b);
+    renderPreview(*g3, small(), nullptr, &m);
+    ASSERT_EQ(p1.size(), size_t(160 * 120 * 3));
+    EXPECT_EQ(a.pixels, size_t(160 * 120));
+    // The sphere fills a good part of the frame but not all of it (sky at the corners).
+    EXPECT_GT(a.surfacePixels, a.pixels / 10);
+    EXPECT_LT(a.surfacePixels, a.pixels * 9 / 10);
+    // Framed by its bounds: a scaled sphere covers the same pixels; a moved one about the
+    // same (its band's bounding box may differ by a voxel where |d| meets the band's edge).
+    EXPECT_NEAR(double(b.surfacePixels), double(a.surfacePixels), 0.01 * double(a.surfacePixels));
+    EXPECT_NEAR(double(m.surfacePixels), double(a.surfacePixels), 0.08 * double(a.surfacePixels));
+    // Zooming in covers more.
+    PreviewSettings zoom = small();
+    zoom.zoom = 1.5;
+    PreviewStats c;
+    renderPreview(*g1, zoom, nullptr, &c);
+    EXPECT_GT(c.surfacePixels, a.surfacePixels * 3 / 2);
+    // The same call, the same bytes.
+    EXPECT_EQ(renderPreview(*g1, small()), p1);
+}
+
+TEST(Preview, IdsTintWhatTheyCover)
+{
+    initialize();
+    auto f = unite(tag(sphere(Vec3d(-1.2, 0, 0), 0.8), 3), tag(sphere(Vec3d(1.2, 0, 0), 0.8), 5));
+    auto r = bakeAt(f, 0.05, true);
+    PreviewSettings s = small();
+    s.azimuth = 90; // looking along -y: the two spheres side by side
+    s.elevation = 0;
+    s.palette = parsePalette("3=#ff0000,5=#0000ff");
+    PreviewStats st;
+    const auto px = renderPreview(*r.surface, s, r.attribute.get(), &st);
+    ASSERT_EQ(st.idPixels.count(3), 1u);
+    ASSERT_EQ(st.idPixels.count(5), 1u);
+    EXPECT_EQ(st.idPixels[3] + st.idPixels[5], st.surfacePixels);
+    // Symmetric scene: each sphere covers about half.
+    EXPECT_NEAR(double(st.idPixels[3]), double(st.idPixels[5]), 0.1 * double(st.idPixels[3]));
+    // Red and blue both appear, each on its own side of the image.
+    size_t redLeft = 0, redRight = 0, blueLeft = 0, blueRight = 0;
+    for (int j = 0; j < s.height; ++j)
+        for (int i = 0; i < s.width; ++i) {
+            const uint8_t* c = &px[size_t(j * s.width + i) * 3];
+            const bool red = c[0] > 2 * c[2] + 20, blue = c[2] > 2 * c[0] + 20;
+            (i < s.width / 2 ? redLeft : redRight) += red;
+            (i < s.width / 2 ? blueLeft : blueRight) += blue;
+        }
+    EXPECT_GT(redLeft + redRight, 100u);
+    EXPECT_GT(blueLeft + blueRight, 100u);
+    EXPECT_TRUE((redLeft > 10 * redRight && blueRight > 10 * blueLeft) ||
+                (redRight > 10 * redLeft && blueLeft > 10 * blueRight));
+}
+
+TEST(Preview, BadSettingsAndPalettesAreRefused)
+{
+    initialize();
+    auto g = bakeAt(sphere(Vec3d(0), 1.0), 0.1).surface;
+    PreviewSettings s = small();
+    s.width = 0;
+    EXPECT_THROW(renderPreview(*g, s), ValueError);
+    s = small();
+    s.fov = 180;
+    EXPECT_THROW(renderPreview(*g, s), ValueError);
+    s = small();
+    s.elevation = std::nan("");
+    EXPECT_THROW(renderPreview(*g, s), ValueError);
+    EXPECT_THROW(parsePalette("3=red"), ValueError);
+    EXPECT_THROW(parsePalette("x=#ff0000"), ValueError);
+    EXPECT_THROW(parsePalette("3=#ff00"), ValueError);
+    const auto pal = parsePalette("7=#ffffff,2=#000000");
+    ASSERT_EQ(pal.size(), 2u);
+    EXPECT_DOUBLE_EQ(pal.at(7)[0], 1.0);
+    EXPECT_DOUBLE_EQ(pal.at(2)[2], 0.0);
+}
