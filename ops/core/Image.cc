@@ -225,6 +225,57 @@ std::string encodePngRgb8(int width, int height, const std::vector<uint8_t>& rgb
     return encodePng(width, height, PNG_COLOR_TYPE_RGB, 8, rgb.data(), size_t(width) * 3);
 }
 
+namespace {
+
+// OpenEXR into memory (so the file is written once, atomically, like every rockvdb output):
+// float channels interleaved in @a data, rows from the top.
+struct MemoryStream : Imf::OStream
+{
+    std::string bytes;
+    uint64_t pos = 0;
+    MemoryStream() : Imf::OStream("memory") {}
+    void write(const char c[], int n) override
+    {
+        if (pos + uint64_t(n) > bytes.size()) bytes.resize(size_t(pos) + size_t(n));
+        std::memcpy(&bytes[size_t(pos)], c, size_t(n));
+        pos += uint64_t(n);
+    }
+    uint64_t tellp() override { return pos; }
+    void seekp(uint64_t p) override { pos = p; }
+};
+
+std::string encodeExr(int width, int height, const std::vector<const char*>& channels,
+                      const float* data)
+{
+    MemoryStream stream;
+    try {
+        Imf::Header header(width, height);
+        for (const char* c : channels) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
+        Imf::FrameBuffer fb;
+        const size_t px = sizeof(float) * channels.size();
+        for (size_t c = 0; c < channels.size(); ++c) {
+            fb.insert(channels[c], Imf::Slice(Imf::FLOAT, (char*)(data + c), px, px * size_t(width)));
+        }
+        Imf::OutputFile file(stream, header);
+        file.setFrameBuffer(fb);
+        file.writePixels(height);
+    } catch (const std::exception& e) {
+        fail<IoError>("cannot encode EXR: ", e.what());
+    }
+    return std::move(stream.bytes);
+}
+
+} // namespace
+
+void writeRgbExr(const std::string& path, int width, int height, const std::vector<float>& rgb)
+{
+    if (!endsWith(path, ".exr")) fail<ValueError>("image: '", path, "' must end in .exr");
+    if (rgb.size() != size_t(width) * size_t(height) * 3) {
+        fail<ValueError>("image: ", rgb.size(), " values for a ", width, "x", height, " RGB image");
+    }
+    writeFileAtomic(path, encodeExr(width, height, {"R", "G", "B"}, rgb.data()));
+}
+
 void writeGrayImage(const std::string& path, const GrayImage& image)
 {
     if (endsWith(path, ".png")) {
@@ -236,25 +287,7 @@ void writeGrayImage(const std::string& path, const GrayImage& image)
                                         reinterpret_cast<const uint8_t*>(data.data()),
                                         size_t(image.width) * 2));
     } else if (endsWith(path, ".exr")) {
-        // OpenEXR writes through its own file API: write beside the target, then rename.
-        const std::string tmp = path + ".tmp-exr";
-        try {
-            Imf::Header header(image.width, image.height);
-            header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
-            Imf::OutputFile file(tmp.c_str(), header);
-            Imf::FrameBuffer fb;
-            fb.insert("Y", Imf::Slice(Imf::FLOAT, (char*)image.pixels.data(), sizeof(float),
-                                      sizeof(float) * size_t(image.width)));
-            file.setFrameBuffer(fb);
-            file.writePixels(image.height);
-        } catch (const std::exception& e) {
-            std::remove(tmp.c_str());
-            fail<IoError>("cannot write '", path, "': ", e.what());
-        }
-        if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-            std::remove(tmp.c_str());
-            fail<IoError>("cannot write '", path, "'");
-        }
+        writeFileAtomic(path, encodeExr(image.width, image.height, {"Y"}, image.pixels.data()));
     } else {
         fail<ValueError>("image: '", path, "' must end in .exr or .png");
     }

@@ -29,4 +29,8 @@ std::string encodePngRgb8(int width, int height, const std::vector<uint8_t>& rgb
 /// ".png" as 16-bit greyscale PNG (values clamped to [0, 1] and scaled to 0..65535).
 void writeGrayImage(const std::string& path, const GrayImage& image);
 
+/// @brief Write an RGB float EXR (channels R, G, B; @a rgb interleaved, rows from the top)
+/// atomically. @throw ValueError unless @a path ends in ".exr".
+void writeRgbExr(const std::string& path, int width, int height, const std::vector<float>& rgb);
+
 } // namespace rockvdb

@@ -44,6 +44,25 @@ double signedVolume(const Mesh& m)
 void appendMesh(Mesh& mesh, const Mesh& other, int group)
 {
     const unsigned off = unsigned(mesh.points.size());
+    const size_t triangles = mesh.triangles.size();
+    // Normals and uvs stay only when both meshes have them.
+    const bool normals = (off == 0 || mesh.normals.size() == off) &&
+                         other.normals.size() == other.points.size() && !other.normals.empty();
+    const bool uvs = (triangles == 0 || mesh.triangleUvs.size() == triangles) &&
+                     other.triangleUvs.size() == other.triangles.size() && !other.uvs.empty();
+    if (normals) {
+        mesh.normals.insert(mesh.normals.end(), other.normals.begin(), other.normals.end());
+    } else {
+        mesh.normals.clear();
+    }
+    if (uvs) {
+        const unsigned uvOff = unsigned(mesh.uvs.size());
+        mesh.uvs.insert(mesh.uvs.end(), other.uvs.begin(), other.uvs.end());
+        for (auto t : other.triangleUvs) mesh.triangleUvs.push_back(t + openvdb::Vec3I(uvOff));
+    } else {
+        mesh.uvs.clear();
+        mesh.triangleUvs.clear();
+    }
     mesh.points.insert(mesh.points.end(), other.points.begin(), other.points.end());
     for (auto t : other.triangles) mesh.triangles.push_back(t + openvdb::Vec3I(off));
     for (auto q : other.quads) mesh.quads.push_back(q + openvdb::Vec4I(off));
@@ -75,6 +94,20 @@ std::string toObj(const Mesh& m)
        << m.triangles.size() << " triangles, " << m.quads.size() << " quads\n";
     os.precision(9);
     for (const auto& p : m.points) os << "v " << p[0] << ' ' << p[1] << ' ' << p[2] << '\n';
+    const bool normals = m.normals.size() == m.points.size() && !m.normals.empty();
+    const bool uvs = !m.uvs.empty() && m.triangleUvs.size() == m.triangles.size();
+    for (const auto& n : m.normals) {
+        if (normals) os << "vn " << n[0] << ' ' << n[1] << ' ' << n[2] << '\n';
+    }
+    for (const auto& t : m.uvs) {
+        if (uvs) os << "vt " << t[0] << ' ' << t[1] << '\n';
+    }
+    // A face corner: v, v//vn, v/vt or v/vt/vn.
+    auto corner = [&](unsigned v, long vt) {
+        os << v + 1;
+        if (vt >= 0) os << '/' << vt + 1;
+        if (normals) os << (vt >= 0 ? "/" : "//") << v + 1;
+    };
     const bool grouped = m.triangleGroups.size() == m.triangles.size() &&
                          m.quadGroups.size() == m.quads.size() &&
                          !(m.triangleGroups.empty() && m.quadGroups.empty());
@@ -90,12 +123,22 @@ std::string toObj(const Mesh& m)
         for (size_t i = 0; i < m.triangles.size(); ++i) {
             if (grouped && m.triangleGroups[i] != g) continue;
             const auto& t = m.triangles[i];
-            os << "f " << t[0] + 1 << ' ' << t[1] + 1 << ' ' << t[2] + 1 << '\n';
+            os << 'f';
+            for (int k = 0; k < 3; ++k) {
+                os << ' ';
+                corner(t[k], uvs ? long(m.triangleUvs[i][k]) : -1L);
+            }
+            os << '\n';
         }
         for (size_t i = 0; i < m.quads.size(); ++i) {
             if (grouped && m.quadGroups[i] != g) continue;
             const auto& q = m.quads[i];
-            os << "f " << q[0] + 1 << ' ' << q[1] + 1 << ' ' << q[2] + 1 << ' ' << q[3] + 1 << '\n';
+            os << 'f';
+            for (int k = 0; k < 4; ++k) {
+                os << ' ';
+                corner(q[k], -1L);
+            }
+            os << '\n';
         }
     }
     return os.str();
@@ -109,10 +152,13 @@ void put(std::string& s, T v)
 
 std::string toPly(const Mesh& m)
 {
+    const bool normals = m.normals.size() == m.points.size() && !m.normals.empty();
     std::ostringstream h;
     h << "ply\nformat binary_little_endian 1.0\ncomment rockvdb " << version() << "\n"
       << "element vertex " << m.points.size() << "\nproperty float x\nproperty float y\n"
-      << "property float z\nelement face " << m.triangles.size() + m.quads.size()
+      << "property float z\n"
+      << (normals ? "property float nx\nproperty float ny\nproperty float nz\n" : "")
+      << "element face " << m.triangles.size() + m.quads.size()
       << "\nproperty list uchar int vertex_indices\n";
     const bool grouped = m.triangleGroups.size() == m.triangles.size() &&
                          m.quadGroups.size() == m.quads.size() &&
@@ -121,7 +167,11 @@ std::string toPly(const Mesh& m)
     h << "end_header\n";
     std::string s = h.str();
     s.reserve(s.size() + m.points.size() * 12 + m.triangles.size() * 13 + m.quads.size() * 17);
-    for (const auto& p : m.points) { put(s, p[0]); put(s, p[1]); put(s, p[2]); }
+    for (size_t i = 0; i < m.points.size(); ++i) {
+        const auto& p = m.points[i];
+        put(s, p[0]); put(s, p[1]); put(s, p[2]);
+        if (normals) { put(s, m.normals[i][0]); put(s, m.normals[i][1]); put(s, m.normals[i][2]); }
+    }
     for (size_t i = 0; i < m.triangles.size(); ++i) {
         put(s, uint8_t(3));
         for (int k = 0; k < 3; ++k) put(s, int32_t(m.triangles[i][k]));
@@ -148,12 +198,14 @@ void toZUp(Mesh& mesh, UpAxis up)
 {
     if (up == UpAxis::Z) return;
     for (auto& p : mesh.points) p = openvdb::Vec3s(p[0], -p[2], p[1]);
+    for (auto& n : mesh.normals) n = openvdb::Vec3s(n[0], -n[2], n[1]);
 }
 
 void fromZUp(Mesh& mesh, UpAxis up)
 {
     if (up == UpAxis::Z) return;
     for (auto& p : mesh.points) p = openvdb::Vec3s(p[0], p[2], -p[1]);
+    for (auto& n : mesh.normals) n = openvdb::Vec3s(n[0], n[2], -n[1]);
 }
 
 void writeMesh(const Mesh& mesh, const std::string& path, UpAxis up)

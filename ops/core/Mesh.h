@@ -17,6 +17,12 @@ struct Mesh
     /// object "<groupName>_<id>" per part, PLY a face property "<groupName>".
     std::vector<int> triangleGroups, quadGroups;
     std::string groupName = "part";
+    /// Optional unit normal per point: OBJ "vn" (faces v//vn), PLY nx ny nz.
+    std::vector<openvdb::Vec3s> normals;
+    /// Optional texture coordinates (OBJ "vt") and, per triangle, the indices of its corners'
+    /// uvs (faces v/vt/vn): a point on a UV seam has a uv per side. Triangle meshes only.
+    std::vector<openvdb::Vec2s> uvs;
+    std::vector<openvdb::Vec3I> triangleUvs;
 };
 
 /// Up axis of a mesh file. rockvdb's world is z up; Blender's OBJ exporter (default settings:

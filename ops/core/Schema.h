@@ -54,6 +54,7 @@ struct Range
     static Range atLeast(double v) { return {v, std::numeric_limits<double>::infinity(), false, false}; }
     static Range above(double v) { return {v, std::numeric_limits<double>::infinity(), true, false}; }
     static Range closed(double a, double b) { return {a, b, false, false}; }
+    static Range open(double a, double b) { return {a, b, true, true}; }            ///< (a, b)
     static Range halfOpen(double a, double b) { return {a, b, false, true}; }  ///< [a, b)
     static Range openClosed(double a, double b) { return {a, b, true, false}; } ///< (a, b]
 

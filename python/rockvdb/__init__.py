@@ -32,7 +32,8 @@ from . import _rockvdb
 __version__ = _rockvdb.__version__
 
 __all__ = ["BlockTile", "Field", "amplify", "block_tile", "box", "capsule", "coverage", "csg",
-           "detail", "expression", "heightfield", "load_tile", "mesh", "plane", "polytope", "preview",
+           "detail", "expression", "fractal_rock", "heightfield", "load_tile", "mesh", "plane",
+           "polytope", "preview",
            "provenance", "read", "read_image", "rock_library", "rock_pile", "rock_tiles",
            "sphere", "write", "write_heightfield", "__version__"]
 
@@ -204,6 +205,7 @@ _ROCK_PILE = _table("rock_pile")
 _DETAIL = _table("detail")
 _BLOCK_TILE = _table("block_tile")
 _AMPLIFY = _table("amplify")
+_FRACTAL_ROCK = _table("fractal_rock")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -734,3 +736,47 @@ rock_pile = _stage_function(
     "dict) receives counts, times, and each placed rock's library index and seed position. "
     "Ctrl-C raises KeyboardInterrupt.",
     before=["tiles", "support"], after=[("stats", None)])
+
+
+# ---------------------------------------------------------------------------------------------
+# Fractal rocks (fractal-rocks-midpoint-displacement)
+
+def _fractal_rock(path=None, mesh_path=None, mesh_up="z", normal_map=False,
+                  normal_map_path=None, level_set=True, **params):
+    fn = "fractal_rock"
+    target = _opt(path, _path, "path", fn)
+    mesh_target = _opt(mesh_path, _path, "mesh_path", fn)
+    map_target = _opt(normal_map_path, _path, "normal_map_path", fn)
+    if mesh_up not in ("z", "y"):
+        raise ValueError(f"{fn}: mesh_up must be 'z' or 'y' (got {mesh_up!r})")
+    for name, flag in (("normal_map", normal_map), ("level_set", level_set)):
+        if not isinstance(flag, bool):
+            raise _type_error(fn, name, "a bool", flag)
+    want_map = normal_map or map_target is not None
+    if target is not None and not level_set:
+        raise ValueError(f"{fn}: path needs level_set=True")
+    surface, mesh = _rockvdb.fractal_rock(_stage_params(_FRACTAL_ROCK, fn, params), level_set,
+                                          want_map)
+    if mesh_target is not None:
+        _rockvdb.write_mesh(mesh["points"], mesh["triangles"], mesh["normals"], mesh.get("uvs"),
+                            mesh.get("triangle_uvs"), mesh_target, mesh_up)
+    if map_target is not None:
+        _rockvdb.write_rgb_exr(map_target, mesh["normal_map"])
+    if target is not None:
+        _rockvdb.write(target, [surface])
+    return surface, mesh
+
+
+fractal_rock = _stage_function(
+    _FRACTAL_ROCK, _fractal_rock, "fractal_rock",
+    "One fractal rock (vdb_fractal_rock from Python; fractal-rocks-midpoint-displacement "
+    "§2-§8): an icosahedron refined by deterministic midpoint displacement, rough on top and "
+    "smooth below, with subdivision damping or plain midpoint displacement.",
+    "Returns (surface, mesh): surface is the level set (a pyopenvdb.FloatGrid 'surface'; None "
+    "with level_set=False), mesh a dict of numpy arrays: points (N x 3, m, z up), triangles "
+    "(M x 3), normals (N x 3), and with normal_map=True also uvs, triangle_uvs and normal_map "
+    "(H x W x 3 floats, the layout of vdb_fractal_rock --help). path, mesh_path (.obj / .ply; "
+    "mesh_up 'z' or 'y') and normal_map_path (.exr) also write the files (atomically). "
+    "Ctrl-C raises KeyboardInterrupt.",
+    after=[("path", None), ("mesh_path", None), ("mesh_up", "z"), ("normal_map", False),
+           ("normal_map_path", None), ("level_set", True)])

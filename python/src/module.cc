@@ -17,6 +17,7 @@
 #include <rockvdb/core/Primitives.h>
 #include <rockvdb/core/VdbIO.h>
 #include <rockvdb/detail/DetailStage.h>
+#include <rockvdb/fractal/FractalStage.h>
 #include <rockvdb/rockpile/RockPileStage.h>
 
 #include <nlohmann/json.hpp>
@@ -396,6 +397,7 @@ PYBIND11_MODULE(_rockvdb, m)
         if (stage == "block_tile") return blocks::blocksSchema().describe().dump();
         if (stage == "tile") return blocks::tileSchema().describe().dump();
         if (stage == "amplify") return amplify::amplifySchema().describe().dump();
+        if (stage == "fractal_rock") return fractal::rockSchema().describe().dump();
         throw ValueError("schema: no stage '" + stage + "'");
     }, py::arg("stage"));
 
@@ -406,6 +408,92 @@ PYBIND11_MODULE(_rockvdb, m)
         Task task(&host);
         return rockpile::runTiles(p, false, task).rho;
     }, py::arg("params"));
+
+    // One fractal rock: (surface or None, {points, triangles, normals[, uvs, triangle_uvs,
+    // normal_map]} as numpy arrays).
+    m.def("fractal_rock", [](const std::string& params, bool levelSet, bool normalMap) {
+        const fractal::FractalRockParams p = fractal::rockSchema().fromJson(parseParams(params, "fractal"));
+        fractal::RockResult r;
+        {
+            py::gil_scoped_release release;
+            PyTaskHost host;
+            Task task(&host);
+            r = fractal::runRock(p, levelSet, normalMap, task);
+        }
+        const Mesh& m = r.mesh;
+        auto rows = [](const auto& v, size_t cols, auto type) {
+            using T = decltype(type);
+            py::array_t<T> a({v.size(), cols});
+            T* out = a.mutable_data();
+            for (size_t i = 0; i < v.size(); ++i)
+                for (size_t c = 0; c < cols; ++c) out[i * cols + c] = T(v[i][c]);
+            return a;
+        };
+        py::dict mesh;
+        mesh["points"] = rows(m.points, 3, float());
+        mesh["triangles"] = rows(m.triangles, 3, int32_t());
+        mesh["normals"] = rows(m.normals, 3, float());
+        if (!m.uvs.empty()) {
+            mesh["uvs"] = rows(m.uvs, 2, float());
+            mesh["triangle_uvs"] = rows(m.triangleUvs, 3, int32_t());
+        }
+        if (normalMap) {
+            py::array_t<float> img({size_t(r.normalMapHeight), size_t(r.normalMapWidth), size_t(3)});
+            std::copy(r.normalMap.begin(), r.normalMap.end(), img.mutable_data());
+            mesh["normal_map"] = img;
+        }
+        py::object surface = r.surface ? py::cast(r.surface) : py::none();
+        return py::make_tuple(surface, mesh);
+    }, py::arg("params"), py::arg("level_set") = true, py::arg("normal_map") = false);
+
+    m.def("write_mesh", [](py::array_t<float, py::array::c_style | py::array::forcecast> points,
+                           py::array_t<int32_t, py::array::c_style | py::array::forcecast> triangles,
+                           std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>> normals,
+                           std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>> uvs,
+                           std::optional<py::array_t<int32_t, py::array::c_style | py::array::forcecast>> triangleUvs,
+                           const std::string& path, const std::string& up) {
+        Mesh m;
+        auto check = [](const auto& a, py::ssize_t cols, const char* what) {
+            if (a.ndim() != 2 || a.shape(1) != cols) {
+                throw ValueError(std::string("write_mesh: ") + what + " must be an N x " + std::to_string(cols) + " array");
+            }
+        };
+        check(points, 3, "points");
+        check(triangles, 3, "triangles");
+        for (py::ssize_t i = 0; i < points.shape(0); ++i) m.points.emplace_back(points.at(i, 0), points.at(i, 1), points.at(i, 2));
+        for (py::ssize_t i = 0; i < triangles.shape(0); ++i) {
+            for (int c = 0; c < 3; ++c) {
+                if (triangles.at(i, c) < 0 || triangles.at(i, c) >= points.shape(0)) throw ValueError("write_mesh: triangle index out of range");
+            }
+            m.triangles.emplace_back(unsigned(triangles.at(i, 0)), unsigned(triangles.at(i, 1)), unsigned(triangles.at(i, 2)));
+        }
+        if (normals) {
+            check(*normals, 3, "normals");
+            if (normals->shape(0) != points.shape(0)) throw ValueError("write_mesh: one normal per point");
+            for (py::ssize_t i = 0; i < normals->shape(0); ++i) m.normals.emplace_back(normals->at(i, 0), normals->at(i, 1), normals->at(i, 2));
+        }
+        if (uvs && triangleUvs) {
+            check(*uvs, 2, "uvs");
+            check(*triangleUvs, 3, "triangle_uvs");
+            if (triangleUvs->shape(0) != triangles.shape(0)) throw ValueError("write_mesh: one triangle_uvs row per triangle");
+            for (py::ssize_t i = 0; i < uvs->shape(0); ++i) m.uvs.emplace_back(uvs->at(i, 0), uvs->at(i, 1));
+            for (py::ssize_t i = 0; i < triangleUvs->shape(0); ++i) {
+                for (int c = 0; c < 3; ++c) {
+                    if (triangleUvs->at(i, c) < 0 || triangleUvs->at(i, c) >= uvs->shape(0)) throw ValueError("write_mesh: uv index out of range");
+                }
+                m.triangleUvs.emplace_back(unsigned(triangleUvs->at(i, 0)), unsigned(triangleUvs->at(i, 1)), unsigned(triangleUvs->at(i, 2)));
+            }
+        }
+        writeMesh(m, path, upAxisFromString(up, "up"));
+    }, py::arg("points"), py::arg("triangles"), py::arg("normals") = std::nullopt,
+       py::arg("uvs") = std::nullopt, py::arg("triangle_uvs") = std::nullopt, py::arg("path"),
+       py::arg("up") = "z");
+
+    m.def("write_rgb_exr", [](const std::string& path, py::array_t<float, py::array::c_style | py::array::forcecast> a) {
+        if (a.ndim() != 3 || a.shape(2) != 3) throw ValueError("write_rgb_exr: expected an H x W x 3 array");
+        std::vector<float> rgb(a.data(), a.data() + a.size());
+        writeRgbExr(path, int(a.shape(1)), int(a.shape(0)), rgb);
+    }, py::arg("path"), py::arg("image"));
 
     m.def("rock_library", [](Grid tiles) {
         if (!tiles) throw py::type_error("rockpile: the tile set grid is None");

@@ -14,7 +14,8 @@ def test_install_prefix_tools_and_python_package(tmp_path):
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stdout + p.stderr
     for t in ("vdb_primitive", "vdb_blocks", "vdb_amplify", "vdb_detail", "vdb_rockpile",
-              "vdb_csg", "vdb_mesh", "vdb_preview", "vdb_info", "vdb_heightfield", "vdb_merge"):
+              "vdb_csg", "vdb_mesh", "vdb_preview", "vdb_info", "vdb_heightfield", "vdb_merge",
+              "vdb_fractal_rock"):
         assert os.access(prefix / "bin" / t, os.X_OK), t
     out = tmp_path / "s.vdb"
     subprocess.run([str(prefix / "bin" / "vdb_primitive"), "-q", "--voxel-size", "0.1", "-o",

@@ -1,0 +1,301 @@
+// Fractal rocks (fractal/FractalRock.h, FractalStage.h; fractal-rocks-midpoint-displacement.txt):
+// closed crack-free meshes with the paper's triangle counts, determinism across threads, rough
+// tops and smooth bottoms, the level set's volume, the normal map of the finer model, and
+// bad parameters refused.
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/VdbIO.h>
+#include <rockvdb/fractal/FractalStage.h>
+
+#include <gtest/gtest.h>
+#include <openvdb/tools/LevelSetMeasure.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <tuple>
+
+using namespace rockvdb;
+using namespace rockvdb::fractal;
+
+namespace {
+
+const std::array<Vec3d, 3> kIdentity = {Vec3d(1, 0, 0), Vec3d(0, 1, 0), Vec3d(0, 0, 1)};
+
+RockMesh build(int levels, Method method, uint64_t seed = 3, double hUp = 0.3, double hDown = 0.8,
+               Vec3d extent = Vec3d(1), const std::array<Vec3d, 3>& R = kIdentity)
+{
+    RockShape s;
+    s.levels = levels;
+    s.method = method;
+    s.seed = seed;
+    s.hUp = hUp;
+    s.hDown = hDown;
+    s.roughness = 0.3;
+    Task task;
+    return buildRock(s, extent, R, task);
+}
+
+// Every directed edge once and its twin once (closed, consistently oriented, manifold
+// edges); no two vertices at one position (a crack would leave duplicates); all used.
+void expectClosedAndWelded(const RockMesh& m, const std::string& what)
+{
+    std::vector<std::pair<unsigned, unsigned>> directed;
+    directed.reserve(m.triangles.size() * 3);
+    std::vector<char> used(m.points.size(), 0);
+    for (const auto& t : m.triangles)
+        for (int e = 0; e < 3; ++e) {
+            directed.emplace_back(t[e], t[(e + 1) % 3]);
+            used[t[e]] = 1;
+        }
+    std::sort(directed.begin(), directed.end());
+    const bool unique = std::adjacent_find(directed.begin(), directed.end()) == directed.end();
+    EXPECT_TRUE(unique) << what << ": an edge used twice in one direction";
+    size_t open = 0;
+    for (const auto& e : directed) {
+        if (!std::binary_search(directed.begin(), directed.end(), std::make_pair(e.second, e.first))) ++open;
+    }
+    EXPECT_EQ(open, 0u) << what;
+    EXPECT_EQ(std::count(used.begin(), used.end(), 0), 0) << what;
+    std::vector<std::tuple<double, double, double>> pos;
+    for (const auto& p : m.points) pos.emplace_back(p[0], p[1], p[2]);
+    std::sort(pos.begin(), pos.end());
+    EXPECT_TRUE(std::adjacent_find(pos.begin(), pos.end()) == pos.end()) << what << ": duplicate vertices";
+    // Euler: a closed genus-0 surface has V − E + F = 2.
+    EXPECT_EQ(int64_t(m.points.size()) - int64_t(directed.size() / 2) + int64_t(m.triangles.size()), 2) << what;
+}
+
+double angleDeg(const Vec3d& a, const Vec3d& b)
+{
+    return std::acos(std::min(1.0, std::max(-1.0, a.dot(b) / (a.length() * b.length())))) * 180.0 / M_PI;
+}
+
+} // namespace
+
+TEST(FractalRock, ClosedCrackFreeWithThePapersTriangleCounts)
+{
+    for (Method method : {Method::Interpolating, Method::Approximating, Method::Midpoint}) {
+        for (int L = 0; L <= 4; ++L) {
+            const RockMesh m = build(L, method);
+            const double expected = method == Method::Midpoint ? 20 * std::pow(4, L) : 20 * std::pow(16, L);
+            ASSERT_EQ(double(m.triangles.size()), expected) << methodName(method) << " " << L;
+            EXPECT_EQ(double(m.triangles.size()), triangleCount(L, method));
+            expectClosedAndWelded(m, std::string(methodName(method)) + " level " + std::to_string(L));
+        }
+    }
+    // The paper's sequence: 20 → 320 → 5 120 → 81 920.
+    EXPECT_EQ(build(3, Method::Interpolating).triangles.size(), 81920u);
+}
+
+TEST(FractalRock, DisplacementIsAFunctionOfTheEdgeNotTheOrder)
+{
+    // A level refines the previous one: every vertex of level L is a vertex of level L + 1,
+    // at the same position bit for bit (the displacement of an edge never depends on which
+    // face computed it or when).
+    for (Method method : {Method::Interpolating, Method::Midpoint}) {
+        const RockMesh a = build(2, method), b = build(3, method);
+        ASSERT_LT(a.points.size(), b.points.size());
+        for (size_t i = 0; i < a.points.size(); ++i) {
+            ASSERT_EQ(std::memcmp(&a.points[i], &b.points[i], sizeof(Vec3d)), 0) << i;
+        }
+    }
+}
+
+TEST(FractalRock, DeterministicAcrossThreadsAndSeedsDiffer)
+{
+    RockMesh one, two;
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        one = build(3, Method::Approximating, 11);
+    }
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        two = build(3, Method::Approximating, 11);
+    }
+    ASSERT_EQ(one.points.size(), two.points.size());
+    EXPECT_EQ(std::memcmp(one.points.data(), two.points.data(), one.points.size() * sizeof(Vec3d)), 0);
+    EXPECT_EQ(std::memcmp(one.triangles.data(), two.triangles.data(), one.triangles.size() * sizeof(openvdb::Vec3I)), 0);
+    const RockMesh other = build(3, Method::Approximating, 12);
+    double moved = 0;
+    for (size_t i = 0; i < one.points.size(); ++i) moved += (one.points[i] - other.points[i]).length();
+    EXPECT_GT(moved / double(one.points.size()), 0.01);
+}
+
+TEST(FractalRock, RoughTopsAndSmoothBottomsFollowH)
+{
+    // Roughness: how far face normals stray from the sphere's normal at the face, per
+    // hemisphere (a sphere base, no rotation: up is +z).
+    auto roughness = [](const RockMesh& m, bool up) {
+        double sum = 0;
+        size_t n = 0;
+        for (const auto& t : m.triangles) {
+            const Vec3d a = m.points[t[0]], b = m.points[t[1]], c = m.points[t[2]];
+            const Vec3d centre = (a + b + c) / 3.0;
+            const Vec3d dir = centre.unit();
+            if (up ? dir[2] < 0.6 : dir[2] > -0.6) continue;
+            sum += angleDeg((b - a).cross(c - a), dir);
+            ++n;
+        }
+        return sum / double(n);
+    };
+    for (Method method : {Method::Interpolating, Method::Midpoint}) {
+        const int L = method == Method::Midpoint ? 5 : 3;
+        const RockMesh m = build(L, method, 5, 0.2, 0.9);
+        EXPECT_GT(roughness(m, true), 1.3 * roughness(m, false)) << methodName(method);
+        const RockMesh swapped = build(L, method, 5, 0.9, 0.2);
+        EXPECT_GT(roughness(swapped, false), 1.3 * roughness(swapped, true)) << methodName(method);
+    }
+}
+
+TEST(FractalRock, LevelSetEnclosesTheMeshVolume)
+{
+    initialize();
+    FractalRockParams p;
+    p.shape.levels = 2;
+    p.voxelSize = 0.01;
+    p.shape.seed = 7;
+    Task task;
+    const RockResult r = runRock(p, true, false, task);
+    ASSERT_TRUE(r.surface);
+    EXPECT_EQ(r.surface->getGridClass(), openvdb::GRID_LEVEL_SET);
+    EXPECT_EQ(r.surface->getName(), "surface");
+    openvdb::tools::LevelSetMeasure<openvdb::FloatGrid> measure(*r.surface);
+    const double vGrid = measure.volume(true), vMesh = signedVolume(r.mesh);
+    EXPECT_GT(vMesh, 0.05);
+    EXPECT_NEAR(vGrid, vMesh, 0.02 * vMesh);
+    // The rock has the asked size: its bounds about the ellipsoid's (1 × 0.8 × 0.5 m, tilted).
+    openvdb::BBoxd box;
+    for (const auto& q : r.mesh.points) box.expand(openvdb::Vec3d(q));
+    const openvdb::Vec3d ext = box.extents();
+    EXPECT_GT(ext[0] * ext[1] * ext[2], 0.5 * 0.4);
+    EXPECT_LT(ext[0] * ext[1] * ext[2], 2.5 * 0.4);
+    // The provenance replays: the table reads back the same parameters.
+    const auto prov = provenance(*r.surface);
+    ASSERT_TRUE(prov.has_value());
+}
+
+TEST(FractalRock, NormalMapReproducesTheFinerModel)
+{
+    FractalRockParams p;
+    p.shape.levels = 1;
+    p.normalLevels = 2;
+    p.normalMapSize = 256;
+    p.shape.seed = 2;
+    Task task;
+    const RockResult r = runRock(p, false, true, task);
+    ASSERT_EQ(r.normalMapWidth, 5 * 256);
+    ASSERT_EQ(r.normalMapHeight, 2 * 256);
+    // The finer model, as the stage built it (same seed, same orientation: same hash).
+    FractalRockParams fineP = p;
+    fineP.shape.levels = 3;
+    const RockResult fine = runRock(fineP, false, false, task);
+    const std::vector<Vec3d> world = [&] {
+        std::vector<Vec3d> w;
+        for (const auto& q : fine.mesh.points) w.emplace_back(q);
+        return w;
+    }();
+    const std::vector<Vec3d> normals = vertexNormals(world, fine.rock.triangles);
+    // Decode the map on the coarse model's UV layout at each fine vertex (bilinear).
+    const UvLayout layout;
+    const int W = r.normalMapWidth, H = r.normalMapHeight;
+    auto texel = [&](int x, int y) {
+        x = std::min(W - 1, std::max(0, x));
+        y = std::min(H - 1, std::max(0, y));
+        const float* c = &r.normalMap[(size_t(y) * W + x) * 3];
+        return Vec3d(2.0 * c[0] - 1.0, 2.0 * c[1] - 1.0, 2.0 * c[2] - 1.0);
+    };
+    double sum = 0;
+    size_t n = 0;
+    const uint32_t N = fine.rock.lattice;
+    for (size_t t = 0; t < fine.rock.triangles.size(); t += 7) {
+        const auto& c = fine.rock.corners[t];
+        const openvdb::Vec2d uv = layout.uv(fine.rock.baseFace[t], double(c[0]) / N, double(c[1]) / N);
+        const double x = uv[0] * W - 0.5, y = (1.0 - uv[1]) * H - 0.5;
+        const int x0 = int(std::floor(x)), y0 = int(std::floor(y));
+        const double fx = x - x0, fy = y - y0;
+        const Vec3d m = texel(x0, y0) * (1 - fx) * (1 - fy) + texel(x0 + 1, y0) * fx * (1 - fy) +
+                        texel(x0, y0 + 1) * (1 - fx) * fy + texel(x0 + 1, y0 + 1) * fx * fy;
+        sum += angleDeg(m, normals[fine.rock.triangles[t][0]]);
+        ++n;
+    }
+    EXPECT_LT(sum / double(n), 10.0);
+    // And it is not the coarse model's own normals (those stray further).
+    const std::vector<Vec3d> coarse = [&] {
+        std::vector<Vec3d> w;
+        for (const auto& q : r.mesh.points) w.emplace_back(q);
+        return vertexNormals(w, r.rock.triangles);
+    }();
+    double coarseSum = 0;
+    size_t cn = 0;
+    for (size_t t = 0; t < fine.rock.triangles.size(); t += 7) {
+        // The coarse vertex at the same lattice point, when there is one.
+        const auto& c = fine.rock.corners[t];
+        const uint32_t scale = N / r.rock.lattice;
+        if (c[0] % scale || c[1] % scale) continue;
+        for (size_t u = 0; u < r.rock.triangles.size(); ++u) {
+            if (r.rock.baseFace[u] != fine.rock.baseFace[t]) continue;
+            const auto& d = r.rock.corners[u];
+            for (int q = 0; q < 3; ++q) {
+                if (d[size_t(2 * q)] * scale == c[0] && d[size_t(2 * q + 1)] * scale == c[1]) {
+                    coarseSum += angleDeg(coarse[r.rock.triangles[u][q]], normals[fine.rock.triangles[t][0]]);
+                    ++cn;
+                    q = 3;
+                    u = r.rock.triangles.size();
+                }
+            }
+        }
+    }
+    ASSERT_GT(cn, 10u);
+    EXPECT_GT(coarseSum / double(cn), sum / double(n));
+}
+
+TEST(FractalRock, RotationsAndQuaternionsAgree)
+{
+    for (uint64_t s = 0; s < 50; ++s) {
+        const auto R = randomRotation(s, 9);
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) EXPECT_NEAR(R[size_t(i)].dot(R[size_t(j)]), i == j ? 1.0 : 0.0, 1e-12);
+        EXPECT_NEAR(R[0].cross(R[1]).dot(R[2]), 1.0, 1e-12); // proper rotation
+        const auto q = quaternionOf(R);
+        const double x = q[0], y = q[1], z = q[2], w = q[3];
+        EXPECT_NEAR(x * x + y * y + z * z + w * w, 1.0, 1e-12);
+        EXPECT_NEAR(R[0][0], 1 - 2 * (y * y + z * z), 1e-9);
+        EXPECT_NEAR(R[0][1], 2 * (x * y - w * z), 1e-9);
+        EXPECT_NEAR(R[2][1], 2 * (y * z + w * x), 1e-9);
+    }
+}
+
+TEST(FractalRock, BadParametersAreRefused)
+{
+    auto error = [](const std::string& text) {
+        try {
+            rockSchema().fromJson(nlohmann::json::parse(text));
+        } catch (const ValueError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    EXPECT_NE(error(R"({"levels": -1})").find("levels"), std::string::npos);
+    EXPECT_NE(error(R"({"size": [1, 0, 1]})").find("size"), std::string::npos);
+    EXPECT_NE(error(R"({"h-up": 1.0})").find("h-up"), std::string::npos);
+    EXPECT_NE(error(R"({"h-down": 0})").find("h-down"), std::string::npos);
+    EXPECT_NE(error(R"({"method": "cubic"})").find("method"), std::string::npos);
+    EXPECT_NE(error(R"({"levle": 2})").find("levels"), std::string::npos); // did you mean
+    // NaN cannot be written in JSON; the table refuses it in C++.
+    FractalRockParams p;
+    p.size = Vec3d(1, std::nan(""), 1);
+    EXPECT_THROW(rockSchema().validate(p), ValueError);
+    // Too many triangles for the memory limit: refused with the estimate, before any work.
+    FractalRockParams big;
+    big.shape.levels = 8;
+    Task task;
+    try {
+        runRock(big, false, false, task);
+        FAIL() << "8 levels accepted";
+    } catch (const ValueError& e) {
+        EXPECT_NE(std::string(e.what()).find("--levels"), std::string::npos) << e.what();
+    }
+    FractalRockParams fine;
+    fine.voxelSize = 1e-5;
+    EXPECT_THROW(runRock(fine, true, false, task), ValueError);
+}

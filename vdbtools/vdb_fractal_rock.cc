@@ -1,0 +1,64 @@
+// vdb_fractal_rock — fractal rocks from an icosahedron (fractal-rocks-midpoint-displacement.txt):
+// options from the stage's table, work in runRock (FractalStage.h).
+#include "Cli.h"
+
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Image.h>
+#include <rockvdb/core/Mesh.h>
+#include <rockvdb/core/VdbIO.h>
+#include <rockvdb/fractal/FractalStage.h>
+
+#include <cstdio>
+
+using namespace rockvdb;
+using namespace rockvdb::fractal;
+
+int main(int argc, char** argv)
+{
+    cli::Tool tool(kToolName, std::string(
+        "Fractal rocks (Dietrich et al.-style midpoint displacement on an icosahedron, "
+        "fractal-rocks-midpoint-displacement.txt): the 20 faces of an icosahedron scaled to "
+        "--size are refined --levels times by deterministic midpoint displacement (each "
+        "edge's displacement a hash of its endpoints and the seed: no cracks at any level or "
+        "thread count), rougher where the surface faces up (--h-up) than down (--h-down), with "
+        "subdivision damping (interpolating or approximating spline, 16 sub-triangles per "
+        "face per level) or plain midpoint displacement (4). Writes the level set 'surface' "
+        "(tools::meshToVolume of the closed mesh), and with --mesh the mesh (OBJ with normals "
+        "and UVs, or PLY with normals), with --normal-map its normal map. ") + normalMapHelp() +
+        " The output's rockvdb:params replays it: vdb_fractal_rock --params FILE -o OUT.");
+    CLI::App& app = tool.app();
+    tool.addParams(app, rockSchema());
+    std::string meshPath, mapPath, up = "z";
+    app.add_option("--mesh", meshPath, "Also write the mesh: .obj (normals, UVs) or .ply (normals)");
+    app.add_option("--mesh-up", up, "Up axis of the mesh file: z (rockvdb) or y (Blender's OBJ "
+                                    "import default, Houdini)")->check(CLI::IsMember({"z", "y"}))
+        ->capture_default_str();
+    app.add_option("--normal-map", mapPath, "Also write the normal map (.exr; layout above)");
+    tool.addOutput(app, "Output .vdb: level set 'surface' ('-' = stdout)");
+
+    return tool.run(argc, argv, [&] {
+        const FractalRockParams p = rockSchema().fromJson(tool.givenParams(rockSchema()));
+        const UpAxis upAxis = upAxisFromString(up, "--mesh-up");
+        for (const auto& path : {meshPath, mapPath}) {
+            if (!path.empty()) requireWritable(path);
+        }
+        if (!mapPath.empty() && meshPath.size() >= 4 && meshPath.substr(meshPath.size() - 4) == ".ply") {
+            fail<ValueError>("fractal: a normal map needs the OBJ's UVs; write --mesh as .obj");
+        }
+        auto bar = tool.taskBar();
+        Task task(bar.get());
+        const RockResult r = runRock(p, true, !mapPath.empty(), task);
+        bar->clear();
+        char line[300];
+        std::snprintf(line, sizeof line,
+                      "%zu triangles, %zu vertices, volume %.4f m3; mesh %.4f s, level set %.4f s "
+                      "(%zu active voxels)%s",
+                      r.stats.triangles, r.stats.vertices, r.stats.volume, r.stats.meshSeconds,
+                      r.stats.levelSetSeconds, r.stats.activeVoxels,
+                      mapPath.empty() ? "" : (", normal map " + std::to_string(r.stats.normalMapSeconds) + " s").c_str());
+        tool.info(line);
+        if (!meshPath.empty()) writeMesh(r.mesh, meshPath, upAxis);
+        if (!mapPath.empty()) writeRgbExr(mapPath, r.normalMapWidth, r.normalMapHeight, r.normalMap);
+        writeGrids(tool.output(), {r.surface});
+    });
+}
