@@ -24,7 +24,12 @@ int main(int argc, char** argv)
         "subdivision damping (interpolating or approximating spline, 16 sub-triangles per "
         "face per level) or plain midpoint displacement (4). Writes the level set 'surface' "
         "(tools::meshToVolume of the closed mesh), and with --mesh the mesh (OBJ with normals "
-        "and UVs, or PLY with normals), with --normal-map its normal map. ") + normalMapHelp() +
+        "and UVs, or PLY with normals), with --normal-map its normal map. With --count N, N "
+        "rocks of jittered sizes are scattered on --ground (a heightfield image, a level set "
+        ".vdb, or the plane z = 0) where an fBm density map allows, partly sunk (--embed), no "
+        "two interpenetrating: 'surface' (their union) and 'rock_id', with --points the "
+        "instances (P, orient, pscale, rock) as a VDB points grid 'rocks' in its own file. ") +
+        normalMapHelp() +
         " The output's rockvdb:params replays it: vdb_fractal_rock --params FILE -o OUT.");
     CLI::App& app = tool.app();
     tool.addParams(app, rockSchema());
@@ -33,7 +38,13 @@ int main(int argc, char** argv)
     app.add_option("--mesh-up", up, "Up axis of the mesh file: z (rockvdb) or y (Blender's OBJ "
                                     "import default, Houdini)")->check(CLI::IsMember({"z", "y"}))
         ->capture_default_str();
-    app.add_option("--normal-map", mapPath, "Also write the normal map (.exr; layout above)");
+    app.add_option("--normal-map", mapPath, "Also write the normal map (.exr; layout above; one rock)");
+    std::string groundPath, pointsPath;
+    app.add_option("--ground", groundPath, "Scatter ground: a heightfield image (.exr, .png; "
+                                           "--ground-cell-size, --ground-height-scale) or a level "
+                                           "set .vdb (--ground-grid); default the plane z = 0");
+    app.add_option("--points", pointsPath, "Scatter: also write the instances as a VDB points "
+                                           "grid 'rocks' (P, orient, pscale, rock) to this .vdb");
     tool.addOutput(app, "Output .vdb: level set 'surface' ('-' = stdout)");
 
     return tool.run(argc, argv, [&] {
@@ -44,6 +55,38 @@ int main(int argc, char** argv)
         }
         if (!mapPath.empty() && meshPath.size() >= 4 && meshPath.substr(meshPath.size() - 4) == ".ply") {
             fail<ValueError>("fractal: a normal map needs the OBJ's UVs; write --mesh as .obj");
+        }
+        if (p.count > 0) {
+            if (!mapPath.empty()) fail<ValueError>("fractal: --normal-map is for a single rock (count 0)");
+            if (!pointsPath.empty()) requireWritable(pointsPath);
+            const auto ground = loadGround(groundPath, p);
+            auto bar = tool.taskBar();
+            Task task(bar.get());
+            nlohmann::json inputs = nlohmann::json::object();
+            if (!groundPath.empty()) inputs["ground"] = groundPath;
+            const ScatterResult r = runScatter(p, *ground, inputs, !pointsPath.empty(), !meshPath.empty(), task);
+            bar->clear();
+            char line[300];
+            std::snprintf(line, sizeof line,
+                          "placed %zu of %zu rocks (%zu candidates: %zu by density, %zu by overlap); "
+                          "place %.3f s, meshes %.3f s, level set %.3f s (%.0f rocks/s)",
+                          r.stats.placed, r.stats.asked, r.stats.candidates, r.stats.rejectedDensity,
+                          r.stats.rejectedOverlap, r.stats.placeSeconds, r.stats.meshSeconds,
+                          r.stats.levelSetSeconds,
+                          double(r.stats.placed) / std::max(1e-9, r.stats.placeSeconds + r.stats.meshSeconds + r.stats.levelSetSeconds));
+            tool.info(line);
+            if (r.stats.placed < r.stats.asked) {
+                std::snprintf(line, sizeof line, "warning: only %zu of %zu rocks fit (raise --attempts or "
+                              "--area, lower --size or --density-contrast)", r.stats.placed, r.stats.asked);
+                tool.info(line);
+            }
+            if (!meshPath.empty()) writeMesh(r.mesh, meshPath, upAxis);
+            if (r.points) writeGrids(pointsPath, {r.points});
+            writeGrids(tool.output(), {r.rockId, r.surface});
+            return;
+        }
+        if (!groundPath.empty() || !pointsPath.empty()) {
+            fail<ValueError>("fractal: --ground and --points are for a scatter (--count N)");
         }
         auto bar = tool.taskBar();
         Task task(bar.get());

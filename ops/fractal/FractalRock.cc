@@ -17,7 +17,7 @@ namespace fractal {
 namespace {
 
 // Random streams (core/Random.h).
-enum Stream : uint64_t { kDisplacement = 0xf4ac1 };
+enum Stream : uint64_t { kDisplacement = 0xf4ac1, kYaw = 0xf4ac2, kTilt = 0xf4ac3 };
 
 const char* kMethodNames[] = {"interpolating", "approximating", "midpoint"};
 
@@ -310,6 +310,40 @@ std::array<Vec3d, 3> randomRotation(uint64_t seed, uint64_t stream)
     return {{Vec3d(1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)),
              Vec3d(2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)),
              Vec3d(2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y))}};
+}
+
+// A rock's orientation: yaw uniform, then a tilt about a random horizontal axis with the
+// tilted up axis uniform over the spherical cap of angle `tilt` (180°: uniform rotations).
+std::array<Vec3d, 3> randomOrientation(uint64_t seed, double tiltDeg)
+{
+    const double yaw = 2 * M_PI * random::uniform(seed, kYaw, 0);
+    const double capCos = std::cos(tiltDeg * M_PI / 180.0);
+    const double c = 1.0 - random::uniform(seed, kTilt, 0) * (1.0 - capCos); // cos of the tilt
+    const double tilt = std::acos(std::min(1.0, std::max(-1.0, c)));
+    const double axis = 2 * M_PI * random::uniform(seed, kTilt, 1);
+    // R = T(axis, tilt) · Z(yaw), T by Rodrigues about (cos axis, sin axis, 0).
+    const double cy = std::cos(yaw), sy = std::sin(yaw);
+    const Vec3d z0(cy, -sy, 0), z1(sy, cy, 0), z2(0, 0, 1); // rows of Z(yaw)
+    const Vec3d k(std::cos(axis), std::sin(axis), 0);
+    const double ct = std::cos(tilt), st = std::sin(tilt);
+    std::array<Vec3d, 3> T;
+    for (int r = 0; r < 3; ++r)
+        for (int q = 0; q < 3; ++q) {
+            const double kk = k[r] * k[q] * (1 - ct);
+            double cross = 0; // [k]× entries
+            if (r == 0 && q == 1) cross = -k[2];
+            if (r == 0 && q == 2) cross = k[1];
+            if (r == 1 && q == 0) cross = k[2];
+            if (r == 1 && q == 2) cross = -k[0];
+            if (r == 2 && q == 0) cross = -k[1];
+            if (r == 2 && q == 1) cross = k[0];
+            T[size_t(r)][q] = (r == q ? ct : 0.0) + kk + st * cross;
+        }
+    std::array<Vec3d, 3> R;
+    const Vec3d cols[3] = {Vec3d(z0[0], z1[0], z2[0]), Vec3d(z0[1], z1[1], z2[1]), Vec3d(z0[2], z1[2], z2[2])};
+    for (int r = 0; r < 3; ++r)
+        for (int q = 0; q < 3; ++q) R[size_t(r)][q] = T[size_t(r)].dot(cols[q]);
+    return R;
 }
 
 std::array<double, 4> quaternionOf(const std::array<Vec3d, 3>& R)

@@ -2,14 +2,20 @@
 
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Heightfield.h>
 #include <rockvdb/core/Random.h>
 #include <rockvdb/core/VdbIO.h>
 
+#include <openvdb/points/PointConversion.h>
 #include <openvdb/tools/MeshToVolume.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
+#include <cstring>
+#include <limits>
 
 namespace rockvdb {
 namespace fractal {
@@ -17,8 +23,6 @@ namespace fractal {
 using nlohmann::json;
 
 namespace {
-
-enum Stream : uint64_t { kYaw = 0xf4ac2, kTilt = 0xf4ac3 };
 
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0)
@@ -85,8 +89,41 @@ Schema<FractalRockParams> makeRockSchema()
                    "Normal map: pixels per cell (the image is 5n × 2n)"), &P::normalMapSize);
     s.member(param("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0),
                    "Refuse work estimated above this (0 = 75% of RAM)"), &P::maxMemoryGB);
+    // Scatter rows (§1: rocks "spatially distributed by another fBm").
+    s.member(param("count", ParamType::Int, "", 0, Range::closed(0, 1000000),
+                   "Scatter this many rocks on the ground (0: one rock at center)"), &P::count);
+    s.member(param("area", ParamType::Reals, "m", nullptr, Range::closed(-1e7, 1e7),
+                   "Scatter area xmin,ymin,xmax,ymax (default: the ground's extent; on the "
+                   "plane z = 0: -5,-5,5,5)", 4), &P::area);
+    s.member(param("size-jitter", ParamType::Real, "", 0.5, Range::halfOpen(0, 1),
+                   "Scatter: each rock's size is size x uniform [1 - j, 1]"), &P::sizeJitter);
+    s.member(param("aspect-jitter", ParamType::Real, "", 0.3, Range::halfOpen(0, 1),
+                   "Scatter: its y and z extents are further x uniform [1 - j, 1]"), &P::aspectJitter);
+    s.member(param("density-scale", ParamType::Real, "m", 4.0, Range::above(0),
+                   "Scatter: wavelength of the fBm density map"), &P::densityScale);
+    s.member(param("density-octaves", ParamType::Int, "", 3, Range::closed(1, 8),
+                   "Scatter: octaves of the density map"), &P::densityOctaves);
+    s.member(param("density-contrast", ParamType::Real, "", 1.5, Range::closed(0, 16),
+                   "Scatter: density = ((1 + fbm)/2)^contrast (0: uniform)"), &P::densityContrast);
+    s.member(param("embed", ParamType::Real, "", 0.15, Range::closed(0, 0.9),
+                   "Scatter: share of each rock's height sunk below the ground"), &P::embed);
+    s.member(param("attempts", ParamType::Int, "", 30, Range::closed(1, 10000),
+                   "Scatter: candidates per asked rock before reporting a shortfall"), &P::attempts);
+    s.member(param("ground-cell-size", ParamType::Real, "m", 0.1, Range::above(0),
+                   "Scatter: sample spacing of a heightfield image ground"), &P::groundCellSize);
+    s.member(param("ground-height-scale", ParamType::Real, "", 1.0, Range::closed(-1e6, 1e6),
+                   "Scatter: metres per unit of a heightfield image ground"), &P::groundHeightScale);
+    s.member(param("ground-grid", ParamType::Text, "", "", Range::any(),
+                   "Scatter: level set of a .vdb ground (empty: 'surface', else its only one)"),
+             &P::groundGrid);
     s.rule([](const P& p) {
-        if (!(p.shape.roughness >= 0)) fail<ValueError>("fractal: roughness must be >= 0");
+        if (p.area) {
+            const auto& a = *p.area;
+            if (!(a[2] > a[0] && a[3] > a[1])) {
+                fail<ValueError>("fractal: area needs xmin < xmax and ymin < ymax (got ", a[0], ",",
+                                 a[1], ",", a[2], ",", a[3], ")");
+            }
+        }
     });
     return s;
 }
@@ -94,40 +131,6 @@ Schema<FractalRockParams> makeRockSchema()
 double memoryLimit(double gb)
 {
     return gb > 0 ? gb * 1e9 : 0.75 * physicalMemoryBytes();
-}
-
-// The rock's orientation: yaw uniform, then a tilt about a random horizontal axis with the
-// tilted up axis uniform over the spherical cap of angle `tilt` (180°: uniform rotations).
-std::array<Vec3d, 3> orientation(uint64_t seed, double tiltDeg)
-{
-    const double yaw = 2 * M_PI * random::uniform(seed, kYaw, 0);
-    const double capCos = std::cos(tiltDeg * M_PI / 180.0);
-    const double c = 1.0 - random::uniform(seed, kTilt, 0) * (1.0 - capCos); // cos of the tilt
-    const double tilt = std::acos(std::min(1.0, std::max(-1.0, c)));
-    const double axis = 2 * M_PI * random::uniform(seed, kTilt, 1);
-    // R = T(axis, tilt) · Z(yaw), T by Rodrigues about (cos axis, sin axis, 0).
-    const double cy = std::cos(yaw), sy = std::sin(yaw);
-    const Vec3d z0(cy, -sy, 0), z1(sy, cy, 0), z2(0, 0, 1); // rows of Z(yaw)
-    const Vec3d k(std::cos(axis), std::sin(axis), 0);
-    const double ct = std::cos(tilt), st = std::sin(tilt);
-    std::array<Vec3d, 3> T;
-    for (int r = 0; r < 3; ++r)
-        for (int q = 0; q < 3; ++q) {
-            const double kk = k[r] * k[q] * (1 - ct);
-            double cross = 0; // [k]× entries
-            if (r == 0 && q == 1) cross = -k[2];
-            if (r == 0 && q == 2) cross = k[1];
-            if (r == 1 && q == 0) cross = k[2];
-            if (r == 1 && q == 2) cross = -k[0];
-            if (r == 2 && q == 0) cross = -k[1];
-            if (r == 2 && q == 1) cross = k[0];
-            T[size_t(r)][q] = (r == q ? ct : 0.0) + kk + st * cross;
-        }
-    std::array<Vec3d, 3> R;
-    const Vec3d cols[3] = {Vec3d(z0[0], z1[0], z2[0]), Vec3d(z0[1], z1[1], z2[1]), Vec3d(z0[2], z1[2], z2[2])};
-    for (int r = 0; r < 3; ++r)
-        for (int q = 0; q < 3; ++q) R[size_t(r)][q] = T[size_t(r)].dot(cols[q]);
-    return R;
 }
 
 // Object-space normal map of the finer model, laid out as UvLayout (§7).
@@ -205,6 +208,38 @@ const Schema<FractalRockParams>& rockSchema()
 
 FractalRockParams::FractalRockParams() { rockSchema().reset(*this); }
 
+const std::vector<std::string>& scatterRows()
+{
+    static const std::vector<std::string> rows = {
+        "count", "area", "size-jitter", "aspect-jitter", "density-scale", "density-octaves",
+        "density-contrast", "embed", "attempts", "ground-cell-size", "ground-height-scale",
+        "ground-grid"};
+    return rows;
+}
+
+const std::vector<std::string>& singleRockRows()
+{
+    static const std::vector<std::string> rows = {"center", "normal-levels", "normal-map-size"};
+    return rows;
+}
+
+namespace {
+
+// A row of the other mode must keep its default: a value there would be ignored.
+void requireDefaults(const FractalRockParams& p, const std::vector<std::string>& rows,
+                     const char* why)
+{
+    const json given = rockSchema().toJson(p), defaults = rockSchema().toJson(FractalRockParams());
+    for (const auto& name : rows) {
+        if (name == "count") continue;
+        if (given.value(name, json()) != defaults.value(name, json())) {
+            fail<ValueError>("fractal: ", name, " ", why);
+        }
+    }
+}
+
+} // namespace
+
 const char* normalMapHelp()
 {
     return "Normal map (§7): an RGB float EXR of the normals of a model normal-levels finer, "
@@ -218,6 +253,8 @@ const char* normalMapHelp()
 RockResult runRock(const FractalRockParams& p, bool withLevelSet, bool withNormalMap, Task& task)
 {
     rockSchema().validate(p);
+    if (p.count != 0) fail<ValueError>("fractal: count is for a scatter (runScatter)");
+    requireDefaults(p, scatterRows(), "applies to a scatter (--count N)");
     const double limit = memoryLimit(p.maxMemoryGB);
     const double bytes = meshBytes(p.shape.levels, p.shape.method);
     if (bytes > limit) {
@@ -249,7 +286,7 @@ RockResult runRock(const FractalRockParams& p, bool withLevelSet, bool withNorma
         }
     }
     RockResult r;
-    const std::array<Vec3d, 3> R = orientation(p.shape.seed, p.tilt);
+    const std::array<Vec3d, 3> R = randomOrientation(p.shape.seed, p.tilt);
     const double meshShare = withLevelSet ? 0.3 : 0.9;
     task.phase("mesh", withNormalMap ? meshShare * 0.5 : meshShare);
     auto t0 = Clock::now();
@@ -289,6 +326,188 @@ RockResult runRock(const FractalRockParams& p, bool withLevelSet, bool withNorma
         r.stats.levelSetSeconds = since(t0);
         r.stats.activeVoxels = size_t(r.surface->activeVoxelCount());
         stampProvenance(*r.surface, kToolName, rockSchema().toJson(p).dump());
+    }
+    task.done();
+    return r;
+}
+
+std::shared_ptr<const Ground> loadGround(const std::string& path, const FractalRockParams& p)
+{
+    if (path.empty()) return planeGround();
+    auto ends = [&](const char* ext) {
+        const size_t n = std::strlen(ext);
+        if (path.size() < n) return false;
+        for (size_t i = 0; i < n; ++i) {
+            if (std::tolower(static_cast<unsigned char>(path[path.size() - n + i])) != ext[i]) return false;
+        }
+        return true;
+    };
+    if (ends(".vdb")) {
+        const openvdb::GridPtrVecPtr grids = readGrids(path);
+        const auto grid = findLevelSet(*grids, p.groundGrid, path);
+        return levelSetGround(*grid);
+    }
+    if (ends(".exr") || ends(".png")) {
+        return heightfieldGround(std::make_shared<const Heightfield>(
+            loadHeightfield(path, p.groundCellSize, p.groundHeightScale)));
+    }
+    fail<ValueError>("fractal: ground '", path, "' must be a heightfield image (.exr, .png) or a "
+                     "level set (.vdb)");
+}
+
+ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const json& inputs,
+                         bool points, bool withMesh, Task& task)
+{
+    rockSchema().validate(p);
+    if (p.count < 1) fail<ValueError>("fractal: a scatter needs count >= 1");
+    requireDefaults(p, singleRockRows(), "applies to a single rock (count 0)");
+    ScatterSettings s;
+    s.count = p.count;
+    if (p.area) {
+        s.area = *p.area;
+    } else if (auto b = ground.bounds()) {
+        s.area = *b;
+    } else {
+        s.area = {-5.0, -5.0, 5.0, 5.0};
+    }
+    s.size = p.size;
+    s.sizeJitter = p.sizeJitter;
+    s.aspectJitter = p.aspectJitter;
+    s.tilt = p.tilt;
+    s.densityScale = p.densityScale;
+    s.densityContrast = p.densityContrast;
+    s.densityOctaves = p.densityOctaves;
+    s.embed = p.embed;
+    s.attempts = p.attempts;
+    s.shape = p.shape;
+    // Memory: every rock's mesh, and the band of their union.
+    const double limit = memoryLimit(p.maxMemoryGB);
+    const double meshMemory = double(p.count) * meshBytes(p.shape.levels, p.shape.method);
+    const double a = 0.5 * p.size[0], b = 0.5 * p.size[1], c = 0.5 * p.size[2];
+    const double area = 4 * M_PI * std::pow((std::pow(a * b, 1.6) + std::pow(a * c, 1.6) + std::pow(b * c, 1.6)) / 3, 1 / 1.6);
+    const double voxels = double(p.count) * 2.0 * area / (p.voxelSize * p.voxelSize) * 2.0 * p.halfWidth;
+    if (meshMemory + voxels * 40 > limit) {
+        fail<ValueError>("fractal: ", p.count, " rocks of ", p.shape.levels, " levels at ",
+                         p.voxelSize, " m voxels need about ", formatBytes(meshMemory + voxels * 40),
+                         " (over the ", formatBytes(limit), " limit); use fewer --count or "
+                         "--levels, a larger --voxel-size, or raise --max-memory");
+    }
+    ScatterResult r;
+    task.phase("place", 0.05);
+    r.rocks = placeRocks(s, r.stats, task);
+
+    // Meshes, in parallel; each lowered onto the ground.
+    task.phase("meshes", 0.25);
+    auto t0 = Clock::now();
+    const size_t n = r.rocks.size();
+    std::vector<RockMesh> meshes(n);
+    std::vector<std::vector<Vec3d>> world(n);
+    parallelFor(task, n, 4, [&](size_t i) {
+        Placed& rock = r.rocks[i];
+        RockShape shape = p.shape;
+        shape.seed = rock.seed;
+        Task quiet; // the outer task checks between rocks
+        meshes[i] = buildRock(shape, rock.extent, rock.rotation, quiet);
+        std::vector<Vec3d> w = toWorld(meshes[i], rock.extent, rock.rotation, Vec3d(rock.position[0], rock.position[1], 0.0));
+        // Rest: the lowest point relative to the ground under it sits embed · height below.
+        double lowest = std::numeric_limits<double>::max(), zmin = lowest, zmax = -lowest;
+        for (const Vec3d& q : w) {
+            zmin = std::min(zmin, q[2]);
+            zmax = std::max(zmax, q[2]);
+        }
+        for (const Vec3d& q : w) {
+            if (q[2] > zmin + 0.5 * (zmax - zmin)) continue; // the lower half can touch
+            lowest = std::min(lowest, q[2] - ground.height(q[0], q[1]));
+        }
+        const double dz = -lowest - p.embed * (zmax - zmin);
+        for (Vec3d& q : w) q[2] += dz;
+        rock.position[2] = dz;
+        world[i] = std::move(w);
+    });
+    r.stats.meshSeconds = since(t0);
+
+    // One mesh (triangles grouped by rock), one meshToVolume: the union's level set, and the
+    // nearest triangle per voxel gives rock_id.
+    task.phase("level set", 0.7);
+    t0 = Clock::now();
+    const double dx = p.voxelSize;
+    auto xf = openvdb::math::Transform::createLinearTransform(dx);
+    std::vector<size_t> firstPoint(n + 1, 0), firstTri(n + 1, 0);
+    for (size_t i = 0; i < n; ++i) {
+        firstPoint[i + 1] = firstPoint[i] + world[i].size();
+        firstTri[i + 1] = firstTri[i] + meshes[i].triangles.size();
+    }
+    std::vector<openvdb::Vec3s> index(firstPoint[n]);
+    std::vector<openvdb::Vec3I> tris(firstTri[n]);
+    tbb::parallel_for(size_t(0), n, [&](size_t i) {
+        for (size_t v = 0; v < world[i].size(); ++v) index[firstPoint[i] + v] = openvdb::Vec3s(xf->worldToIndex(world[i][v]));
+        for (size_t t = 0; t < meshes[i].triangles.size(); ++t) {
+            tris[firstTri[i] + t] = meshes[i].triangles[t] + openvdb::Vec3I(unsigned(firstPoint[i]));
+        }
+    });
+    openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec3I> adapter(index, tris);
+    openvdb::Int32Grid nearest(0);
+    const float hw = float(p.halfWidth);
+    r.surface = openvdb::tools::meshToVolume<openvdb::FloatGrid>(*task.interrupter(), adapter, *xf,
+                                                                 hw, hw, 0, &nearest);
+    task.check();
+    r.surface->setGridClass(openvdb::GRID_LEVEL_SET);
+    r.surface->setName("surface");
+    r.rockId = openvdb::FloatGrid::create(-1.0f);
+    r.rockId->setTransform(xf->copy());
+    r.rockId->setGridClass(openvdb::GRID_UNKNOWN);
+    r.rockId->setName("rock_id");
+    r.rockId->tree().topologyUnion(r.surface->tree());
+    {
+        openvdb::tree::LeafManager<openvdb::FloatTree> leaves(r.rockId->tree());
+        leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+            auto acc = nearest.getConstAccessor();
+            for (auto it = leaf.beginValueOn(); it; ++it) {
+                const int32_t tri = acc.getValue(it.getCoord());
+                const size_t rock = size_t(std::upper_bound(firstTri.begin(), firstTri.end(), size_t(std::max(0, tri))) - firstTri.begin()) - 1;
+                it.setValue(float(rock));
+            }
+        });
+    }
+    r.stats.levelSetSeconds = since(t0);
+    json prov = rockSchema().toJson(p);
+    for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
+    const std::string text = prov.dump();
+    stampProvenance(*r.surface, kToolName, text);
+    stampProvenance(*r.rockId, kToolName, text);
+    if (points) {
+        std::vector<openvdb::Vec3R> positions(n);
+        std::vector<openvdb::math::Quats> orient(n);
+        std::vector<float> pscale(n);
+        std::vector<int32_t> rock(n);
+        for (size_t i = 0; i < n; ++i) {
+            positions[i] = r.rocks[i].position;
+            const auto q = quaternionOf(r.rocks[i].rotation);
+            orient[i] = openvdb::math::Quats(float(q[0]), float(q[1]), float(q[2]), float(q[3]));
+            pscale[i] = float(std::max({r.rocks[i].extent[0], r.rocks[i].extent[1], r.rocks[i].extent[2]}));
+            rock[i] = int32_t(i);
+        }
+        using namespace openvdb::points;
+        auto pxf = openvdb::math::Transform::createLinearTransform(std::max(dx, 0.5 * p.size[0]));
+        PointAttributeVector<openvdb::Vec3R> wrapper(positions);
+        auto idx = openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(wrapper, *pxf);
+        auto pts = createPointDataGrid<NullCodec, PointDataGrid>(*idx, wrapper, *pxf);
+        appendAttribute<openvdb::math::Quats>(pts->tree(), "orient");
+        populateAttribute<PointDataTree, openvdb::tools::PointIndexTree, PointAttributeVector<openvdb::math::Quats>>(
+            pts->tree(), idx->tree(), "orient", PointAttributeVector<openvdb::math::Quats>(orient));
+        appendAttribute<float>(pts->tree(), "pscale");
+        populateAttribute<PointDataTree, openvdb::tools::PointIndexTree, PointAttributeVector<float>>(
+            pts->tree(), idx->tree(), "pscale", PointAttributeVector<float>(pscale));
+        appendAttribute<int32_t>(pts->tree(), "rock");
+        populateAttribute<PointDataTree, openvdb::tools::PointIndexTree, PointAttributeVector<int32_t>>(
+            pts->tree(), idx->tree(), "rock", PointAttributeVector<int32_t>(rock));
+        pts->setName("rocks");
+        stampProvenance(*pts, kToolName, text);
+        r.points = pts;
+    }
+    if (withMesh) {
+        for (size_t i = 0; i < n; ++i) appendMesh(r.mesh, rockMesh(meshes[i], world[i], false), int(i));
+        r.mesh.groupName = "rock";
     }
     task.done();
     return r;

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <rockvdb/fractal/FractalRock.h>
+#include <rockvdb/fractal/Scatter.h>
 
 #include <rockvdb/core/Image.h>
 #include <rockvdb/core/Schema.h>
@@ -15,13 +16,19 @@
 #include <nlohmann/json.hpp>
 #include <openvdb/openvdb.h>
 
+#include <optional>
+#include <string>
+#include <vector>
+
 namespace rockvdb {
 namespace fractal {
 
 /// The tool the entry points record as the generator of what they make.
 constexpr const char* kToolName = "vdb_fractal_rock";
 
-/// One rock: its shape, size, orientation and place, and how it is baked.
+/// One rock (count = 0) or a scatter of count rocks on a ground: the shape, size, orientation
+/// and place, and how it is baked. One table for both, so the CLI and Python's fractal_rock and
+/// fractal_scatter share every name; a row of the other mode left at its default.
 struct FractalRockParams
 {
     FractalRockParams();
@@ -36,12 +43,28 @@ struct FractalRockParams
     int normalMapSize;   ///< pixels per cell of the normal map (the image is 5·n × 2·n)
     double maxMemoryGB;  ///< refuse work estimated above this (0 = 75% of RAM)
 
+    // Scatter (count > 0).
+    int count;                              ///< rocks asked for (0: one rock at center)
+    std::optional<std::array<double, 4>> area; ///< xmin, ymin, xmax, ymax (unset: the ground's)
+    double sizeJitter, aspectJitter;
+    double densityScale, densityContrast;
+    int densityOctaves;
+    double embed;                           ///< share of a rock's height below the ground
+    int attempts;                           ///< candidates per asked rock
+    double groundCellSize, groundHeightScale; ///< a heightfield image ground
+    std::string groundGrid;                 ///< a .vdb ground's level set (empty: 'surface' or the only one)
+
     /// @brief The semi-axes (size / 2).
     Vec3d extent() const { return size * 0.5; }
 };
 
-/// @brief The table of FractalRockParams (vdb_fractal_rock, rockvdb.fractal_rock).
+/// @brief The table of FractalRockParams (vdb_fractal_rock, rockvdb.fractal_rock and
+/// rockvdb.fractal_scatter).
 const Schema<FractalRockParams>& rockSchema();
+
+/// Rows that only a scatter reads, and rows that only a single rock reads.
+const std::vector<std::string>& scatterRows();
+const std::vector<std::string>& singleRockRows();
 
 struct RockStats
 {
@@ -67,6 +90,26 @@ const char* normalMapHelp();
 /// provenance (the table's JSON). @a withLevelSet false: the mesh (and map) only.
 RockResult runRock(const FractalRockParams& params, bool withLevelSet, bool withNormalMap,
                    Task& task);
+
+struct ScatterResult
+{
+    std::vector<Placed> rocks;
+    openvdb::FloatGrid::Ptr surface;   ///< level set 'surface': the union of the rocks
+    openvdb::FloatGrid::Ptr rockId;    ///< 'rock_id': the index of the nearest rock (float ids)
+    openvdb::GridBase::Ptr points;     ///< VDB points 'rocks' (P, orient, pscale, rock), when asked
+    Mesh mesh;                         ///< every rock's mesh, triangle groups = rock index
+    ScatterStats stats;
+};
+
+/// @brief The ground of a scatter: a heightfield image (.exr / .png, with the table's ground
+/// cell size and height scale), a level set .vdb (its ground-grid), or the plane z = 0 (empty
+/// path). @throw IoError / ValueError naming the file.
+std::shared_ptr<const Ground> loadGround(const std::string& path, const FractalRockParams& params);
+
+/// @brief Scatter count rocks on @a ground (phases: place, meshes, level set), the grids
+/// stamped with provenance: the table's JSON + @a inputs ({"ground": path}).
+ScatterResult runScatter(const FractalRockParams& params, const Ground& ground,
+                         const nlohmann::json& inputs, bool points, bool withMesh, Task& task);
 
 } // namespace fractal
 } // namespace rockvdb

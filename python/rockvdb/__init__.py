@@ -32,7 +32,7 @@ from . import _rockvdb
 __version__ = _rockvdb.__version__
 
 __all__ = ["BlockTile", "Field", "amplify", "block_tile", "box", "capsule", "coverage", "csg",
-           "detail", "expression", "fractal_rock", "heightfield", "load_tile", "mesh", "plane",
+           "detail", "expression", "fractal_rock", "fractal_scatter", "heightfield", "load_tile", "mesh", "plane",
            "polytope", "preview",
            "provenance", "read", "read_image", "rock_library", "rock_pile", "rock_tiles",
            "sphere", "write", "write_heightfield", "__version__"]
@@ -163,14 +163,17 @@ def _shown(value):
     return repr(value)
 
 
-def _stage_function(table, impl, name, head, tail, before=(), after=()):
+def _stage_function(table, impl, name, head, tail, before=(), after=(), exclude=()):
     """A public function over impl with the table's keywords in its signature (defaults as the
     table gives them) and a docstring listing each with its unit, default, range and help."""
     import inspect
     P = inspect.Parameter
-    params = [P(b, P.POSITIONAL_OR_KEYWORD) for b in before]
+    params = [P(b[0], P.POSITIONAL_OR_KEYWORD, default=b[1]) if isinstance(b, tuple)
+              else P(b, P.POSITIONAL_OR_KEYWORD) for b in before]
     lines = [head, "", "Parameters (the same as the CLI's options, '-' spelt '_'):"]
     for r in table["params"]:
+        if r["name"] in exclude:
+            continue
         default = tuple(r["default"]) if isinstance(r["default"], list) else r["default"]
         params.append(P(r["python"], P.KEYWORD_ONLY, default=default))
         unit = f" {r['unit']}" if r["unit"] else ""
@@ -206,6 +209,10 @@ _DETAIL = _table("detail")
 _BLOCK_TILE = _table("block_tile")
 _AMPLIFY = _table("amplify")
 _FRACTAL_ROCK = _table("fractal_rock")
+_SCATTER_ROWS = ["count", "area", "size-jitter", "aspect-jitter", "density-scale", "density-octaves",
+                 "density-contrast", "embed", "attempts", "ground-cell-size", "ground-height-scale",
+                 "ground-grid"]
+_SINGLE_ROCK_ROWS = ["center", "normal-levels", "normal-map-size"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -779,4 +786,41 @@ fractal_rock = _stage_function(
     "mesh_up 'z' or 'y') and normal_map_path (.exr) also write the files (atomically). "
     "Ctrl-C raises KeyboardInterrupt.",
     after=[("path", None), ("mesh_path", None), ("mesh_up", "z"), ("normal_map", False),
-           ("normal_map_path", None), ("level_set", True)])
+           ("normal_map_path", None), ("level_set", True)],
+    exclude=_SCATTER_ROWS)
+
+
+def _fractal_scatter(ground=None, path=None, stats=None, mesh=False, **params):
+    fn = "fractal_scatter"
+    target = _opt(path, _path, "path", fn)
+    if isinstance(ground, (str, _os.PathLike)):
+        ground = _os.fspath(ground)
+    elif ground is not None and not isinstance(ground, pyopenvdb.FloatGrid):
+        raise _type_error(fn, "ground", "None (the plane z = 0), a heightfield image or .vdb "
+                          "path, or a pyopenvdb.FloatGrid level set", ground)
+    if stats is not None and not isinstance(stats, dict):
+        raise _type_error(fn, "stats", "a dict", stats)
+    if not isinstance(mesh, bool):
+        raise _type_error(fn, "mesh", "a bool", mesh)
+    surface, rock_id, info, meshes = _rockvdb.fractal_scatter(
+        ground, _stage_params(_FRACTAL_ROCK, fn, params), mesh)
+    if stats is not None:
+        stats.update(info)
+    if target is not None:
+        _rockvdb.write(target, [rock_id, surface])
+    return (surface, rock_id, meshes) if mesh else (surface, rock_id)
+
+
+fractal_scatter = _stage_function(
+    _FRACTAL_ROCK, _fractal_scatter, "fractal_scatter",
+    "Fractal rocks scattered on a ground (vdb_fractal_rock --count from Python; "
+    "fractal-rocks §1: rocks distributed by another fBm), none interpenetrating, each partly "
+    "sunk (embed).\n\nground: None (the plane z = 0), a heightfield image path (.exr / .png, "
+    "ground_cell_size, ground_height_scale), a level set .vdb path (ground_grid) or a "
+    "pyopenvdb.FloatGrid level set. count is required (>= 1).",
+    "Returns (surface, rock_id) — with mesh=True (surface, rock_id, mesh: points, triangles and "
+    "rock per triangle as numpy arrays); stats (a dict) receives counts (asked, placed, "
+    "rejections), times and each rock's position, orient (x, y, z, w) and extent. path also "
+    "writes the grids. Ctrl-C raises KeyboardInterrupt.",
+    before=[("ground", None)], after=[("path", None), ("stats", None), ("mesh", False)],
+    exclude=_SINGLE_ROCK_ROWS)

@@ -397,7 +397,7 @@ PYBIND11_MODULE(_rockvdb, m)
         if (stage == "block_tile") return blocks::blocksSchema().describe().dump();
         if (stage == "tile") return blocks::tileSchema().describe().dump();
         if (stage == "amplify") return amplify::amplifySchema().describe().dump();
-        if (stage == "fractal_rock") return fractal::rockSchema().describe().dump();
+        if (stage == "fractal_rock" || stage == "fractal_scatter") return fractal::rockSchema().describe().dump();
         throw ValueError("schema: no stage '" + stage + "'");
     }, py::arg("stage"));
 
@@ -445,6 +445,77 @@ PYBIND11_MODULE(_rockvdb, m)
         py::object surface = r.surface ? py::cast(r.surface) : py::none();
         return py::make_tuple(surface, mesh);
     }, py::arg("params"), py::arg("level_set") = true, py::arg("normal_map") = false);
+
+    // Fractal rocks scattered on a ground (a path, a level set grid or None: the plane).
+    m.def("fractal_scatter", [](py::object ground, const std::string& params, bool withMesh) {
+        const fractal::FractalRockParams p = fractal::rockSchema().fromJson(parseParams(params, "fractal"));
+        json inputs = json::object();
+        std::shared_ptr<const fractal::Ground> g;
+        if (ground.is_none()) {
+            g = fractal::planeGround();
+        } else if (py::isinstance<py::str>(ground)) {
+            inputs["ground"] = ground.cast<std::string>();
+            g = fractal::loadGround(ground.cast<std::string>(), p);
+        } else {
+            Grid grid;
+            try {
+                grid = ground.cast<Grid>();
+            } catch (const py::cast_error&) {
+            }
+            if (!grid) throw py::type_error("fractal_scatter: the ground must be None, a path or a pyopenvdb.FloatGrid level set");
+            requireLevelSet(*grid, "fractal ground");
+            inputs["ground"] = gridSource(*grid);
+            g = fractal::levelSetGround(*grid);
+        }
+        fractal::ScatterResult r;
+        {
+            py::gil_scoped_release release;
+            PyTaskHost host;
+            Task task(&host);
+            r = fractal::runScatter(p, *g, inputs, false, withMesh, task);
+        }
+        py::dict stats;
+        stats["asked"] = r.stats.asked;
+        stats["placed"] = r.stats.placed;
+        stats["candidates"] = r.stats.candidates;
+        stats["rejected_density"] = r.stats.rejectedDensity;
+        stats["rejected_overlap"] = r.stats.rejectedOverlap;
+        stats["place_seconds"] = r.stats.placeSeconds;
+        stats["mesh_seconds"] = r.stats.meshSeconds;
+        stats["level_set_seconds"] = r.stats.levelSetSeconds;
+        const size_t n = r.rocks.size();
+        py::array_t<double> pos({n, size_t(3)}), orient({n, size_t(4)}), extent({n, size_t(3)}), radius(n);
+        for (size_t i = 0; i < n; ++i) {
+            const auto q = fractal::quaternionOf(r.rocks[i].rotation);
+            for (int c = 0; c < 3; ++c) {
+                pos.mutable_at(i, c) = r.rocks[i].position[c];
+                extent.mutable_at(i, c) = r.rocks[i].extent[c];
+            }
+            for (int c = 0; c < 4; ++c) orient.mutable_at(i, c) = q[size_t(c)];
+            radius.mutable_at(i) = r.rocks[i].radius;
+        }
+        stats["radii"] = radius;
+        stats["positions"] = pos;
+        stats["orients"] = orient;
+        stats["extents"] = extent;
+        py::object mesh = py::none();
+        if (withMesh) {
+            py::dict m;
+            py::array_t<float> pts({r.mesh.points.size(), size_t(3)});
+            py::array_t<int32_t> tris({r.mesh.triangles.size(), size_t(3)}), groups(r.mesh.triangleGroups.size());
+            for (size_t i = 0; i < r.mesh.points.size(); ++i)
+                for (int c = 0; c < 3; ++c) pts.mutable_at(i, c) = r.mesh.points[i][c];
+            for (size_t i = 0; i < r.mesh.triangles.size(); ++i) {
+                for (int c = 0; c < 3; ++c) tris.mutable_at(i, c) = int32_t(r.mesh.triangles[i][c]);
+                groups.mutable_at(i) = r.mesh.triangleGroups[i];
+            }
+            m["points"] = pts;
+            m["triangles"] = tris;
+            m["rock"] = groups;
+            mesh = m;
+        }
+        return py::make_tuple(Grid(r.surface), Grid(r.rockId), stats, mesh);
+    }, py::arg("ground"), py::arg("params"), py::arg("mesh") = false);
 
     m.def("write_mesh", [](py::array_t<float, py::array::c_style | py::array::forcecast> points,
                            py::array_t<int32_t, py::array::c_style | py::array::forcecast> triangles,

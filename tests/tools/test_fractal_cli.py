@@ -145,3 +145,142 @@ def test_bad_input_is_one_line_and_no_file(tmp_path, args, needles):
     one_line_error(p, 2, *needles)
     assert not out.exists() and not (tmp_path / "o.obj").exists()
     assert not [f for f in os.listdir(tmp_path) if ".tmp-" in f]
+
+
+# ---- scatter ----------------------------------------------------------------------------------
+
+SCATTER = dict(count=40, levels=1, size=(0.6, 0.5, 0.35), voxel_size=0.04, area=(-3, -3, 3, 3),
+               seed=4, embed=0.2)
+
+
+def rocks_of(mesh, stats):
+    """Per rock: its vertices (from the grouped mesh)."""
+    pts, tris, rock = mesh["points"], mesh["triangles"], mesh["rock"]
+    out = []
+    for i in range(len(stats["positions"])):
+        idx = np.unique(tris[rock == i].ravel())
+        out.append(pts[idx].astype(np.float64))
+    return out
+
+
+def assert_disjoint(stats, rocks):
+    """Each rock lies in the vertical cylinder of its footprint radius, and the footprints are
+    disjoint discs: no two rocks can interpenetrate."""
+    c, r = stats["positions"][:, :2], stats["radii"]
+    for i, v in enumerate(rocks):
+        assert np.linalg.norm(v[:, :2] - c[i], axis=1).max() <= r[i] + 1e-9
+    d = np.linalg.norm(c[:, None, :] - c[None, :, :], axis=2)
+    sums = r[:, None] + r[None, :]
+    np.fill_diagonal(d, np.inf)
+    assert (d >= sums - 1e-9).all()
+
+
+def test_scatter_on_the_plane_rests_each_rock_embed_of_its_height_below(tmp_path):
+    stats = {}
+    surface, rock_id, mesh = rockvdb.fractal_scatter(stats=stats, mesh=True, **SCATTER)
+    assert stats["placed"] == stats["asked"] == 40
+    rocks = rocks_of(mesh, stats)
+    assert len(rocks) == 40
+    for v in rocks:
+        height = v[:, 2].max() - v[:, 2].min()
+        assert abs(v[:, 2].min() - (-0.2 * height)) < 1e-4
+    assert_disjoint(stats, rocks)
+    # rock_id names the rock at every voxel of the band: the nearest rock's centre.
+    bb, ids = dense_of(rock_id)
+    assert set(np.unique(ids[ids >= 0]).astype(int)) == set(range(40))
+    assert surface.metadata["rockvdb:params"] == rock_id.metadata["rockvdb:params"]
+
+
+def dense_of(grid):
+    bb = grid.evalActiveVoxelBoundingBox()
+    a = np.full(tuple(bb[1][k] - bb[0][k] + 1 for k in range(3)), -1, dtype=np.float32)
+    grid.copyToArray(a, ijk=bb[0])
+    return bb, a
+
+
+def test_scatter_rests_on_a_heightfield_and_on_a_level_set(tmp_path):
+    # A tilted plane z = 0.2 x + 0.1 y + 1 as a heightfield image (cell 0.1 m, 61 x 61).
+    x = np.arange(61) * 0.1
+    hf = (0.2 * x[None, :] + 0.1 * x[:, None] + 1.0).astype(np.float32)
+    path = tmp_path / "ground.exr"
+    rockvdb.write_heightfield(str(path), hf)
+    stats = {}
+    _, _, mesh = rockvdb.fractal_scatter(path, stats=stats, mesh=True, count=20, levels=1,
+                                         size=(0.5, 0.4, 0.3), voxel_size=0.05, embed=0.1,
+                                         ground_cell_size=0.1, seed=2)
+    assert stats["placed"] == 20
+    # The area defaults to the ground's extent: every centre on the terrain.
+    c = stats["positions"]
+    assert (c[:, 0] >= 0).all() and (c[:, 0] <= 6).all() and (c[:, 1] >= 0).all() and (c[:, 1] <= 6).all()
+    for v in rocks_of(mesh, stats):
+        height = v[:, 2].max() - v[:, 2].min()
+        rel = v[:, 2] - (0.2 * v[:, 0] + 0.1 * v[:, 1] + 1.0)
+        assert abs(rel.min() - (-0.1 * height)) < 1e-3
+    # A level set ground: the top of a box at z = 0.5; rocks rest within a voxel of it.
+    box = tmp_path / "box.vdb"
+    run([tool("vdb_primitive"), "-q", "--voxel-size", "0.05", "-o", str(box), "box", "--size",
+         "6,6,1"], check=True)
+    stats = {}
+    _, _, mesh = rockvdb.fractal_scatter(str(box), stats=stats, mesh=True, count=15, levels=1,
+                                         size=(0.5, 0.4, 0.3), voxel_size=0.05, embed=0.1,
+                                         area=(-2.5, -2.5, 2.5, 2.5), seed=3)
+    for v in rocks_of(mesh, stats):
+        height = v[:, 2].max() - v[:, 2].min()
+        assert abs(v[:, 2].min() - (0.5 - 0.1 * height)) < 0.05
+
+
+def test_scatter_reports_a_shortfall_and_cli_matches_python(tmp_path):
+    stats = {}
+    rockvdb.fractal_scatter(stats=stats, count=200, levels=0, size=(0.5, 0.5, 0.5),
+                            area=(0, 0, 2, 2), voxel_size=0.05, attempts=5)
+    assert 0 < stats["placed"] < 200 and stats["asked"] == 200
+    p = run([FR, "--count", "200", "--levels", "0", "--size", "0.5,0.5,0.5", "--area", "0,0,2,2",
+             "--voxel-size", "0.05", "--attempts", "5", "-o", str(tmp_path / "s.vdb")])
+    assert p.returncode == 0
+    assert f"only {stats['placed']} of 200 rocks fit" in p.stderr
+    args = ["--count", "30", "--levels", "1", "--voxel-size", "0.04", "--area", "-3,-3,3,3",
+            "--seed", "6"]
+    run([FR, "-q", "--threads", "1", *args, "-o", str(tmp_path / "a.vdb"), "--points",
+         str(tmp_path / "pts.vdb")], check=True)
+    run([FR, "-q", "--threads", "2", *args, "-o", str(tmp_path / "b.vdb")], check=True)
+    surface, rock_id = rockvdb.fractal_scatter(count=30, levels=1, voxel_size=0.04,
+                                               area=(-3, -3, 3, 3), seed=6)
+    for name, grid in (("surface", surface), ("rock_id", rock_id)):
+        a = vdb.read(str(tmp_path / "a.vdb"), name)
+        assert_bitwise_equal(a, vdb.read(str(tmp_path / "b.vdb"), name))
+        assert_bitwise_equal(a, grid)
+    # The instances: a VDB points grid 'rocks' with P, orient, pscale and rock.
+    info = run(["vdb_print", "-l", str(tmp_path / "pts.vdb")], check=True).stdout.decode()
+    assert "Name: rocks" in info and "ptdataidx" in info
+    # The provenance replays the scatter.
+    prov = json.loads(vdb.read(str(tmp_path / "a.vdb"), "surface").metadata["rockvdb:params"])
+    assert prov["count"] == 30
+    (tmp_path / "p.json").write_text(json.dumps(prov))
+    run([FR, "-q", "--params", str(tmp_path / "p.json"), "-o", str(tmp_path / "c.vdb")], check=True)
+    assert_bitwise_equal(vdb.read(str(tmp_path / "c.vdb"), "surface"), surface)
+
+
+@pytest.mark.parametrize("args,needles", [
+    (["--count", "5", "--center", "1,0,0"], ["center", "single rock"]),
+    (["--embed", "0.3"], ["embed", "scatter"]),
+    (["--ground", "missing.exr", "--count", "3"], ["missing.exr"]),
+    (["--count", "3", "--area", "1,1,0,2"], ["area"]),
+    (["--points", "p.vdb"], ["--points"]),
+])
+def test_scatter_bad_input_is_one_line_and_no_file(tmp_path, args, needles):
+    out = tmp_path / "o.vdb"
+    p = run([FR, "-q", *args, "-o", str(out)])
+    assert p.returncode in (1, 2)
+    one_line_error(p, p.returncode, *needles)
+    assert not out.exists()
+
+
+def test_scatter_ground_must_hold_a_level_set(tmp_path):
+    fog = vdb.FloatGrid()
+    fog.name = "density"
+    fog.gridClass = vdb.GridClass.FOG_VOLUME
+    fog.fill((0, 0, 0), (3, 3, 3), 1.0)
+    vdb.write(str(tmp_path / "fog.vdb"), grids=[fog])
+    p = run([FR, "-q", "--count", "3", "--ground", str(tmp_path / "fog.vdb"), "-o", str(tmp_path / "o.vdb")])
+    one_line_error(p, p.returncode, "fog.vdb")
+    assert p.returncode != 0 and not (tmp_path / "o.vdb").exists()
