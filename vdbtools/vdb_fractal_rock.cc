@@ -30,7 +30,8 @@ int main(int argc, char** argv)
         "two interpenetrating: 'surface' (their union) and 'rock_id', with --points the "
         "instances (P, orient, pscale, rock) as a VDB points grid 'rocks' in its own file. ") +
         normalMapHelp() +
-        " The output's rockvdb:params replays it: vdb_fractal_rock --params FILE -o OUT.");
+        " With --carve SOLID.vdb --count N, a chain of N rocks is subtracted from the solid (§9: "
+        "caves). The output's rockvdb:params replays it: vdb_fractal_rock --params FILE -o OUT.");
     CLI::App& app = tool.app();
     tool.addParams(app, rockSchema());
     std::string meshPath, mapPath, up = "z";
@@ -43,6 +44,10 @@ int main(int argc, char** argv)
     app.add_option("--ground", groundPath, "Scatter ground: a heightfield image (.exr, .png; "
                                            "--ground-cell-size, --ground-height-scale) or a level "
                                            "set .vdb (--ground-grid); default the plane z = 0");
+    std::string carvePath;
+    app.add_option("--carve", carvePath, "Cave (§9): subtract a chain of --count rocks from this "
+                                         "solid (a level set .vdb: 'surface' or its only one), "
+                                         "on its voxels; writes the carved solid and 'cave'");
     app.add_option("--points", pointsPath, "Scatter: also write the instances as a VDB points "
                                            "grid 'rocks' (P, orient, pscale, rock) to this .vdb");
     tool.addOutput(app, "Output .vdb: level set 'surface' ('-' = stdout)");
@@ -55,6 +60,24 @@ int main(int argc, char** argv)
         }
         if (!mapPath.empty() && meshPath.size() >= 4 && meshPath.substr(meshPath.size() - 4) == ".ply") {
             fail<ValueError>("fractal: a normal map needs the OBJ's UVs; write --mesh as .obj");
+        }
+        if (!carvePath.empty()) {
+            if (!mapPath.empty() || !groundPath.empty() || !pointsPath.empty() || !meshPath.empty()) {
+                fail<ValueError>("fractal: --carve writes the carved solid only (no --normal-map, "
+                                 "--ground, --points or --mesh)");
+            }
+            const openvdb::GridPtrVecPtr grids = readGrids(carvePath);
+            const auto solid = findLevelSet(*grids, "", carvePath);
+            auto bar = tool.taskBar();
+            Task task(bar.get());
+            const CarveResult r = runCarve(p, *solid, {{"carve", carvePath}}, task);
+            bar->clear();
+            char line[200];
+            std::snprintf(line, sizeof line, "carved a chain of %zu rocks (%zu cave voxels)",
+                          r.rocks.size(), size_t(r.cave->activeVoxelCount()));
+            tool.info(line);
+            writeGrids(tool.output(), {r.surface, r.cave});
+            return;
         }
         if (p.count > 0) {
             if (!mapPath.empty()) fail<ValueError>("fractal: --normal-map is for a single rock (count 0)");

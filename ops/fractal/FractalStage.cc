@@ -7,6 +7,7 @@
 #include <rockvdb/core/VdbIO.h>
 
 #include <openvdb/points/PointConversion.h>
+#include <openvdb/tools/Composite.h>
 #include <openvdb/tools/MeshToVolume.h>
 #include <tbb/parallel_for.h>
 
@@ -116,7 +117,19 @@ Schema<FractalRockParams> makeRockSchema()
     s.member(param("ground-grid", ParamType::Text, "", "", Range::any(),
                    "Scatter: level set of a .vdb ground (empty: 'surface', else its only one)"),
              &P::groundGrid);
+    // Caves (§9): a chain of count rocks subtracted from a solid.
+    s.member(param("carve-start", ParamType::Reals, "m", nullptr, Range::closed(-1e7, 1e7),
+                   "Carve: where the chain of rocks starts (default: the solid's centre)", 3),
+             &P::carveStart);
+    s.add(param("carve-direction", ParamType::Reals, "", json::array({1.0, 0.0, 0.0}),
+                Range::closed(-1e6, 1e6), "Carve: the chain's initial direction", 3),
+          [](const P& p) { return json::array({p.carveDirection[0], p.carveDirection[1], p.carveDirection[2]}); },
+          [](P& p, const json& j) { p.carveDirection = Vec3d(j.at(0), j.at(1), j.at(2)); });
+    s.member(param("carve-wander", ParamType::Real, "", 0.35, Range::closed(0, 4),
+                   "Carve: how far each step turns (a random unit vector times this, added to "
+                   "the direction)"), &P::carveWander);
     s.rule([](const P& p) {
+        if (!(p.carveDirection.length() > 0)) fail<ValueError>("fractal: carve-direction must not be zero");
         if (p.area) {
             const auto& a = *p.area;
             if (!(a[2] > a[0] && a[3] > a[1])) {
@@ -217,6 +230,12 @@ const std::vector<std::string>& scatterRows()
     return rows;
 }
 
+const std::vector<std::string>& carveRows()
+{
+    static const std::vector<std::string> rows = {"carve-start", "carve-direction", "carve-wander"};
+    return rows;
+}
+
 const std::vector<std::string>& singleRockRows()
 {
     static const std::vector<std::string> rows = {"center", "normal-levels", "normal-map-size"};
@@ -224,6 +243,50 @@ const std::vector<std::string>& singleRockRows()
 }
 
 namespace {
+
+// The union of rocks (canonical meshes, world points) as one level set 'surface' on @a xf, and
+// 'rock_id' (the rock of the nearest triangle) over the same voxels: one meshToVolume.
+void unionLevelSet(const std::vector<RockMesh>& meshes, const std::vector<std::vector<Vec3d>>& world,
+                   openvdb::math::Transform::Ptr xf, double halfWidth, Task& task,
+                   openvdb::FloatGrid::Ptr& surface, openvdb::FloatGrid::Ptr& rockId)
+{
+    const size_t n = meshes.size();
+    std::vector<size_t> firstPoint(n + 1, 0), firstTri(n + 1, 0);
+    for (size_t i = 0; i < n; ++i) {
+        firstPoint[i + 1] = firstPoint[i] + world[i].size();
+        firstTri[i + 1] = firstTri[i] + meshes[i].triangles.size();
+    }
+    std::vector<openvdb::Vec3s> index(firstPoint[n]);
+    std::vector<openvdb::Vec3I> tris(firstTri[n]);
+    tbb::parallel_for(size_t(0), n, [&](size_t i) {
+        for (size_t v = 0; v < world[i].size(); ++v) index[firstPoint[i] + v] = openvdb::Vec3s(xf->worldToIndex(world[i][v]));
+        for (size_t t = 0; t < meshes[i].triangles.size(); ++t) {
+            tris[firstTri[i] + t] = meshes[i].triangles[t] + openvdb::Vec3I(unsigned(firstPoint[i]));
+        }
+    });
+    openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec3I> adapter(index, tris);
+    openvdb::Int32Grid nearest(0);
+    const float hw = float(halfWidth);
+    surface = openvdb::tools::meshToVolume<openvdb::FloatGrid>(*task.interrupter(), adapter, *xf,
+                                                               hw, hw, 0, &nearest);
+    task.check();
+    surface->setGridClass(openvdb::GRID_LEVEL_SET);
+    surface->setName("surface");
+    rockId = openvdb::FloatGrid::create(-1.0f);
+    rockId->setTransform(xf->copy());
+    rockId->setGridClass(openvdb::GRID_UNKNOWN);
+    rockId->setName("rock_id");
+    rockId->tree().topologyUnion(surface->tree());
+    openvdb::tree::LeafManager<openvdb::FloatTree> leaves(rockId->tree());
+    leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+        auto acc = nearest.getConstAccessor();
+        for (auto it = leaf.beginValueOn(); it; ++it) {
+            const int32_t tri = acc.getValue(it.getCoord());
+            const size_t rock = size_t(std::upper_bound(firstTri.begin(), firstTri.end(), size_t(std::max(0, tri))) - firstTri.begin()) - 1;
+            it.setValue(float(rock));
+        }
+    });
+}
 
 // A row of the other mode must keep its default: a value there would be ignored.
 void requireDefaults(const FractalRockParams& p, const std::vector<std::string>& rows,
@@ -255,6 +318,7 @@ RockResult runRock(const FractalRockParams& p, bool withLevelSet, bool withNorma
     rockSchema().validate(p);
     if (p.count != 0) fail<ValueError>("fractal: count is for a scatter (runScatter)");
     requireDefaults(p, scatterRows(), "applies to a scatter (--count N)");
+    requireDefaults(p, carveRows(), "applies to a carve (--carve SOLID --count N)");
     const double limit = memoryLimit(p.maxMemoryGB);
     const double bytes = meshBytes(p.shape.levels, p.shape.method);
     if (bytes > limit) {
@@ -361,6 +425,7 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
     rockSchema().validate(p);
     if (p.count < 1) fail<ValueError>("fractal: a scatter needs count >= 1");
     requireDefaults(p, singleRockRows(), "applies to a single rock (count 0)");
+    requireDefaults(p, carveRows(), "applies to a carve (--carve SOLID)");
     ScatterSettings s;
     s.count = p.count;
     if (p.area) {
@@ -430,45 +495,8 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
     // nearest triangle per voxel gives rock_id.
     task.phase("level set", 0.7);
     t0 = Clock::now();
-    const double dx = p.voxelSize;
-    auto xf = openvdb::math::Transform::createLinearTransform(dx);
-    std::vector<size_t> firstPoint(n + 1, 0), firstTri(n + 1, 0);
-    for (size_t i = 0; i < n; ++i) {
-        firstPoint[i + 1] = firstPoint[i] + world[i].size();
-        firstTri[i + 1] = firstTri[i] + meshes[i].triangles.size();
-    }
-    std::vector<openvdb::Vec3s> index(firstPoint[n]);
-    std::vector<openvdb::Vec3I> tris(firstTri[n]);
-    tbb::parallel_for(size_t(0), n, [&](size_t i) {
-        for (size_t v = 0; v < world[i].size(); ++v) index[firstPoint[i] + v] = openvdb::Vec3s(xf->worldToIndex(world[i][v]));
-        for (size_t t = 0; t < meshes[i].triangles.size(); ++t) {
-            tris[firstTri[i] + t] = meshes[i].triangles[t] + openvdb::Vec3I(unsigned(firstPoint[i]));
-        }
-    });
-    openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec3I> adapter(index, tris);
-    openvdb::Int32Grid nearest(0);
-    const float hw = float(p.halfWidth);
-    r.surface = openvdb::tools::meshToVolume<openvdb::FloatGrid>(*task.interrupter(), adapter, *xf,
-                                                                 hw, hw, 0, &nearest);
-    task.check();
-    r.surface->setGridClass(openvdb::GRID_LEVEL_SET);
-    r.surface->setName("surface");
-    r.rockId = openvdb::FloatGrid::create(-1.0f);
-    r.rockId->setTransform(xf->copy());
-    r.rockId->setGridClass(openvdb::GRID_UNKNOWN);
-    r.rockId->setName("rock_id");
-    r.rockId->tree().topologyUnion(r.surface->tree());
-    {
-        openvdb::tree::LeafManager<openvdb::FloatTree> leaves(r.rockId->tree());
-        leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
-            auto acc = nearest.getConstAccessor();
-            for (auto it = leaf.beginValueOn(); it; ++it) {
-                const int32_t tri = acc.getValue(it.getCoord());
-                const size_t rock = size_t(std::upper_bound(firstTri.begin(), firstTri.end(), size_t(std::max(0, tri))) - firstTri.begin()) - 1;
-                it.setValue(float(rock));
-            }
-        });
-    }
+    unionLevelSet(meshes, world, openvdb::math::Transform::createLinearTransform(p.voxelSize),
+                  p.halfWidth, task, r.surface, r.rockId);
     r.stats.levelSetSeconds = since(t0);
     json prov = rockSchema().toJson(p);
     for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
@@ -488,7 +516,7 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
             rock[i] = int32_t(i);
         }
         using namespace openvdb::points;
-        auto pxf = openvdb::math::Transform::createLinearTransform(std::max(dx, 0.5 * p.size[0]));
+        auto pxf = openvdb::math::Transform::createLinearTransform(std::max(p.voxelSize, 0.5 * p.size[0]));
         PointAttributeVector<openvdb::Vec3R> wrapper(positions);
         auto idx = openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(wrapper, *pxf);
         auto pts = createPointDataGrid<NullCodec, PointDataGrid>(*idx, wrapper, *pxf);
@@ -509,6 +537,95 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
         for (size_t i = 0; i < n; ++i) appendMesh(r.mesh, rockMesh(meshes[i], world[i], false), int(i));
         r.mesh.groupName = "rock";
     }
+    task.done();
+    return r;
+}
+
+CarveResult runCarve(const FractalRockParams& p, const openvdb::FloatGrid& solid,
+                     const json& inputs, Task& task)
+{
+    rockSchema().validate(p);
+    if (p.count < 1) fail<ValueError>("fractal: a carve needs count >= 1 (the rocks of the chain)");
+    requireLevelSet(solid, "carve solid");
+    requireDefaults(p, singleRockRows(), "applies to a single rock (count 0)");
+    static const std::vector<std::string> scatterOnly = {
+        "area", "density-scale", "density-octaves", "density-contrast", "embed", "attempts",
+        "ground-cell-size", "ground-height-scale", "ground-grid"};
+    requireDefaults(p, scatterOnly, "applies to a scatter on a ground, not a carve");
+    const double dx = solid.voxelSize()[0];
+    if (p.voxelSize != FractalRockParams().voxelSize && std::abs(p.voxelSize - dx) > 1e-12 * dx) {
+        fail<ValueError>("fractal: a carve bakes its rocks on the solid's voxels (", dx,
+                         " m); leave voxel-size out (got ", p.voxelSize, ")");
+    }
+    const double limit = memoryLimit(p.maxMemoryGB);
+    const double bytes = double(p.count) * meshBytes(p.shape.levels, p.shape.method);
+    if (bytes > limit) {
+        fail<ValueError>("fractal: ", p.count, " rocks of ", p.shape.levels, " levels need about ",
+                         formatBytes(bytes), " (over the ", formatBytes(limit), " limit)");
+    }
+    CarveResult r;
+    task.phase("chain", 0.2);
+    // A random walk: each rock one step (0.6 of the two rocks' mean radii, so neighbours
+    // overlap and the cave is one passage) from the last, the direction turned by a random
+    // unit vector times the wander.
+    Vec3d at;
+    if (p.carveStart) {
+        at = Vec3d((*p.carveStart)[0], (*p.carveStart)[1], (*p.carveStart)[2]);
+    } else {
+        const openvdb::CoordBBox box = solid.evalActiveVoxelBoundingBox();
+        at = solid.transform().indexToWorld(box.getCenter());
+    }
+    Vec3d dir = p.carveDirection.unit();
+    const uint64_t seed = p.shape.seed;
+    std::vector<RockMesh> meshes(size_t(p.count));
+    std::vector<std::vector<Vec3d>> world(size_t(p.count));
+    double previous = 0;
+    for (int i = 0; i < p.count; ++i) {
+        task.step(double(i) / p.count);
+        Placed rock;
+        const uint64_t h = random::hash(seed, 0xca7e, uint64_t(i));
+        const double scale = 1.0 - p.sizeJitter * random::uniform(h, 1, 0);
+        rock.extent = Vec3d(0.5 * p.size[0] * scale,
+                            0.5 * p.size[1] * scale * (1.0 - p.aspectJitter * random::uniform(h, 1, 1)),
+                            0.5 * p.size[2] * scale * (1.0 - p.aspectJitter * random::uniform(h, 1, 2)));
+        const double radius = (rock.extent[0] + rock.extent[1] + rock.extent[2]) / 3.0;
+        if (i > 0) {
+            const double z = 2 * random::uniform(h, 2, 0) - 1, phi = 2 * M_PI * random::uniform(h, 2, 1);
+            const double sxy = std::sqrt(std::max(0.0, 1 - z * z));
+            const Vec3d turn(sxy * std::cos(phi), sxy * std::sin(phi), z);
+            const Vec3d d = dir + turn * p.carveWander;
+            if (d.length() > 1e-9) dir = d.unit();
+            at += dir * (0.6 * (previous + radius));
+        }
+        previous = radius;
+        rock.position = at;
+        rock.seed = h;
+        rock.rotation = randomOrientation(h, 180.0);
+        rock.radius = radius;
+        r.rocks.push_back(rock);
+    }
+    parallelFor(task, r.rocks.size(), 1, [&](size_t i) {
+        RockShape shape = p.shape;
+        shape.seed = r.rocks[i].seed;
+        Task quiet;
+        meshes[i] = buildRock(shape, r.rocks[i].extent, r.rocks[i].rotation, quiet);
+        world[i] = toWorld(meshes[i], r.rocks[i].extent, r.rocks[i].rotation, r.rocks[i].position);
+    });
+    task.phase("level set", 0.5);
+    openvdb::FloatGrid::Ptr ids;
+    unionLevelSet(meshes, world, solid.transform().copy(), p.halfWidth, task, r.cave, ids);
+    r.cave->setName("cave");
+    task.phase("subtract", 0.3);
+    // The solid's band must reach the cave's: csgDifference reads both within their bands.
+    r.surface = openvdb::tools::csgDifferenceCopy(solid, *r.cave);
+    task.check();
+    r.surface->setName(solid.getName().empty() ? "surface" : solid.getName());
+    r.surface->setGridClass(openvdb::GRID_LEVEL_SET);
+    json prov = rockSchema().toJson(p);
+    for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
+    const std::string text = prov.dump();
+    stampProvenance(*r.surface, kToolName, text);
+    stampProvenance(*r.cave, kToolName, text);
     task.done();
     return r;
 }

@@ -54,6 +54,11 @@ struct FractalRockParams
     double groundCellSize, groundHeightScale; ///< a heightfield image ground
     std::string groundGrid;                 ///< a .vdb ground's level set (empty: 'surface' or the only one)
 
+    // Carve (§9: a chain of count rocks subtracted from a solid).
+    std::optional<std::array<double, 3>> carveStart; ///< unset: the solid's centre
+    Vec3d carveDirection;
+    double carveWander;
+
     /// @brief The semi-axes (size / 2).
     Vec3d extent() const { return size * 0.5; }
 };
@@ -65,6 +70,7 @@ const Schema<FractalRockParams>& rockSchema();
 /// Rows that only a scatter reads, and rows that only a single rock reads.
 const std::vector<std::string>& scatterRows();
 const std::vector<std::string>& singleRockRows();
+const std::vector<std::string>& carveRows();
 
 struct RockStats
 {
@@ -110,6 +116,20 @@ std::shared_ptr<const Ground> loadGround(const std::string& path, const FractalR
 /// stamped with provenance: the table's JSON + @a inputs ({"ground": path}).
 ScatterResult runScatter(const FractalRockParams& params, const Ground& ground,
                          const nlohmann::json& inputs, bool points, bool withMesh, Task& task);
+
+struct CarveResult
+{
+    std::vector<Placed> rocks;       ///< the chain
+    openvdb::FloatGrid::Ptr surface; ///< the solid minus the chain (the solid's name)
+    openvdb::FloatGrid::Ptr cave;    ///< the chain's union, level set 'cave'
+};
+
+/// @brief Cave creation (§9, "subtract concatenated rocks out of a quadric volume"): a random
+/// walk of count rocks (full random orientations, neighbours overlapping) from carve-start
+/// along carve-direction, united and subtracted from @a solid (tools::csgDifferenceCopy), on
+/// the solid's voxels.
+CarveResult runCarve(const FractalRockParams& params, const openvdb::FloatGrid& solid,
+                     const nlohmann::json& inputs, Task& task);
 
 } // namespace fractal
 } // namespace rockvdb

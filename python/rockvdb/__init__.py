@@ -32,7 +32,7 @@ from . import _rockvdb
 __version__ = _rockvdb.__version__
 
 __all__ = ["BlockTile", "Field", "amplify", "block_tile", "box", "capsule", "coverage", "csg",
-           "detail", "expression", "fractal_rock", "fractal_scatter", "heightfield", "load_tile", "mesh", "plane",
+           "detail", "expression", "fractal_carve", "fractal_rock", "fractal_scatter", "heightfield", "load_tile", "mesh", "plane",
            "polytope", "preview",
            "provenance", "read", "read_image", "rock_library", "rock_pile", "rock_tiles",
            "sphere", "write", "write_heightfield", "__version__"]
@@ -213,6 +213,7 @@ _SCATTER_ROWS = ["count", "area", "size-jitter", "aspect-jitter", "density-scale
                  "density-contrast", "embed", "attempts", "ground-cell-size", "ground-height-scale",
                  "ground-grid"]
 _SINGLE_ROCK_ROWS = ["center", "normal-levels", "normal-map-size"]
+_CARVE_ROWS = ["carve-start", "carve-direction", "carve-wander"]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -787,7 +788,7 @@ fractal_rock = _stage_function(
     "Ctrl-C raises KeyboardInterrupt.",
     after=[("path", None), ("mesh_path", None), ("mesh_up", "z"), ("normal_map", False),
            ("normal_map_path", None), ("level_set", True)],
-    exclude=_SCATTER_ROWS)
+    exclude=_SCATTER_ROWS + _CARVE_ROWS)
 
 
 def _fractal_scatter(ground=None, path=None, stats=None, mesh=False, **params):
@@ -823,4 +824,31 @@ fractal_scatter = _stage_function(
     "rejections), times and each rock's position, orient (x, y, z, w) and extent. path also "
     "writes the grids. Ctrl-C raises KeyboardInterrupt.",
     before=[("ground", None)], after=[("path", None), ("stats", None), ("mesh", False)],
-    exclude=_SINGLE_ROCK_ROWS)
+    exclude=_SINGLE_ROCK_ROWS + _CARVE_ROWS)
+
+
+def _fractal_carve(solid, path=None, **params):
+    fn = "fractal_carve"
+    target = _opt(path, _path, "path", fn)
+    if isinstance(solid, (str, _os.PathLike)):
+        solid = _os.fspath(solid)
+    elif not isinstance(solid, pyopenvdb.FloatGrid):
+        raise _type_error(fn, "solid", "a level set .vdb path or a pyopenvdb.FloatGrid", solid)
+    surface, cave = _rockvdb.fractal_carve(solid, _stage_params(_FRACTAL_ROCK, fn, params))
+    if target is not None:
+        _rockvdb.write(target, [surface, cave])
+    return surface, cave
+
+
+fractal_carve = _stage_function(
+    _FRACTAL_ROCK, _fractal_carve, "fractal_carve",
+    "A cave (vdb_fractal_rock --carve from Python; fractal-rocks §9: 'subtract concatenated "
+    "rocks out of a quadric volume'): a random walk of count rocks from carve_start along "
+    "carve_direction, united and subtracted from the solid (a level set path or grid), on the "
+    "solid's voxels.",
+    "Returns (surface, cave): the carved solid (named like the input) and the chain's level set "
+    "'cave'. path also writes both. Ctrl-C raises KeyboardInterrupt.",
+    before=["solid"], after=[("path", None)],
+    exclude=_SINGLE_ROCK_ROWS + ["area", "density-scale", "density-octaves", "density-contrast",
+                                 "embed", "attempts", "ground-cell-size", "ground-height-scale",
+                                 "ground-grid"])

@@ -517,6 +517,33 @@ PYBIND11_MODULE(_rockvdb, m)
         return py::make_tuple(Grid(r.surface), Grid(r.rockId), stats, mesh);
     }, py::arg("ground"), py::arg("params"), py::arg("mesh") = false);
 
+    // Caves (§9): a chain of rocks subtracted from a solid (a path or a level set grid).
+    m.def("fractal_carve", [](py::object solid, const std::string& params) {
+        const fractal::FractalRockParams p = fractal::rockSchema().fromJson(parseParams(params, "fractal"));
+        json inputs = json::object();
+        Grid grid;
+        if (py::isinstance<py::str>(solid)) {
+            inputs["carve"] = solid.cast<std::string>();
+            const auto grids = readGrids(solid.cast<std::string>());
+            grid = findLevelSet(*grids, "", solid.cast<std::string>());
+        } else {
+            try {
+                if (!solid.is_none()) grid = solid.cast<Grid>();
+            } catch (const py::cast_error&) {
+            }
+            if (!grid) throw py::type_error("fractal_carve: the solid must be a path or a pyopenvdb.FloatGrid level set");
+            inputs["carve"] = gridSource(*grid);
+        }
+        fractal::CarveResult r;
+        {
+            py::gil_scoped_release release;
+            PyTaskHost host;
+            Task task(&host);
+            r = fractal::runCarve(p, *grid, inputs, task);
+        }
+        return py::make_tuple(Grid(r.surface), Grid(r.cave));
+    }, py::arg("solid"), py::arg("params"));
+
     m.def("write_mesh", [](py::array_t<float, py::array::c_style | py::array::forcecast> points,
                            py::array_t<int32_t, py::array::c_style | py::array::forcecast> triangles,
                            std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>> normals,

@@ -325,6 +325,11 @@ LONG_RUNS = {
                                        "--voxel-size", "0.03"],
     "detail": lambda tmp, tile_file: [tool("vdb_detail"), str(fine_ball(tmp)),
                                       "--gabor-amplitude", "0.02", "--gabor-frequency", "8"],
+    "fractal rock": lambda tmp, tile_file: [tool("vdb_fractal_rock"), "--levels", "4",
+                                            "--voxel-size", "0.004"],
+    "fractal scatter": lambda tmp, tile_file: [tool("vdb_fractal_rock"), "--count", "600",
+                                               "--levels", "2", "--area", "-10,-10,10,10",
+                                               "--size", "0.6,0.5,0.35", "--voxel-size", "0.02"],
 }
 
 
@@ -378,9 +383,12 @@ def test_interrupt_stops_within_a_second_and_writes_nothing(tmp_path, tile_file,
     ["vdb_detail", "BALL", "--gabor-amplitude", "0.03"],
     ["vdb_blocks", "--voxel-size", "0.1"],
     ["vdb_amplify", "--terrain", "CLIFF", "--tiles", "TILE", "--voxel-size", "0.1"],
+    ["vdb_fractal_rock", "--levels", "3", "--voxel-size", "0.01", "--normal-map", "N_EXR"],
+    ["vdb_fractal_rock", "--count", "100", "--levels", "1", "--voxel-size", "0.03"],
 ])
 def test_progress_only_goes_up_and_ends_at_100_for(tmp_path, ball_vdb, cliff, args):
-    swap = {"BALL": str(ball_vdb), "CLIFF": str(cliff / "cliff.exr"), "TILE": str(cliff / "eq.tile")}
+    swap = {"BALL": str(ball_vdb), "CLIFF": str(cliff / "cliff.exr"), "TILE": str(cliff / "eq.tile"),
+            "N_EXR": str(tmp_path / "n.exr")}
     args = [swap.get(a, a) for a in args]
     seen = progress_of([tool(args[0]), *args[1:], "-o", str(tmp_path / "o.vdb")])
     assert len(seen) >= 3 and seen == sorted(seen) and seen[-1] == 100, seen
@@ -406,6 +414,8 @@ print("finished", time.monotonic() - t0)
     "rockvdb.rock_pile(sys.argv[1], rockvdb.sphere(3.5), keep_deep=True)",
     "rockvdb.detail(rockvdb.read(sys.argv[2]), gabor_amplitude=0.02, gabor_frequency=8)",
     "rockvdb.block_tile(voxel_size=0.04)",
+    "rockvdb.fractal_rock(levels=4, voxel_size=0.004)",
+    "rockvdb.fractal_scatter(count=600, levels=2, area=(-10, -10, 10, 10), voxel_size=0.02)",
 ])
 def test_python_calls_raise_keyboard_interrupt(tmp_path, tile_file, call):
     script = tmp_path / "s.py"
