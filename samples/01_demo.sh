@@ -8,8 +8,10 @@
 #   3. a corner-cube rock tile set (aperiodic-rock-piles) filling a scree wedge against the
 #      cliff foot (the support is the wedge minus the terrain), piped into a CSG union with the
 #      cliff that carries every id grid
-#   4. a shaded preview tinted by material: 0 terrain, 1 equidimensional blocks, 2 tabular
-#      blocks, 3 scree rocks
+#   4. fractal boulders (fractal-rocks-midpoint-displacement) scattered on the plateau by an
+#      fBm density map, resting on the cliff's level set, united with the scene
+#   5. a shaded preview tinted by material: 0 terrain, 1 equidimensional blocks, 2 tabular
+#      blocks, 3 scree rocks, 4 boulders
 # usage: samples/01_demo.sh BUILD_DIR OUT_DIR [--quality draft|default|high]
 #        (or ROCKVDB_QUALITY=draft|default|high); writes OUT_DIR/demo.vdb and demo.png
 set -euo pipefail
@@ -83,11 +85,18 @@ rocks() {
 scree() {
     "$B/vdb_rockpile" -q pile --tiles "$OUT/demo_rocks.tiles" --support "$OUT/demo_scree.json" \
         --material 3 -o - |
-    "$B/vdb_csg" -q union "$OUT/demo_cliff.vdb" - -o "$OUT/demo.vdb"
+    "$B/vdb_csg" -q union "$OUT/demo_cliff.vdb" - -o "$OUT/demo_scree.vdb"
+}
+boulders() {
+    # The plateau is the ground: the cliff's level set, its top per column.
+    "$B/vdb_fractal_rock" -q --count 40 --ground "$OUT/demo_cliff.vdb" --area 3,5,26,55 \
+        --size 3,2.4,1.6 --levels 2 --seed 9 --density-scale 12 --material 4 \
+        --voxel-size "$VOXEL" -o - |
+    "$B/vdb_csg" -q union "$OUT/demo_scree.vdb" - -o "$OUT/demo.vdb"
 }
 preview() {
     "$B/vdb_preview" "$OUT/demo.vdb" --ids material \
-        --palette '0=#9a9184,1=#c8ae86,2=#b58a7c,3=#7d8792' \
+        --palette '0=#9a9184,1=#c8ae86,2=#b58a7c,3=#7d8792,4=#6f6a62' \
         --azimuth -38 --elevation 24 --zoom 1.5 --width 1280 --height 720 \
         -o "$OUT/demo.png" 2> "$OUT/demo_preview.txt"
 }
@@ -96,7 +105,8 @@ T0=$(date +%s.%N)
 stage "block tiles (vdb_blocks x2)" "$OUT/demo_tabular.vdb" tiles
 stage "cliff (vdb_amplify | detail)" "$OUT/demo_cliff.vdb" cliff
 stage "rock tiles (vdb_rockpile)" "$OUT/demo_rocks.tiles" rocks
-stage "scree (rockpile pile | csg)" "$OUT/demo.vdb" scree
+stage "scree (rockpile pile | csg)" "$OUT/demo_scree.vdb" scree
+stage "boulders (fractal_rock | csg)" "$OUT/demo.vdb" boulders
 stage "preview (vdb_preview)" "$OUT/demo.png" preview
 {
     echo "rockvdb demo ($QUALITY: ${VOXEL} m voxels) in $OUT:"

@@ -105,7 +105,10 @@ int main(int argc, char** argv)
             }
             if (!meshPath.empty()) writeMesh(r.mesh, meshPath, upAxis);
             if (r.points) writeGrids(pointsPath, {r.points});
-            writeGrids(tool.output(), {r.rockId, r.surface});
+            openvdb::GridCPtrVec out{r.rockId};
+            if (r.material) out.push_back(r.material);
+            out.push_back(r.surface);
+            writeGrids(tool.output(), out);
             return;
         }
         if (!groundPath.empty() || !pointsPath.empty()) {

@@ -117,6 +117,9 @@ Schema<FractalRockParams> makeRockSchema()
     s.member(param("ground-grid", ParamType::Text, "", "", Range::any(),
                    "Scatter: level set of a .vdb ground (empty: 'surface', else its only one)"),
              &P::groundGrid);
+    s.member(param("material", ParamType::Int, "", -1, Range::halfOpen(-1, 1 << 24),
+                   "Scatter: also write grid 'material' holding this id on every rock voxel (to "
+                   "unite the rocks with other stages' material grids); -1 = none"), &P::material);
     // Caves (§9): a chain of count rocks subtracted from a solid.
     s.member(param("carve-start", ParamType::Reals, "m", nullptr, Range::closed(-1e7, 1e7),
                    "Carve: where the chain of rocks starts (default: the solid's centre)", 3),
@@ -226,7 +229,7 @@ const std::vector<std::string>& scatterRows()
     static const std::vector<std::string> rows = {
         "count", "area", "size-jitter", "aspect-jitter", "density-scale", "density-octaves",
         "density-contrast", "embed", "attempts", "ground-cell-size", "ground-height-scale",
-        "ground-grid"};
+        "ground-grid", "material"};
     return rows;
 }
 
@@ -503,6 +506,16 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
     const std::string text = prov.dump();
     stampProvenance(*r.surface, kToolName, text);
     stampProvenance(*r.rockId, kToolName, text);
+    if (p.material >= 0) {
+        r.material = r.rockId->deepCopy();
+        r.material->setName("material");
+        const float id = float(p.material);
+        openvdb::tree::LeafManager<openvdb::FloatTree> leaves(r.material->tree());
+        leaves.foreach([id](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+            for (auto it = leaf.beginValueOn(); it; ++it) it.setValue(id);
+        });
+        stampProvenance(*r.material, kToolName, text);
+    }
     if (points) {
         std::vector<openvdb::Vec3R> positions(n);
         std::vector<openvdb::math::Quats> orient(n);
@@ -550,7 +563,7 @@ CarveResult runCarve(const FractalRockParams& p, const openvdb::FloatGrid& solid
     requireDefaults(p, singleRockRows(), "applies to a single rock (count 0)");
     static const std::vector<std::string> scatterOnly = {
         "area", "density-scale", "density-octaves", "density-contrast", "embed", "attempts",
-        "ground-cell-size", "ground-height-scale", "ground-grid"};
+        "ground-cell-size", "ground-height-scale", "ground-grid", "material"};
     requireDefaults(p, scatterOnly, "applies to a scatter on a ground, not a carve");
     const double dx = solid.voxelSize()[0];
     if (p.voxelSize != FractalRockParams().voxelSize && std::abs(p.voxelSize - dx) > 1e-12 * dx) {

@@ -53,6 +53,7 @@ struct FractalRockParams
     int attempts;                           ///< candidates per asked rock
     double groundCellSize, groundHeightScale; ///< a heightfield image ground
     std::string groundGrid;                 ///< a .vdb ground's level set (empty: 'surface' or the only one)
+    int material;                           ///< >= 0: also a 'material' grid with this id
 
     // Carve (§9: a chain of count rocks subtracted from a solid).
     std::optional<std::array<double, 3>> carveStart; ///< unset: the solid's centre
@@ -102,6 +103,7 @@ struct ScatterResult
     std::vector<Placed> rocks;
     openvdb::FloatGrid::Ptr surface;   ///< level set 'surface': the union of the rocks
     openvdb::FloatGrid::Ptr rockId;    ///< 'rock_id': the index of the nearest rock (float ids)
+    openvdb::FloatGrid::Ptr material;  ///< 'material' (params.material on every voxel), or null
     openvdb::GridBase::Ptr points;     ///< VDB points 'rocks' (P, orient, pscale, rock), when asked
     Mesh mesh;                         ///< every rock's mesh, triangle groups = rock index
     ScatterStats stats;

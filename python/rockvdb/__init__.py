@@ -803,13 +803,14 @@ def _fractal_scatter(ground=None, path=None, stats=None, mesh=False, **params):
         raise _type_error(fn, "stats", "a dict", stats)
     if not isinstance(mesh, bool):
         raise _type_error(fn, "mesh", "a bool", mesh)
-    surface, rock_id, info, meshes = _rockvdb.fractal_scatter(
+    surface, rock_id, info, meshes, mat = _rockvdb.fractal_scatter(
         ground, _stage_params(_FRACTAL_ROCK, fn, params), mesh)
     if stats is not None:
         stats.update(info)
+    grids = (surface, rock_id) if mat is None else (surface, rock_id, mat)
     if target is not None:
-        _rockvdb.write(target, [rock_id, surface])
-    return (surface, rock_id, meshes) if mesh else (surface, rock_id)
+        _rockvdb.write(target, [g for g in grids[1:]] + [surface])
+    return grids + (meshes,) if mesh else grids
 
 
 fractal_scatter = _stage_function(
@@ -819,8 +820,8 @@ fractal_scatter = _stage_function(
     "sunk (embed).\n\nground: None (the plane z = 0), a heightfield image path (.exr / .png, "
     "ground_cell_size, ground_height_scale), a level set .vdb path (ground_grid) or a "
     "pyopenvdb.FloatGrid level set. count is required (>= 1).",
-    "Returns (surface, rock_id) — with mesh=True (surface, rock_id, mesh: points, triangles and "
-    "rock per triangle as numpy arrays); stats (a dict) receives counts (asked, placed, "
+    "Returns (surface, rock_id), or (surface, rock_id, material) with material >= 0, and with "
+    "mesh=True a last item mesh (points, triangles and rock per triangle as numpy arrays); stats (a dict) receives counts (asked, placed, "
     "rejections), times and each rock's position, orient (x, y, z, w) and extent. path also "
     "writes the grids. Ctrl-C raises KeyboardInterrupt.",
     before=[("ground", None)], after=[("path", None), ("stats", None), ("mesh", False)],

@@ -514,7 +514,7 @@ PYBIND11_MODULE(_rockvdb, m)
             m["rock"] = groups;
             mesh = m;
         }
-        return py::make_tuple(Grid(r.surface), Grid(r.rockId), stats, mesh);
+        return py::make_tuple(Grid(r.surface), Grid(r.rockId), stats, mesh, Grid(r.material));
     }, py::arg("ground"), py::arg("params"), py::arg("mesh") = false);
 
     // Caves (§9): a chain of rocks subtracted from a solid (a path or a level set grid).

@@ -13,7 +13,7 @@ from conftest import BUILD, run
 
 DEMO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "samples",
                     "01_demo.sh")
-TERRAIN, EQUI, TABULAR, ROCKS = 0.0, 1.0, 2.0, 3.0
+TERRAIN, EQUI, TABULAR, ROCKS, BOULDERS = 0.0, 1.0, 2.0, 3.0, 4.0
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +33,7 @@ def test_one_file_with_every_part_and_consistent_ids(demo):
     for g in grids.values():
         assert g.activeVoxelCount() == s.activeVoxelCount()
     mat, bid, rid = (grids[n].getConstAccessor() for n in ("material", "block_id", "rock_id"))
-    where = {m: [] for m in (TERRAIN, EQUI, TABULAR, ROCKS)}
+    where = {m: [] for m in (TERRAIN, EQUI, TABULAR, ROCKS, BOULDERS)}
     for it in s.citerOnValues():
         if it.count != 1 or abs(it.value) > 0.25:
             continue  # voxels next to the surface only
@@ -41,10 +41,10 @@ def test_one_file_with_every_part_and_consistent_ids(demo):
         assert m in where, m
         # Block ids exactly on block materials, rock ids exactly on rocks.
         assert (b >= 0) == (m in (EQUI, TABULAR)), (it.min, m, b)
-        assert (r >= 0) == (m == ROCKS), (it.min, m, r)
+        assert (r >= 0) == (m in (ROCKS, BOULDERS)), (it.min, m, r)
         where[m].append([c * 0.25 for c in it.min])
     for m, pts in where.items():
-        assert len(pts) > 500, (m, len(pts))
+        assert len(pts) > (100 if m == BOULDERS else 500), (m, len(pts))
     p = {m: np.array(v) for m, v in where.items()}
     # Strata: tabular blocks above the equidimensional ones (boundary near 15 m, tilted).
     e = {m: p[m][:, 2] + 0.15 * p[m][:, 0] for m in (EQUI, TABULAR)}
@@ -56,6 +56,9 @@ def test_one_file_with_every_part_and_consistent_ids(demo):
     r = p[ROCKS]
     assert 27 < r[:, 0].min() and r[:, 0].max() < 54 and 8 < r[:, 1].min() and r[:, 1].max() < 54
     assert r[:, 2].max() < 13 and np.median(r[:, 2]) < 6
+    # The fractal boulders rest on the plateau (28 m; its edge ~31 m from the coast's waves).
+    b = p[BOULDERS]
+    assert b[:, 0].max() < 33 and 24 < b[:, 2].min() and b[:, 2].max() < 33
 
 
 def test_preview_shows_each_part_and_the_summary_reports_each_stage(demo):
@@ -65,10 +68,10 @@ def test_preview_shows_each_part_and_the_summary_reports_each_stage(demo):
     shown = re.search(r"by material: (.*) \(material ids\)", err)
     assert shown, err
     share = {float(a): float(b) for a, b in re.findall(r"(\d+) ([\d.]+)%", shown[1])}
-    assert set(share) == {TERRAIN, EQUI, TABULAR, ROCKS}, share
-    assert all(v >= 0.8 for v in share.values()), share
-    for stage in ("block tiles", "cliff (vdb_amplify | detail)", "rock tiles", "scree", "preview",
-                  "total"):
+    assert set(share) == {TERRAIN, EQUI, TABULAR, ROCKS, BOULDERS}, share
+    assert all(v >= (0.2 if m == BOULDERS else 0.8) for m, v in share.items()), share
+    for stage in ("block tiles", "cliff (vdb_amplify | detail)", "rock tiles", "scree", "boulders",
+                  "preview", "total"):
         assert re.search(re.escape(stage) + r".*\d+\.\d s", err), (stage, err)
     assert re.search(r"demo\.vdb\s+[\d.]+ MB\s+surface \d+", err), err
     # A pipeline people copy: tools joined by pipes.
