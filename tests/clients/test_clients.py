@@ -75,6 +75,20 @@ def piled(tmp_path_factory):
     return out
 
 
+@pytest.fixture(scope="module")
+def fractal(tmp_path_factory):
+    """vdb_fractal_rock: one rock (level set, y-up OBJ, normal map) and a scatter."""
+    d = tmp_path_factory.mktemp("fractal")
+    run([tool("vdb_fractal_rock"), "-q", "--levels", "2", "--seed", "5", "--voxel-size", "0.05",
+         "--size", "3,2.4,1.5", "-o", str(d / "rock.vdb"), "--mesh", str(d / "rock.obj"),
+         "--mesh-up", "y", "--normal-map", str(d / "rock_n.exr"), "--normal-map-size", "32"],
+        check=True)
+    run([tool("vdb_fractal_rock"), "-q", "--count", "12", "--levels", "1", "--size", "1,0.8,0.6",
+         "--area", "-3,-3,3,3", "--voxel-size", "0.05", "-o", str(d / "scatter.vdb"),
+         "--points", str(d / "points.vdb")], check=True)
+    return d
+
+
 def every_output(tmp_path, scene, heightfield_png, blocks, amplified=None, detailed=None,
                  piled=None):
     files = [scene, blocks] + ([amplified] if amplified else []) + ([detailed] if detailed else [])
@@ -88,9 +102,10 @@ def every_output(tmp_path, scene, heightfield_png, blocks, amplified=None, detai
 
 
 def test_pyopenvdb_reads_every_file(tmp_path, scene, heightfield_png, blocks, amplified,
-                                    detailed, piled):
+                                    detailed, piled, fractal):
     import pyopenvdb as vdb
-    for f in every_output(tmp_path, scene, heightfield_png, blocks, amplified, detailed, piled):
+    for f in every_output(tmp_path, scene, heightfield_png, blocks, amplified, detailed, piled) + [
+            fractal / "rock.vdb", fractal / "scatter.vdb"]:
         grids, meta = vdb.readAll(str(f))
         names = [g.name for g in grids]
         assert "surface" in names
@@ -138,12 +153,14 @@ def test_vdb_render_renders(scene, tmp_path):
 
 
 @pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
-@pytest.mark.parametrize("which", ["scene", "blocks", "amplified", "detailed", "piled"])
+@pytest.mark.parametrize("which", ["scene", "blocks", "amplified", "detailed", "piled",
+                                   "fractal", "scatter"])
 def test_blender_imports_and_meshes_surface(which, scene, blocks, amplified, detailed, piled,
-                                            tmp_path):
+                                            fractal, tmp_path):
     import pyopenvdb as vdb
     scene = {"scene": scene, "blocks": blocks, "amplified": amplified, "detailed": detailed,
-             "piled": piled}[which]
+             "piled": piled, "fractal": fractal / "rock.vdb",
+             "scatter": fractal / "scatter.vdb"}[which]
     report = tmp_path / "blender.json"
     p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
                         os.path.join(HERE, "blender_mesh.py"), "--", str(scene), str(report)],
@@ -165,3 +182,34 @@ def test_blender_imports_and_meshes_surface(which, scene, blocks, amplified, det
     for a in range(3):
         assert abs(r["min"][a] - ours_lo[a]) <= 2 * dx + 1e-6, (a, r, ours_lo)
         assert abs(r["max"][a] - ours_hi[a]) <= 2 * dx + 1e-6, (a, r, ours_hi)
+
+
+@pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
+def test_blender_imports_the_fractal_rock_mesh_with_uvs_and_normals(fractal, tmp_path):
+    """Blender's own OBJ importer (default axes) puts the y-up OBJ where the level set is."""
+    report = tmp_path / "obj.json"
+    p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
+                        os.path.join(HERE, "blender_obj.py"), "--", str(fractal / "rock.obj"),
+                        str(report)], capture_output=True, text=True, timeout=600)
+    assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
+    r = json.loads(report.read_text())
+    assert r["vertices"] == 2562 and r["faces"] == 5120
+    assert r["uv_layers"] and r["custom_normals"]
+    import pyopenvdb as vdb
+    s = vdb.read(str(fractal / "rock.vdb"), "surface")
+    lo, hi = s.evalActiveVoxelBoundingBox()
+    dx = s.transform.voxelSize()[0]
+    # The level set's band reaches 3 voxels past the mesh on every side.
+    for a in range(3):
+        assert abs(r["min"][a] - (lo[a] + 3) * dx) <= 1.5 * dx, (a, r, lo)
+        assert abs(r["max"][a] - (hi[a] - 3) * dx) <= 1.5 * dx, (a, r, hi)
+
+
+@pytest.mark.skipif(not shutil.which("vdb_print"), reason="libopenvdb-tools not installed")
+def test_vdb_print_reads_the_fractal_outputs(fractal):
+    p = subprocess.run(["vdb_print", "-l", str(fractal / "scatter.vdb")], capture_output=True,
+                       text=True, check=True)
+    assert "surface" in p.stdout and "rock_id" in p.stdout
+    p = subprocess.run(["vdb_print", "-l", str(fractal / "points.vdb")], capture_output=True,
+                       text=True, check=True)
+    assert "Name: rocks" in p.stdout and "Number of active voxels" in p.stdout

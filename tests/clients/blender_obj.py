@@ -1,0 +1,23 @@
+"""Run by headless Blender: import an OBJ with Blender's own importer (default axes: forward
+-Z, up Y), report its vertex and face counts, UV layers, custom normals and world bounds.
+usage: blender --background --factory-startup --python blender_obj.py -- in.obj report.json"""
+import json
+import sys
+
+import bpy
+
+if "--" in sys.argv:
+    path, report = sys.argv[sys.argv.index("--") + 1:][:2]
+    for o in list(bpy.context.scene.objects):
+        bpy.data.objects.remove(o)
+    bpy.ops.wm.obj_import(filepath=path)
+    obj = [o for o in bpy.context.scene.objects if o.type == "MESH"][-1]
+    me = obj.data
+    co = [obj.matrix_world @ v.co for v in me.vertices]
+    r = {"vertices": len(me.vertices), "faces": len(me.polygons),
+         "uv_layers": [l.name for l in me.uv_layers],
+         "custom_normals": bool(me.has_custom_normals),
+         "min": [min(c[a] for c in co) for a in range(3)],
+         "max": [max(c[a] for c in co) for a in range(3)]}
+    with open(report, "w") as f:
+        json.dump(r, f)
