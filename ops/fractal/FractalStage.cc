@@ -1,5 +1,7 @@
 #include "FractalStage.h"
 
+#include <rockvdb/fractal/MeshBake.h>
+
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Heightfield.h>
@@ -8,7 +10,9 @@
 
 #include <openvdb/points/PointConversion.h>
 #include <openvdb/tools/Composite.h>
-#include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/GridTransformer.h>
+#include <openvdb/tools/Prune.h>
+#include <openvdb/tools/SignedFloodFill.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -247,50 +251,6 @@ const std::vector<std::string>& singleRockRows()
 
 namespace {
 
-// The union of rocks (canonical meshes, world points) as one level set 'surface' on @a xf, and
-// 'rock_id' (the rock of the nearest triangle) over the same voxels: one meshToVolume.
-void unionLevelSet(const std::vector<RockMesh>& meshes, const std::vector<std::vector<Vec3d>>& world,
-                   openvdb::math::Transform::Ptr xf, double halfWidth, Task& task,
-                   openvdb::FloatGrid::Ptr& surface, openvdb::FloatGrid::Ptr& rockId)
-{
-    const size_t n = meshes.size();
-    std::vector<size_t> firstPoint(n + 1, 0), firstTri(n + 1, 0);
-    for (size_t i = 0; i < n; ++i) {
-        firstPoint[i + 1] = firstPoint[i] + world[i].size();
-        firstTri[i + 1] = firstTri[i] + meshes[i].triangles.size();
-    }
-    std::vector<openvdb::Vec3s> index(firstPoint[n]);
-    std::vector<openvdb::Vec3I> tris(firstTri[n]);
-    tbb::parallel_for(size_t(0), n, [&](size_t i) {
-        for (size_t v = 0; v < world[i].size(); ++v) index[firstPoint[i] + v] = openvdb::Vec3s(xf->worldToIndex(world[i][v]));
-        for (size_t t = 0; t < meshes[i].triangles.size(); ++t) {
-            tris[firstTri[i] + t] = meshes[i].triangles[t] + openvdb::Vec3I(unsigned(firstPoint[i]));
-        }
-    });
-    openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec3I> adapter(index, tris);
-    openvdb::Int32Grid nearest(0);
-    const float hw = float(halfWidth);
-    surface = openvdb::tools::meshToVolume<openvdb::FloatGrid>(*task.interrupter(), adapter, *xf,
-                                                               hw, hw, 0, &nearest);
-    task.check();
-    surface->setGridClass(openvdb::GRID_LEVEL_SET);
-    surface->setName("surface");
-    rockId = openvdb::FloatGrid::create(-1.0f);
-    rockId->setTransform(xf->copy());
-    rockId->setGridClass(openvdb::GRID_UNKNOWN);
-    rockId->setName("rock_id");
-    rockId->tree().topologyUnion(surface->tree());
-    openvdb::tree::LeafManager<openvdb::FloatTree> leaves(rockId->tree());
-    leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
-        auto acc = nearest.getConstAccessor();
-        for (auto it = leaf.beginValueOn(); it; ++it) {
-            const int32_t tri = acc.getValue(it.getCoord());
-            const size_t rock = size_t(std::upper_bound(firstTri.begin(), firstTri.end(), size_t(std::max(0, tri))) - firstTri.begin()) - 1;
-            it.setValue(float(rock));
-        }
-    });
-}
-
 // A row of the other mode must keep its default: a value there would be ignored.
 void requireDefaults(const FractalRockParams& p, const std::vector<std::string>& rows,
                      const char* why)
@@ -377,19 +337,8 @@ RockResult runRock(const FractalRockParams& p, bool withLevelSet, bool withNorma
     if (withLevelSet) {
         task.phase("level set", withNormalMap ? 0.4 : 0.7);
         t0 = Clock::now();
-        auto xf = openvdb::math::Transform::createLinearTransform(dx);
-        // meshToVolume reads index-space points.
-        std::vector<openvdb::Vec3s> index(r.mesh.points.size());
-        tbb::parallel_for(size_t(0), index.size(), [&](size_t i) {
-            index[i] = openvdb::Vec3s(xf->worldToIndex(world[i]));
-        });
-        openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec3I> adapter(
-            index, r.mesh.triangles);
-        const float hw = float(p.halfWidth);
-        r.surface = openvdb::tools::meshToVolume<openvdb::FloatGrid>(*task.interrupter(), adapter, *xf, hw, hw);
+        r.surface = bakeMeshes({MeshPart{&world, &r.rock.triangles}}, dx, p.halfWidth, true, task);
         task.check();
-        r.surface->setGridClass(openvdb::GRID_LEVEL_SET);
-        r.surface->setName("surface");
         r.stats.levelSetSeconds = since(t0);
         r.stats.activeVoxels = size_t(r.surface->activeVoxelCount());
         stampProvenance(*r.surface, kToolName, rockSchema().toJson(p).dump());
@@ -494,12 +443,13 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
     });
     r.stats.meshSeconds = since(t0);
 
-    // One mesh (triangles grouped by rock), one meshToVolume: the union's level set, and the
-    // nearest triangle per voxel gives rock_id.
+    // Every rock baked alone (MeshBake.h), united leaf by leaf: the level set, and rock_id
+    // from the rock nearest each voxel.
     task.phase("level set", 0.7);
     t0 = Clock::now();
-    unionLevelSet(meshes, world, openvdb::math::Transform::createLinearTransform(p.voxelSize),
-                  p.halfWidth, task, r.surface, r.rockId);
+    std::vector<MeshPart> parts(n);
+    for (size_t i = 0; i < n; ++i) parts[i] = {&world[i], &meshes[i].triangles};
+    r.surface = bakeMeshes(parts, p.voxelSize, p.halfWidth, true, task, &r.rockId);
     r.stats.levelSetSeconds = since(t0);
     json prov = rockSchema().toJson(p);
     for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
@@ -625,12 +575,39 @@ CarveResult runCarve(const FractalRockParams& p, const openvdb::FloatGrid& solid
         world[i] = toWorld(meshes[i], r.rocks[i].extent, r.rocks[i].rotation, r.rocks[i].position);
     });
     task.phase("level set", 0.5);
-    openvdb::FloatGrid::Ptr ids;
-    unionLevelSet(meshes, world, solid.transform().copy(), p.halfWidth, task, r.cave, ids);
+    std::vector<MeshPart> parts(meshes.size());
+    for (size_t i = 0; i < meshes.size(); ++i) parts[i] = {&world[i], &meshes[i].triangles};
+    r.cave = bakeMeshes(parts, dx, p.halfWidth, false, task);
+    if (r.cave->transform() != solid.transform()) {
+        // A solid on another transform (translated, say): the cave resampled onto it.
+        auto onSolid = openvdb::FloatGrid::create(r.cave->background());
+        onSolid->setTransform(solid.transform().copy());
+        onSolid->setGridClass(openvdb::GRID_LEVEL_SET);
+        openvdb::tools::resampleToMatch<openvdb::tools::BoxSampler>(*r.cave, *onSolid);
+        r.cave = onSolid;
+    }
     r.cave->setName("cave");
     task.phase("subtract", 0.3);
-    // The solid's band must reach the cave's: csgDifference reads both within their bands.
-    r.surface = openvdb::tools::csgDifferenceCopy(solid, *r.cave);
+    // solid − cave = max(solid, −cave) per voxel over both bands (tools::csgDifferenceCopy
+    // gave different bits at 1 and 2 threads), then the flood fill re-signs the tiles the cave
+    // emptied.
+    r.surface = solid.deepCopy();
+    r.surface->tree().topologyUnion(r.cave->tree());
+    {
+        const float bg = r.surface->background();
+        openvdb::tree::LeafManager<openvdb::FloatTree> leaves(r.surface->tree());
+        leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+            auto s = solid.getConstAccessor();
+            auto c = r.cave->getConstAccessor();
+            for (openvdb::Index i = 0; i < openvdb::FloatTree::LeafNodeType::SIZE; ++i) {
+                const openvdb::Coord ijk = leaf.offsetToGlobalCoord(i);
+                const float v = std::max(s.getValue(ijk), -c.getValue(ijk));
+                leaf.setValueOnly(i, std::min(std::max(v, -bg), bg));
+            }
+        });
+        openvdb::tools::signedFloodFill(r.surface->tree());
+        openvdb::tools::pruneLevelSet(r.surface->tree());
+    }
     task.check();
     r.surface->setName(solid.getName().empty() ? "surface" : solid.getName());
     r.surface->setGridClass(openvdb::GRID_LEVEL_SET);
