@@ -10,6 +10,8 @@
 #include <rockvdb/core/Random.h>
 #include <rockvdb/core/VdbIO.h>
 #include <rockvdb/detail/Detail.h>
+#include <rockvdb/fractal/FractalStage.h>
+#include <rockvdb/fractal/MeshBake.h>
 #include <rockvdb/rockpile/RockPile.h>
 #include <rockvdb/rockpile/RockTiles.h>
 #include <openvdb/tools/Composite.h>
@@ -343,6 +345,103 @@ void fillGroup(bool quick)
     }
 }
 
+// Fractal rocks (issue 16): the paper's performance table (2004 hardware, one rock) beside the
+// mesh generation here; the direct bake beside tools::meshToVolume of the same meshes in this
+// process (the ratio is the claim); the scatter's rocks per second, both ways.
+void fractalGroup(bool quick)
+{
+    using namespace rockvdb::fractal;
+    const int reps = quick ? 2 : 5;
+    std::printf("\n## fractal: rock meshes (2 threads) beside the paper's table (2004 hardware)\n\n");
+    std::printf("| method | levels | triangles | here | paper | paper / here |\n|---|---|---|---|---|---|\n");
+    struct Row { Method m; int L; double paperMs; };
+    // The paper's rows by triangle count: 320 and 5 120 triangles (its midpoint rows reach
+    // them in 2 and 4 of our 4-way levels).
+    const Row rows[] = {{Method::Interpolating, 1, 146.25}, {Method::Interpolating, 2, 632.25},
+                        {Method::Interpolating, 3, 0}, {Method::Midpoint, 2, 391.25},
+                        {Method::Midpoint, 4, 4477.75}, {Method::Midpoint, 6, 0}};
+    for (const Row& r : rows) {
+        RockShape s;
+        s.levels = r.L;
+        s.method = r.m;
+        s.roughness = 0.12;
+        s.hUp = 0.65;
+        s.hDown = 0.9;
+        s.seed = 5;
+        const std::array<Vec3d, 3> R = randomOrientation(5, 20);
+        size_t tris = 0;
+        const double t = bestOf(reps, [&] {
+            Task task;
+            const RockMesh m = buildRock(s, Vec3d(0.5, 0.4, 0.25), R, task);
+            tris = m.triangles.size();
+        });
+        if (r.paperMs > 0) {
+            std::printf("| %s | %d | %zu | %.2f ms | %.0f ms | %.0fx |\n", methodName(r.m), r.L, tris,
+                        t * 1e3, r.paperMs, r.paperMs / (t * 1e3));
+        } else {
+            std::printf("| %s | %d | %zu | %.2f ms | - | - |\n", methodName(r.m), r.L, tris, t * 1e3);
+        }
+    }
+    auto meshToVolumeOf = [](const std::vector<MeshPart>& parts, double dx) {
+        auto xf = openvdb::math::Transform::createLinearTransform(dx);
+        std::vector<openvdb::Vec3s> idx;
+        std::vector<openvdb::Vec3I> tris;
+        for (const auto& p : parts) {
+            const unsigned off = unsigned(idx.size());
+            for (const auto& q : *p.points) idx.emplace_back(xf->worldToIndex(q));
+            for (const auto& t : *p.triangles) tris.push_back(t + openvdb::Vec3I(off));
+        }
+        openvdb::tools::QuadAndTriangleDataAdapter<openvdb::Vec3s, openvdb::Vec3I> ad(idx, tris);
+        return openvdb::tools::meshToVolume<openvdb::FloatGrid>(ad, *xf, 3.0f, 3.0f);
+    };
+    std::printf("\n## fractal: level sets (2 threads), reference: tools::meshToVolume of the same mesh\n\n");
+    std::printf("| rock | triangles | voxel | active voxels | direct bake | meshToVolume | ratio |\n|---|---|---|---|---|---|---|\n");
+    for (int L : {2, 3}) {
+        FractalRockParams p;
+        p.shape.levels = L;
+        p.size = Vec3d(1.0, 0.8, 0.5);
+        p.shape.seed = 5;
+        Task task;
+        const RockResult r = runRock(p, false, false, task);
+        std::vector<Vec3d> world;
+        for (const auto& q : r.mesh.points) world.emplace_back(q);
+        const std::vector<MeshPart> parts{{&world, &r.mesh.triangles}};
+        openvdb::FloatGrid::Ptr g;
+        const double ours = bestOf(reps, [&] { Task t2; g = bakeMeshes(parts, 0.01, 3.0, true, t2); });
+        const double ref = bestOf(reps, [&] { meshToVolumeOf(parts, 0.01); });
+        std::printf("| 1 x 0.8 x 0.5 m, level %d | %zu | 1 cm | %zu | %.1f ms | %.1f ms | %.1fx |\n", L,
+                    r.mesh.triangles.size(), size_t(g->activeVoxelCount()), ours * 1e3, ref * 1e3, ref / ours);
+    }
+    std::printf("\n## fractal: scatter of 1000 rocks (~0.5 m) at 2 cm (2 threads), reference: one meshToVolume of all the meshes\n\n");
+    std::printf("| levels | placed | place + meshes | direct bake | rocks/s | meshToVolume | rocks/s | ratio |\n|---|---|---|---|---|---|---|---|\n");
+    for (int L : {1, 2}) {
+        FractalRockParams p;
+        p.count = quick ? 300 : 1000;
+        p.shape.levels = L;
+        p.size = Vec3d(0.6, 0.5, 0.35);
+        p.voxelSize = 0.02;
+        p.area = std::array<double, 4>{-12, -12, 12, 12};
+        const auto ground = planeGround();
+        ScatterResult r;
+        const double total = bestOf(quick ? 1 : 2, [&] {
+            Task task;
+            r = runScatter(p, *ground, nlohmann::json::object(), false, true, task);
+        });
+        (void)total;
+        // The same rocks' meshes (the scatter's grouped mesh), for the reference.
+        std::vector<Vec3d> allPoints;
+        for (const auto& q : r.mesh.points) allPoints.emplace_back(q);
+        const std::vector<MeshPart> all{{&allPoints, &r.mesh.triangles}};
+        const double ref = bestOf(1, [&] { meshToVolumeOf(all, 0.02); });
+        const double ours = r.stats.levelSetSeconds;
+        const double n = double(r.stats.placed);
+        std::printf("| %d | %zu | %.3f s | %.2f s | %.0f | %.2f s | %.0f | %.1fx |\n", L, r.stats.placed,
+                    r.stats.placeSeconds + r.stats.meshSeconds, ours,
+                    n / (r.stats.placeSeconds + r.stats.meshSeconds + ours), ref,
+                    n / (r.stats.placeSeconds + r.stats.meshSeconds + ref), ref / ours);
+    }
+}
+
 int main(int argc, char** argv)
 {
     initialize();
@@ -351,7 +450,7 @@ int main(int argc, char** argv)
     std::printf("allocator: %s (both sides of every ratio run in this process with it)\n\n",
                 ROCKVDB_ALLOCATOR);
     bool all = true, wantFoundation = false, wantBlocks = false, wantAmplify = false,
-         wantDetail = false, wantRockpile = false, wantFill = false;
+         wantDetail = false, wantRockpile = false, wantFill = false, wantFractal = false;
     for (int i = 1; i < argc; ++i) {
         if (std::strcmp(argv[i], "foundation") == 0) { wantFoundation = true; all = false; }
         if (std::strcmp(argv[i], "blocks") == 0) { wantBlocks = true; all = false; }
@@ -359,6 +458,7 @@ int main(int argc, char** argv)
         if (std::strcmp(argv[i], "detail") == 0) { wantDetail = true; all = false; }
         if (std::strcmp(argv[i], "rockpile") == 0) { wantRockpile = true; all = false; }
         if (std::strcmp(argv[i], "fill") == 0) { wantFill = true; all = false; }
+        if (std::strcmp(argv[i], "fractal") == 0) { wantFractal = true; all = false; }
     }
     if (all || wantFoundation) foundation(quick);
     if (all || wantBlocks) blocksGroup(quick);
@@ -366,5 +466,6 @@ int main(int argc, char** argv)
     if (all || wantDetail) detailGroup(quick);
     if (all || wantRockpile) rockpileGroup(quick);
     if (all || wantFill) fillGroup(quick);
+    if (all || wantFractal) fractalGroup(quick);
     return 0;
 }
