@@ -9,7 +9,6 @@
 #include <rockvdb/core/VdbIO.h>
 
 #include <openvdb/points/PointConversion.h>
-#include <openvdb/tools/Composite.h>
 #include <openvdb/tools/GridTransformer.h>
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tools/SignedFloodFill.h>
@@ -38,8 +37,9 @@ double since(Clock::time_point t0)
 Schema<FractalRockParams> makeRockSchema()
 {
     using P = FractalRockParams;
-    Schema<P> s("fractal", "One fractal rock: an icosahedron refined by deterministic midpoint "
-                           "displacement and subdivision damping.");
+    Schema<P> s("fractal", "Fractal rocks: an icosahedron refined by deterministic midpoint "
+                           "displacement and subdivision damping; one rock, a scatter on a "
+                           "ground (count), or a cave carved from a solid.");
     s.add(param("levels", ParamType::Int, "", 2, Range::closed(0, 8),
                 "Subdivision levels: 20·16^L triangles (damping) or 20·4^L (midpoint)"),
           [](const P& p) { return json(p.shape.levels); },

@@ -51,6 +51,13 @@ def run(out):
     pile, rock_id = rockvdb.rock_pile(tiles, ball)
     report["pile_voxels"] = pile.activeVoxelCount()
     report["pile_digest"] = digest(pile)
+    rock, mesh = rockvdb.fractal_rock(levels=2, voxel_size=0.05, seed=3)
+    report["fractal_voxels"] = rock.activeVoxelCount()
+    report["fractal_digest"] = digest(rock)
+    report["fractal_triangles"] = int(mesh["triangles"].shape[0])
+    scatter, _ = rockvdb.fractal_scatter(count=20, levels=1, voxel_size=0.05, area=(-2, -2, 2, 2),
+                                         seed=1)
+    report["scatter_digest"] = digest(scatter)
     report["read_back"] = rockvdb.read(os.path.join(out, "host.vdb")).activeVoxelCount()
     report["pyopenvdb_read_back"] = vdb.read(os.path.join(out, "host_pyopenvdb.vdb"),
                                              "surface").activeVoxelCount()
