@@ -149,9 +149,17 @@ void bakeSlab(const Prepared& P, int x0, double w, double dx, float partId, bool
         const Vec3d& B = P.p[tris[t][1]];
         const Vec3d& C = P.p[tris[t][2]];
         const Vec3d& nrm = P.face[t];
-        for (int i = i0; i <= i1; ++i)
-            for (int j = j0; j <= j1; ++j)
-                for (int k = k0; k <= k1; ++k) {
+        for (int i = i0; i <= i1; ++i) {
+            const double ex = std::max({b[0] - i, 0.0, i - b[3]});
+            for (int j = j0; j <= j1; ++j) {
+                // Only voxels within w of the triangle's box: a capped column, not the whole
+                // box (for sub-voxel triangles the ball is half the cube).
+                const double ey = std::max({b[1] - j, 0.0, j - b[4]});
+                const double r2 = w2 - ex * ex - ey * ey;
+                if (r2 < 0) continue;
+                const double r = std::sqrt(r2);
+                const int ka = std::max(k0, int(std::ceil(b[2] - r))), kb = std::min(k1, int(std::floor(b[5] + r)));
+                for (int k = ka; k <= kb; ++k) {
                     const size_t v = at(i, j, k);
                     const Vec3d p(i, j, k);
                     const double pd = nrm.dot(p - A);
@@ -163,6 +171,8 @@ void bakeSlab(const Prepared& P, int x0, double w, double dx, float partId, bool
                         best[v] = int32_t(t);
                     }
                 }
+            }
+        }
     }
     // Leaves: signed distances where a triangle is within the band.
     const float bg = float(w * dx);
