@@ -16,7 +16,7 @@ using namespace rockvdb::fractal;
 int main(int argc, char** argv)
 {
     cli::Tool tool(kToolName, std::string(
-        "Fractal rocks (Dietrich et al.-style midpoint displacement on an icosahedron, "
+        "Fractal rocks (midpoint displacement on an icosahedron, "
         "fractal-rocks-midpoint-displacement.txt): the 20 faces of an icosahedron scaled to "
         "--size are refined --levels times by deterministic midpoint displacement (each "
         "edge's displacement a hash of its endpoints and the seed: no cracks at any level or "
