@@ -23,7 +23,7 @@ int main(int argc, char** argv)
         "thread count), rougher where the surface faces up (--h-up) than down (--h-down), with "
         "subdivision damping (interpolating or approximating spline, 16 sub-triangles per "
         "face per level) or plain midpoint displacement (4). Writes the level set 'surface' "
-        "(tools::meshToVolume of the closed mesh), and with --mesh the mesh (OBJ with normals "
+        "(baked directly from the closed mesh: exact distances, signs from pseudo-normals), and with --mesh the mesh (OBJ with normals "
         "and UVs, or PLY with normals), with --normal-map its normal map. With --count N, N "
         "rocks of jittered sizes are scattered on --ground (a heightfield image, a level set "
         ".vdb, or the plane z = 0) where an fBm density map allows, partly sunk (--embed), no "

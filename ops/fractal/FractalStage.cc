@@ -269,8 +269,8 @@ void requireDefaults(const FractalRockParams& p, const std::vector<std::string>&
 const char* normalMapHelp()
 {
     return "Normal map (§7): an RGB float EXR of the normals of a model normal-levels finer, "
-           "averaged per vertex, in the mesh file's coordinates (object space, z up), stored as "
-           "n/2 + 1/2. UV layout (written into the OBJ as vt): the 20 icosahedron faces in 10 "
+           "averaged per vertex, in rockvdb's z-up coordinates (Blender's object space, also "
+           "after its OBJ importer turned a --mesh-up y file), stored as n/2 + 1/2. UV layout (written into the OBJ as vt): the 20 icosahedron faces in 10 "
            "square cells, 5 across and 2 down (the image is 5n x 2n pixels); face 2k and 2k+1 "
            "share cell k (column k mod 5, row k div 5 from the bottom): 2k its lower-left "
            "half, 2k+1 its upper-right half, each shrunk by a 1% gutter.";
