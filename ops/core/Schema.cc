@@ -145,8 +145,9 @@ json SchemaBase::coerce(const ParamInfo& info, const json& v) const
         const double d = x.get<double>();
         if (integer && !(x.is_number_integer() || (std::isfinite(d) && d == std::floor(d)))) wrongType();
         if (!info.range.contains(d) || !std::isfinite(d)) {
+            // A NaN dumps as JSON null: say what it is.
             fail<ValueError>(mOp, ": ", info.name, " must be ", info.range.text(), " (got ",
-                             x.dump(), ")");
+                             std::isnan(d) ? std::string("nan") : x.dump(), ")");
         }
         if (!integer) return d;
         if (x.is_number_unsigned()) return x.get<uint64_t>();

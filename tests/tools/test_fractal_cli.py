@@ -132,7 +132,7 @@ def test_python_returns_the_mesh_and_the_normal_map(tmp_path):
 @pytest.mark.parametrize("args,needles", [
     (["--levels", "-1"], ["levels"]),
     (["--size", "1,0,1"], ["size"]),
-    (["--size", "1,nan,1"], ["size"]),
+    (["--size", "1,nan,1"], ["size", "(got nan)"]),
     (["--h-up", "1.2"], ["h-up"]),
     (["--h-down", "0"], ["h-down"]),
     (["--levels", "8"], ["--levels", "GB"]),
