@@ -279,7 +279,7 @@ const char* normalMapHelp()
 RockResult runRock(const FractalRockParams& p, bool withLevelSet, bool withNormalMap, Task& task)
 {
     rockSchema().validate(p);
-    if (p.count != 0) fail<ValueError>("fractal: count is for a scatter (runScatter)");
+    if (p.count != 0) fail<ValueError>("fractal: count is for a scatter (vdb_fractal_rock --count, rockvdb.fractal_scatter)");
     requireDefaults(p, scatterRows(), "applies to a scatter (--count N)");
     requireDefaults(p, carveRows(), "applies to a carve (--carve SOLID --count N)");
     const double limit = memoryLimit(p.maxMemoryGB);
