@@ -658,7 +658,7 @@ private:
 
     double memoryLimit() const
     {
-        return mS.maxMemoryBytes > 0 ? mS.maxMemoryBytes : 0.75 * physicalMemoryBytes();
+        return memoryLimitBytes(mS.maxMemoryBytes);
     }
 
     const Field& mField;
@@ -713,6 +713,11 @@ void BakeSettings::validate() const
     }
 }
 
+double memoryLimitBytes(double maxBytes)
+{
+    return maxBytes > 0 ? maxBytes : 0.75 * physicalMemoryBytes();
+}
+
 double physicalMemoryBytes()
 {
     const long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGE_SIZE);
@@ -751,7 +756,7 @@ BakeResult bake(const Field& field, const BakeSettings& s,
 {
     s.validate();
     const BakeEstimate est = estimateBake(field, s);
-    const double limit = s.maxMemoryBytes > 0 ? s.maxMemoryBytes : 0.75 * physicalMemoryBytes();
+    const double limit = memoryLimitBytes(s.maxMemoryBytes);
     if (est.bytes > limit) {
         fail<ValueError>("bake: refusing to bake: about ", formatBytes(est.bytes), " needed (~",
                          est.activeVoxels, " active voxels at voxel size ", s.voxelSize,

@@ -94,6 +94,9 @@ BakeResult bake(const Field& field, const BakeSettings& settings,
 /// @brief Total physical memory of this machine (bytes).
 double physicalMemoryBytes();
 
+/// @brief The memory limit a --max-memory of @a maxBytes means: itself, or 75% of RAM for 0.
+double memoryLimitBytes(double maxBytes);
+
 /// @brief "1.2 GB" style formatting of a byte count.
 std::string formatBytes(double bytes);
 

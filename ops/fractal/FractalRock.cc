@@ -51,7 +51,6 @@ struct Level
 {
     const RockShape& shape;
     Vec3d extent, up;       // up: Rᵀ ẑ (world up in the canonical frame, before extents)
-    int k;
     double amplitude;       // roughness · ℓ0 (canonical metres)
     double ratio;           // ℓ_n / ℓ0 of this level's edges (nominal)
 
@@ -159,7 +158,7 @@ RockMesh buildRock(const RockShape& shape, const Vec3d& extent, const std::array
     const int perFace = k * k;                           // sub-triangles per face per level
     for (int level = 0; level < shape.levels; ++level) {
         task.check();
-        Level L{shape, extent, rotation[2], k, shape.roughness * l0, std::pow(double(k), -level)};
+        Level L{shape, extent, rotation[2], shape.roughness * l0, std::pow(double(k), -level)};
         const size_t nv = rock.points.size(), nf = rock.triangles.size();
 
         // Unique edges, sorted by their endpoints (deterministic ids).
@@ -298,18 +297,6 @@ RockMesh buildRock(const RockShape& shape, const Vec3d& extent, const std::array
         rock.lattice *= uint32_t(k);
     }
     return rock;
-}
-
-std::array<Vec3d, 3> randomRotation(uint64_t seed, uint64_t stream)
-{
-    const double u1 = random::uniform(seed, stream, 0), u2 = random::uniform(seed, stream, 1),
-                 u3 = random::uniform(seed, stream, 2);
-    const double s1 = std::sqrt(1 - u1), s2 = std::sqrt(u1), t1 = 2 * M_PI * u2, t2 = 2 * M_PI * u3;
-    const double x = s1 * std::sin(t1), y = s1 * std::cos(t1), z = s2 * std::sin(t2),
-                 w = s2 * std::cos(t2);
-    return {{Vec3d(1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)),
-             Vec3d(2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)),
-             Vec3d(2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y))}};
 }
 
 // A rock's orientation: yaw uniform, then a tilt about a random horizontal axis with the

@@ -77,8 +77,6 @@ struct RockMesh
 RockMesh buildRock(const RockShape& shape, const Vec3d& extent, const std::array<Vec3d, 3>& rotation,
                    Task& task);
 
-/// @brief A uniformly random rotation (rows of R) from a seed (Shoemake's quaternion).
-std::array<Vec3d, 3> randomRotation(uint64_t seed, uint64_t stream);
 /// @brief A rock's orientation: a uniform yaw, then a tilt about a random horizontal axis with
 /// the tilted up axis uniform over the spherical cap of @a tiltDeg (180: any rotation).
 std::array<Vec3d, 3> randomOrientation(uint64_t seed, double tiltDeg);

@@ -148,9 +148,14 @@ Schema<FractalRockParams> makeRockSchema()
     return s;
 }
 
-double memoryLimit(double gb)
+double memoryLimit(double gb) { return memoryLimitBytes(gb * 1e9); }
+
+// Surface area of the ellipsoid of semi-axes a, b, c (Thomsen's formula, within ~1%): the
+// memory estimates' band voxels are about twice it (displacements) / dx² × the band's width.
+double ellipsoidArea(const Vec3d& e)
 {
-    return gb > 0 ? gb * 1e9 : 0.75 * physicalMemoryBytes();
+    const double a = e[0], b = e[1], c = e[2];
+    return 4 * M_PI * std::pow((std::pow(a * b, 1.6) + std::pow(a * c, 1.6) + std::pow(b * c, 1.6)) / 3, 1 / 1.6);
 }
 
 // Object-space normal map of the finer model, laid out as UvLayout (§7).
@@ -237,6 +242,14 @@ const std::vector<std::string>& scatterRows()
     return rows;
 }
 
+const std::vector<std::string>& groundRows()
+{
+    static const std::vector<std::string> rows = {
+        "area", "density-scale", "density-octaves", "density-contrast", "embed", "attempts",
+        "ground-cell-size", "ground-height-scale", "ground-grid", "material"};
+    return rows;
+}
+
 const std::vector<std::string>& carveRows()
 {
     static const std::vector<std::string> rows = {"carve-start", "carve-direction", "carve-wander"};
@@ -303,9 +316,7 @@ RockResult runRock(const FractalRockParams& p, bool withLevelSet, bool withNorma
     if (withLevelSet) {
         // Band voxels ≈ the rock's area (at most its ellipsoid's, × 2 for the roughness)
         // / dx² × the band's width, ~40 B each in the mesh-to-volume build.
-        const double a = extent[0], b = extent[1], c = extent[2];
-        const double area = 4 * M_PI * std::pow((std::pow(a * b, 1.6) + std::pow(a * c, 1.6) + std::pow(b * c, 1.6)) / 3, 1 / 1.6);
-        const double voxels = 2.0 * area / (dx * dx) * 2.0 * p.halfWidth;
+        const double voxels = 2.0 * ellipsoidArea(extent) / (dx * dx) * 2.0 * p.halfWidth;
         if (voxels * 40 > limit) {
             fail<ValueError>("fractal: a ", p.size[0], " m rock at ", dx, " m voxels needs about ",
                              formatBytes(voxels * 40), " (over the ", formatBytes(limit),
@@ -400,9 +411,8 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
     // Memory: every rock's mesh, and the band of their union.
     const double limit = memoryLimit(p.maxMemoryGB);
     const double meshMemory = double(p.count) * meshBytes(p.shape.levels, p.shape.method);
-    const double a = 0.5 * p.size[0], b = 0.5 * p.size[1], c = 0.5 * p.size[2];
-    const double area = 4 * M_PI * std::pow((std::pow(a * b, 1.6) + std::pow(a * c, 1.6) + std::pow(b * c, 1.6)) / 3, 1 / 1.6);
-    const double voxels = double(p.count) * 2.0 * area / (p.voxelSize * p.voxelSize) * 2.0 * p.halfWidth;
+    const double voxels = double(p.count) * 2.0 * ellipsoidArea(p.extent()) /
+                          (p.voxelSize * p.voxelSize) * 2.0 * p.halfWidth;
     if (meshMemory + voxels * 40 > limit) {
         fail<ValueError>("fractal: ", p.count, " rocks of ", p.shape.levels, " levels at ",
                          p.voxelSize, " m voxels need about ", formatBytes(meshMemory + voxels * 40),
@@ -511,10 +521,7 @@ CarveResult runCarve(const FractalRockParams& p, const openvdb::FloatGrid& solid
     if (p.count < 1) fail<ValueError>("fractal: a carve needs count >= 1 (the rocks of the chain)");
     requireLevelSet(solid, "carve solid");
     requireDefaults(p, singleRockRows(), "applies to a single rock (count 0)");
-    static const std::vector<std::string> scatterOnly = {
-        "area", "density-scale", "density-octaves", "density-contrast", "embed", "attempts",
-        "ground-cell-size", "ground-height-scale", "ground-grid", "material"};
-    requireDefaults(p, scatterOnly, "applies to a scatter on a ground, not a carve");
+    requireDefaults(p, groundRows(), "applies to a scatter on a ground, not a carve");
     const double dx = solid.voxelSize()[0];
     if (p.voxelSize != FractalRockParams().voxelSize && std::abs(p.voxelSize - dx) > 1e-12 * dx) {
         fail<ValueError>("fractal: a carve bakes its rocks on the solid's voxels (", dx,

@@ -72,6 +72,8 @@ const Schema<FractalRockParams>& rockSchema();
 const std::vector<std::string>& scatterRows();
 const std::vector<std::string>& singleRockRows();
 const std::vector<std::string>& carveRows();
+/// The scatter rows about the ground and placement (a carve's chain reads none of them).
+const std::vector<std::string>& groundRows();
 
 struct RockStats
 {

@@ -209,11 +209,10 @@ _DETAIL = _table("detail")
 _BLOCK_TILE = _table("block_tile")
 _AMPLIFY = _table("amplify")
 _FRACTAL_ROCK = _table("fractal_rock")
-_SCATTER_ROWS = ["count", "area", "size-jitter", "aspect-jitter", "density-scale", "density-octaves",
-                 "density-contrast", "embed", "attempts", "ground-cell-size", "ground-height-scale",
-                 "ground-grid"]
-_SINGLE_ROCK_ROWS = ["center", "normal-levels", "normal-map-size"]
-_CARVE_ROWS = ["carve-start", "carve-direction", "carve-wander"]
+_FRACTAL_ROWS = _rockvdb.fractal_rows()  # which rows each mode reads, from the C++ stage
+_SCATTER_ROWS = list(_FRACTAL_ROWS["scatter"])
+_SINGLE_ROCK_ROWS = list(_FRACTAL_ROWS["single"])
+_CARVE_ROWS = list(_FRACTAL_ROWS["carve"])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -850,6 +849,4 @@ fractal_carve = _stage_function(
     "Returns (surface, cave): the carved solid (named like the input) and the chain's level set "
     "'cave'. path also writes both. Ctrl-C raises KeyboardInterrupt.",
     before=["solid"], after=[("path", None)],
-    exclude=_SINGLE_ROCK_ROWS + ["area", "density-scale", "density-octaves", "density-contrast",
-                                 "embed", "attempts", "ground-cell-size", "ground-height-scale",
-                                 "ground-grid"])
+    exclude=_SINGLE_ROCK_ROWS + list(_FRACTAL_ROWS["ground"]))

@@ -411,6 +411,16 @@ PYBIND11_MODULE(_rockvdb, m)
 
     // One fractal rock: (surface or None, {points, triangles, normals[, uvs, triangle_uvs,
     // normal_map]} as numpy arrays).
+    // Which rows of the fractal table each mode reads (the Python wrappers' signatures).
+    m.def("fractal_rows", []() {
+        py::dict d;
+        d["scatter"] = fractal::scatterRows();
+        d["single"] = fractal::singleRockRows();
+        d["carve"] = fractal::carveRows();
+        d["ground"] = fractal::groundRows();
+        return d;
+    });
+
     m.def("fractal_rock", [](const std::string& params, bool levelSet, bool normalMap) {
         const fractal::FractalRockParams p = fractal::rockSchema().fromJson(parseParams(params, "fractal"));
         fractal::RockResult r;

@@ -254,7 +254,7 @@ TEST(FractalRock, NormalMapReproducesTheFinerModel)
 TEST(FractalRock, RotationsAndQuaternionsAgree)
 {
     for (uint64_t s = 0; s < 50; ++s) {
-        const auto R = randomRotation(s, 9);
+        const auto R = randomOrientation(s, 180.0); // any rotation
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) EXPECT_NEAR(R[size_t(i)].dot(R[size_t(j)]), i == j ? 1.0 : 0.0, 1e-12);
         EXPECT_NEAR(R[0].cross(R[1]).dot(R[2]), 1.0, 1e-12); // proper rotation

@@ -344,3 +344,22 @@ def dense_of_level(grid):
     a = np.full(tuple(bb[1][k] - bb[0][k] + 1 for k in range(3)), grid.background, dtype=np.float32)
     grid.copyToArray(a, ijk=bb[0])
     return bb, a
+
+
+def test_each_python_function_shows_the_rows_its_mode_reads():
+    """The signatures come from the one table and the C++ stage's lists of which rows each mode
+    reads: a scatter keyword on fractal_rock, or a single-rock one on fractal_scatter, is
+    missing from the signature (and refused by the stage if passed anyway)."""
+    import inspect
+    rock = set(inspect.signature(rockvdb.fractal_rock).parameters)
+    scatter = set(inspect.signature(rockvdb.fractal_scatter).parameters)
+    carve = set(inspect.signature(rockvdb.fractal_carve).parameters)
+    shared = {"levels", "method", "size", "roughness", "h_up", "h_down", "seed", "voxel_size"}
+    assert shared <= rock and shared <= scatter and shared <= carve
+    assert {"center", "normal_levels"} <= rock and not {"count", "embed", "carve_start"} & rock
+    assert {"count", "embed", "area", "material"} <= scatter and not {"center", "carve_start"} & scatter
+    assert {"count", "carve_start", "carve_wander"} <= carve and not {"embed", "area", "center"} & carve
+    with pytest.raises(ValueError, match="count is for a scatter"):
+        rockvdb.fractal_rock(count=3)
+    with pytest.raises(ValueError, match="embed applies to a scatter on a ground, not a carve"):
+        rockvdb.fractal_carve(rockvdb.sphere(1).bake(voxel_size=0.1), count=2, embed=0.3)
