@@ -58,7 +58,18 @@ int main(int argc, char** argv)
         for (const auto& path : {meshPath, mapPath}) {
             if (!path.empty()) requireWritable(path);
         }
-        if (!mapPath.empty() && meshPath.size() >= 4 && meshPath.substr(meshPath.size() - 4) == ".ply") {
+        // Wrong extensions are refused before any work, so no output is written half.
+        auto ends = [](const std::string& s, const char* ext) {
+            const std::string e(ext);
+            return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
+        };
+        if (!mapPath.empty() && !ends(mapPath, ".exr")) {
+            fail<ValueError>("fractal: --normal-map '", mapPath, "' must end in .exr");
+        }
+        if (!meshPath.empty() && meshPath != "-" && !ends(meshPath, ".obj") && !ends(meshPath, ".ply")) {
+            fail<ValueError>("fractal: --mesh '", meshPath, "' must end in .obj or .ply");
+        }
+        if (!mapPath.empty() && ends(meshPath, ".ply")) {
             fail<ValueError>("fractal: a normal map needs the OBJ's UVs; write --mesh as .obj");
         }
         if (!carvePath.empty()) {

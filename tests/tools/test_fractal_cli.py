@@ -138,6 +138,7 @@ def test_python_returns_the_mesh_and_the_normal_map(tmp_path):
     (["--levels", "8"], ["--levels", "GB"]),
     (["--voxel-size", "0.00001"], ["--voxel-size"]),
     (["--method", "cubic"], ["method"]),
+    (["--normal-map", "n.png"], ["--normal-map", ".exr"]),
 ])
 def test_bad_input_is_one_line_and_no_file(tmp_path, args, needles):
     out = tmp_path / "o.vdb"
