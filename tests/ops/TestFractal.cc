@@ -332,7 +332,7 @@ WorldRock worldRock(int levels, uint64_t seed, const Vec3d& centre)
 
 } // namespace
 
-TEST(MeshBake, IsTheExactSignedDistanceInTheBand)
+TEST(MeshBake, IsTheExactSignedDistanceNearTheSurfaceAndBeatsMeshToVolumeBeyond)
 {
     initialize();
     const WorldRock r = worldRock(2, 4, Vec3d(0.013, -0.02, 0.007));
@@ -352,8 +352,10 @@ TEST(MeshBake, IsTheExactSignedDistanceInTheBand)
         const double den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
         return 2.0 * std::atan2(num, den);
     };
-    size_t checked = 0, n = 0;
-    double worst = 0;
+    const double exactTo = 1e-5; // m: float storage
+    size_t checked = 0, n = 0, inexact = 0, refChecked = 0, refInexact = 0;
+    double worst = 0, worstNear = 0, refWorst = 0;
+    auto refAcc = ref->getConstAccessor();
     for (auto it = ours->cbeginValueOn(); it; ++it) {
         if (n++ % 5) continue;
         const Vec3d p = xf->indexToWorld(it.getCoord());
@@ -384,15 +386,55 @@ TEST(MeshBake, IsTheExactSignedDistanceInTheBand)
             winding += solidAngle(A - p, B - p, C - p);
         }
         const double exact = (winding / (4 * M_PI) > 0.5 ? -1 : 1) * std::sqrt(best);
-        worst = std::max(worst, std::abs(exact - double(*it)));
+        const double err = std::abs(exact - double(*it));
+        worst = std::max(worst, err);
+        if (std::abs(exact) < dx) worstNear = std::max(worstNear, err);
+        inexact += err > exactTo;
         ++checked;
+        float theirs;
+        if (refAcc.probeValue(it.getCoord(), theirs)) {
+            const double e = std::abs(exact - double(theirs));
+            refWorst = std::max(refWorst, e);
+            refInexact += e > exactTo;
+            ++refChecked;
+        }
     }
     EXPECT_GT(checked, 1000u);
-    EXPECT_LT(worst, 1e-5);
-    // OpenVDB's meshToVolume of the same mesh: about the same band.
+    // Within a voxel of the surface (the zero crossing and its neighbours): exact.
+    EXPECT_LT(worstNear, exactTo);
+    // Beyond, propagated: nearly all exact, none off by half a voxel...
+    EXPECT_LT(double(inexact), 0.03 * double(checked)) << inexact << " of " << checked;
+    EXPECT_LT(worst, 0.5 * dx);
+    // ... and closer to the truth than OpenVDB's meshToVolume on the same voxels.
+    EXPECT_GT(refChecked, checked * 9 / 10);
+    EXPECT_LT(double(inexact) / double(checked), 0.25 * double(refInexact) / double(refChecked));
+    EXPECT_LT(worst, refWorst);
+    // About the same band as meshToVolume's.
     EXPECT_NEAR(double(ours->activeVoxelCount()), double(ref->activeVoxelCount()), 0.01 * double(ref->activeVoxelCount()));
     // Inside beyond the band: the flood fill's tiles.
     EXPECT_LT(ours->tree().getValue(openvdb::Coord(0)), 0.0f);
+}
+
+TEST(MeshBake, AnySplitIntoUnitsGivesTheSameBits)
+{
+    initialize();
+    // 1 m across at 1 cm: ~110 voxels along x, which the bake splits into units itself.
+    const WorldRock r = worldRock(2, 7, Vec3d(0.31, 0.02, -0.1));
+    const std::vector<MeshPart> parts{{&r.world, &r.rock.triangles}};
+    Task task;
+    openvdb::FloatGrid::Ptr ids;
+    auto whole = bakeMeshes(parts, 0.01, 3.0, true, task, &ids, 4096);
+    EXPECT_GT(whole->activeVoxelCount(), 50000);
+    for (int width : {0, 8, 24}) {
+        openvdb::FloatGrid::Ptr splitIds;
+        auto split = bakeMeshes(parts, 0.01, 3.0, true, task, &splitIds, width);
+        EXPECT_TRUE(test::bitwiseEqual(*whole, *split)) << "unit width " << width;
+        EXPECT_TRUE(test::bitwiseEqual(*ids, *splitIds)) << "unit width " << width;
+    }
+    // And the carve path (per-part flood fill, union of full values).
+    auto carved = bakeMeshes(parts, 0.01, 3.0, false, task, nullptr, 4096);
+    auto carvedSplit = bakeMeshes(parts, 0.01, 3.0, false, task, nullptr, 8);
+    EXPECT_TRUE(test::bitwiseEqual(*carved, *carvedSplit));
 }
 
 TEST(MeshBake, OverlappingPartsUniteByTheirFullValuesAtAnyThreadCount)
