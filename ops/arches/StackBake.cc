@@ -1,0 +1,210 @@
+// Level sets of material stacks (see StackBake.h).
+#include "StackBake.h"
+
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/GridUtil.h>
+
+#include <openvdb/tools/ChangeBackground.h>
+#include <openvdb/tools/FastSweeping.h>
+#include <openvdb/tools/Prune.h>
+#include <openvdb/tools/SignedFloodFill.h>
+#include <openvdb/tree/LeafManager.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace rockvdb {
+namespace arches {
+
+namespace {
+
+class ConvolutionField : public Field
+{
+public:
+    ConvolutionField(std::shared_ptr<const Skeleton> s, double sigma) : mSkeleton(std::move(s)), mSigma(sigma)
+    {
+        const auto& g = mSkeleton->geometry();
+        double top = g.z0;
+        for (size_t s2 = 0; s2 < g.count(); ++s2) {
+            const size_t n = mSkeleton->intervalCount(s2);
+            if (n > 0) top = std::max(top, mSkeleton->end(s2, n - 1));
+        }
+        mBounds = BBoxd(Vec3d(g.x0 - sigma, g.y0 - sigma, g.z0 - sigma),
+                        Vec3d(g.x0 + g.nx * g.cell + sigma, g.y0 + g.ny * g.cell + sigma, top + sigma));
+    }
+
+    void evalBatch(const Batch& b, float* out) const override
+    {
+        for (int i = 0; i < b.n; ++i) {
+            out[i] = float(-mSigma * mSkeleton->field(Vec3d(b.x[i], b.y[i], b.z[i]), mSigma));
+        }
+    }
+    BBoxd bounds() const override { return mBounds; }
+    // |∂f/∂x| <= 1/σ per axis (a slab of the cube enters, one leaves): σ·f is √3-Lipschitz.
+    double lipschitz() const override { return std::sqrt(3.0); }
+    bool exact() const override { return false; }
+
+private:
+    std::shared_ptr<const Skeleton> mSkeleton;
+    double mSigma;
+    BBoxd mBounds;
+};
+
+// The leaves that can hold voxels within reach R of the convolution surface. The surface lies
+// where the σ-cube holds both skeleton and not (within σ, ∞-norm, of an interval end or of a
+// height where neighbouring stacks disagree); so, per column of leaves, over the stacks within
+// R of its footprint: every interval end ± R, and every height range where those stacks (and
+// the empty outside, when the footprint leaves the grid) do not all agree, ± R.
+openvdb::MaskGrid::Ptr candidateLeaves(const Skeleton& sk, double dx, double reach, Task& task)
+{
+    const auto& g = sk.geometry();
+    const double xmin = g.x0 - reach, xmax = g.x0 + g.nx * g.cell + reach;
+    const double ymin = g.y0 - reach, ymax = g.y0 + g.ny * g.cell + reach;
+    const int lx0 = floorDiv(int(std::floor(xmin / dx)), 8), lx1 = floorDiv(int(std::ceil(xmax / dx)), 8);
+    const int ly0 = floorDiv(int(std::floor(ymin / dx)), 8), ly1 = floorDiv(int(std::ceil(ymax / dx)), 8);
+    const size_t ncx = size_t(lx1 - lx0 + 1), ncy = size_t(ly1 - ly0 + 1);
+    std::vector<std::vector<int>> columns(ncx * ncy); // leaf z indices per column
+    parallelFor(task, ncy, 1, [&](size_t cy) {
+        std::vector<std::pair<double, int>> events;
+        std::vector<std::pair<double, double>> ranges;
+        for (size_t cx = 0; cx < ncx; ++cx) {
+            const int lx = lx0 + int(cx), ly = ly0 + int(cy);
+            const double fx0 = (8 * lx) * dx - reach, fx1 = (8 * lx + 7) * dx + reach;
+            const double fy0 = (8 * ly) * dx - reach, fy1 = (8 * ly + 7) * dx + reach;
+            const int i0 = int(std::floor((fx0 - g.x0) / g.cell)), i1 = int(std::floor((fx1 - g.x0) / g.cell));
+            const int j0 = int(std::floor((fy0 - g.y0) / g.cell)), j1 = int(std::floor((fy1 - g.y0) / g.cell));
+            const int ci0 = std::max(i0, 0), ci1 = std::min(i1, g.nx - 1);
+            const int cj0 = std::max(j0, 0), cj1 = std::min(j1, g.ny - 1);
+            if (ci0 > ci1 || cj0 > cj1) continue;
+            const bool outside = i0 < 0 || j0 < 0 || i1 >= g.nx || j1 >= g.ny; // an empty "stack"
+            const int stacks = (ci1 - ci0 + 1) * (cj1 - cj0 + 1) + (outside ? 1 : 0);
+            events.clear();
+            for (int j = cj0; j <= cj1; ++j)
+                for (int i = ci0; i <= ci1; ++i) {
+                    const size_t s = g.index(i, j);
+                    for (size_t k = 0; k < sk.intervalCount(s); ++k) {
+                        events.emplace_back(sk.start(s, k), +1);
+                        events.emplace_back(sk.end(s, k), -1);
+                    }
+                }
+            if (events.empty()) continue;
+            std::sort(events.begin(), events.end());
+            ranges.clear();
+            int inside = 0;
+            for (size_t e = 0; e < events.size(); ++e) {
+                ranges.emplace_back(events[e].first - reach, events[e].first + reach);
+                inside += events[e].second;
+                // Between this end and the next, do the stacks disagree?
+                if (e + 1 < events.size() && inside > 0 && inside < stacks) {
+                    ranges.emplace_back(events[e].first - reach, events[e + 1].first + reach);
+                }
+            }
+            std::vector<int>& leaves = columns[cy * ncx + cx];
+            for (const auto& [lo, hi] : ranges) {
+                const int k0 = floorDiv(int(std::ceil(lo / dx)), 8), k1 = floorDiv(int(std::floor(hi / dx)), 8);
+                for (int k = k0; k <= k1; ++k) leaves.push_back(k);
+            }
+            std::sort(leaves.begin(), leaves.end());
+            leaves.erase(std::unique(leaves.begin(), leaves.end()), leaves.end());
+        }
+    });
+    auto mask = openvdb::MaskGrid::create(false);
+    auto acc = mask->getAccessor();
+    for (size_t c = 0; c < columns.size(); ++c) {
+        const int lx = lx0 + int(c % ncx), ly = ly0 + int(c / ncx);
+        for (const int k : columns[c]) acc.setValueOn(openvdb::Coord(8 * lx, 8 * ly, 8 * k));
+    }
+    return mask;
+}
+
+} // namespace
+
+FieldPtr convolutionField(std::shared_ptr<const Skeleton> skeleton, double sigma)
+{
+    return std::make_shared<ConvolutionField>(std::move(skeleton), sigma);
+}
+
+openvdb::FloatGrid::Ptr bakeSkeleton(const Skeleton& skeleton, const SkeletonBake& settings,
+                                     Task& task, BakeStats* stats)
+{
+    const double dx = settings.voxelSize, sigma = settings.sigma, w = settings.halfWidth;
+    if (!(sigma > 0) || !std::isfinite(sigma)) fail<ValueError>("arches: sigma must be > 0 (got ", sigma, ")");
+    if (!(dx > 0) || !std::isfinite(dx)) fail<ValueError>("arches: voxel size must be > 0 (got ", dx, ")");
+    // Reach: the band, plus a voxel for the sweeping to start from outside it.
+    const double reach = sigma + (w + 1) * dx;
+    task.phase("candidates", 0.1);
+    auto candidates = candidateLeaves(skeleton, dx, reach, task);
+
+    // Share the skeleton without copying it: the field only lives through this bake.
+    std::shared_ptr<const Skeleton> shared(&skeleton, [](const Skeleton*) {});
+    auto field = convolutionField(shared, sigma);
+    BakeSettings s;
+    s.voxelSize = dx;
+    // Wide enough that no candidate voxel is clamped (|σ·f| <= σ): the sweeping needs values.
+    s.halfWidth = std::max(w, sigma / dx + 2.0);
+    s.renormalize = Renormalize::Off;
+    s.candidates = candidates;
+    s.maxMemoryBytes = settings.maxMemoryBytes;
+    task.phase("convolution", 0.5);
+    BakeResult r = bake(*field, s, task.interrupter());
+    if (stats) *stats = r.stats;
+
+    task.phase("redistance", 0.4);
+    task.check();
+    openvdb::FloatGrid::Ptr grid = openvdb::tools::sdfToSdf(*r.surface, 0.0f, 1);
+    task.check();
+    // The band: |φ| < w·dx active, the rest off at ±background.
+    const float bg = float(w * dx);
+    openvdb::tree::LeafManager<openvdb::FloatTree> leaves(grid->tree());
+    leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+        for (auto it = leaf.beginValueOn(); it; ++it) {
+            if (std::abs(*it) >= bg) leaf.setValueOff(it.pos(), *it < 0 ? -bg : bg);
+        }
+    });
+    openvdb::tools::changeLevelSetBackground(grid->tree(), bg);
+    openvdb::tools::pruneLevelSet(grid->tree());
+    openvdb::tools::signedFloodFill(grid->tree());
+    grid->setGridClass(openvdb::GRID_LEVEL_SET);
+    return grid;
+}
+
+openvdb::FloatGrid::Ptr materialGrid(const Stacks& stacks, MaterialMask mask, double sigma,
+                                     const openvdb::FloatGrid& surface, Task& task)
+{
+    std::vector<std::pair<Material, Skeleton>> parts;
+    for (int m = 0; m < kMaterialCount; ++m) {
+        if (mask & maskOf(Material(m))) parts.emplace_back(Material(m), Skeleton(stacks, maskOf(Material(m))));
+    }
+    auto ids = openvdb::FloatGrid::create(-1.0f);
+    ids->setTransform(surface.transform().copy());
+    ids->setName("material");
+    ids->setGridClass(openvdb::GRID_UNKNOWN);
+    ids->tree().topologyUnion(surface.tree());
+    // Inside tiles are not material voxels: keep only the leaves' active voxels.
+    openvdb::tools::pruneInactive(ids->tree());
+    const auto& xf = surface.transform();
+    std::vector<openvdb::FloatTree::LeafNodeType*> list;
+    ids->tree().getNodes(list);
+    parallelFor(task, list.size(), 8, [&](size_t l) {
+        auto& leaf = *list[l];
+        const auto* phi = surface.tree().probeConstLeaf(leaf.origin());
+        for (auto it = leaf.beginValueOn(); it; ++it) {
+            const Vec3d p = xf.indexToWorld(it.getCoord());
+            const double half = sigma + (phi ? std::abs(double(phi->getValue(it.pos()))) : 0.0);
+            double bestV = -1;
+            float id = -1.0f;
+            for (const auto& [m, sk] : parts) {
+                const double v = sk.volume(p, half);
+                if (v > bestV) {
+                    bestV = v;
+                    id = float(unsigned(m));
+                }
+            }
+            leaf.setValueOnly(it.pos(), id);
+        }
+    });
+    return ids;
+}
+
+} // namespace arches
+} // namespace rockvdb

@@ -1,0 +1,287 @@
+// Material stacks (arches/): encoding, the convolution of §3.3, the level set, building from
+// heightfields and solids.
+#include <rockvdb/arches/StackBake.h>
+#include <rockvdb/arches/StackBuild.h>
+#include <rockvdb/arches/Stacks.h>
+
+#include <rockvdb/core/Combinators.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Primitives.h>
+#include <rockvdb/core/Random.h>
+#include "GridCompare.h"
+
+#include <gtest/gtest.h>
+#include <openvdb/tools/Interpolation.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+
+using namespace rockvdb;
+using namespace rockvdb::arches;
+using rockvdb::random::uniform;
+
+namespace {
+
+StackGeometry geometry(int nx, int ny, double cell, double quantum = 0.01)
+{
+    StackGeometry g;
+    g.nx = nx;
+    g.ny = ny;
+    g.cell = cell;
+    g.quantum = quantum;
+    return g;
+}
+
+// Random stacks: up to 6 layers of random materials and thicknesses.
+Stacks randomStacks(uint64_t seed, int n = 9)
+{
+    Task task;
+    return Stacks::build(geometry(n, n, 0.5, 0.01), [&](int i, int j, std::vector<Layer>& layers) {
+        const uint64_t key = uint64_t(j) * 1000 + uint64_t(i);
+        const int count = int(uniform(seed, uint64_t(0), key) * 6.0);
+        for (int l = 0; l < count; ++l) {
+            layers.push_back(Layer{Material(int(uniform(seed, uint64_t(1 + 2 * l), key) * 5.0) % 5),
+                                   uint32_t(1 + uniform(seed, uint64_t(2 + 2 * l), key) * 150.0)});
+        }
+    }, task);
+}
+
+// The skeleton's volume in the cube, by brute force: every layer of every stack as a box.
+double bruteVolume(const Stacks& st, MaterialMask mask, const Vec3d& p, double sigma)
+{
+    const auto& g = st.geometry();
+    double v = 0;
+    std::vector<Layer> layers;
+    for (int j = 0; j < g.ny; ++j)
+        for (int i = 0; i < g.nx; ++i) {
+            const double cx0 = g.x0 + i * g.cell, cy0 = g.y0 + j * g.cell;
+            const double wx = std::max(0.0, std::min(p[0] + sigma, cx0 + g.cell) - std::max(p[0] - sigma, cx0));
+            const double wy = std::max(0.0, std::min(p[1] + sigma, cy0 + g.cell) - std::max(p[1] - sigma, cy0));
+            st.layers(i, j, layers);
+            double z = g.z0;
+            for (const Layer& l : layers) {
+                const double top = z + l.thickness * g.quantum;
+                if (mask & maskOf(l.material)) {
+                    v += wx * wy * std::max(0.0, std::min(p[2] + sigma, top) - std::max(p[2] - sigma, z));
+                }
+                z = top;
+            }
+        }
+    return v;
+}
+
+// A 12 x 12 grid of 1 m stacks: bedrock 0..2 m everywhere; in the middle 6 x 6 an overhang:
+// bedrock 0..2, air 2..4, bedrock 4..6 (a slab floating over a cave).
+Stacks overhang(Task& task)
+{
+    return Stacks::build(geometry(12, 12, 1.0), [](int i, int j, std::vector<Layer>& layers) {
+        layers.push_back(Layer{Material::Bedrock, 200});
+        if (i >= 3 && i < 9 && j >= 3 && j < 9) {
+            layers.push_back(Layer{Material::Air, 200});
+            layers.push_back(Layer{Material::Bedrock, 200});
+        }
+    }, task);
+}
+
+} // namespace
+
+TEST(Stacks, EncodingMergesRunsAndSplitsThickLayers)
+{
+    Task task;
+    auto st = Stacks::build(geometry(2, 1, 1.0), [](int i, int, std::vector<Layer>& layers) {
+        if (i == 0) {
+            layers = {{Material::Bedrock, 5}, {Material::Bedrock, 7}, {Material::Sand, 0},
+                      {Material::Sand, 20000}, {Material::Air, 3}};
+        } else {
+            layers = {{Material::Air, 10}, {Material::Rocks, 4}};
+        }
+    }, task);
+    std::vector<Layer> l;
+    st.layers(0, 0, l);
+    ASSERT_EQ(l.size(), 2u); // bedrock 12, sand 20000; air on top dropped
+    EXPECT_EQ(l[0], (Layer{Material::Bedrock, 12}));
+    EXPECT_EQ(l[1], (Layer{Material::Sand, 20000}));
+    EXPECT_EQ(st.codeCount(0, 0), 4u); // 12 | 8191 + 8191 + 3618
+    st.layers(1, 0, l);
+    ASSERT_EQ(l.size(), 2u);
+    EXPECT_EQ(l[0], (Layer{Material::Air, 10}));
+    EXPECT_EQ(st.height(1, 0), 14u);
+    EXPECT_EQ(st.volumeQuanta(Material::Sand), 20000u);
+    EXPECT_EQ(st.bytes(), 6 * 2 + 3 * 4u); // 6 codes, 3 offsets
+    // The raw encoding round-trips; a corrupt one is refused.
+    EXPECT_TRUE(Stacks::fromEncoding(st.geometry(), st.codes(), st.offsets()) == st);
+    auto codes = st.codes();
+    codes[0] = Stacks::code(Material(7), 3);
+    EXPECT_THROW(Stacks::fromEncoding(st.geometry(), codes, st.offsets()), ValueError);
+    EXPECT_THROW(Stacks::fromEncoding(st.geometry(), st.codes(), {0, 1}), ValueError);
+    EXPECT_EQ(materialFromName("rocks", "x"), Material::Rocks);
+    EXPECT_THROW(materialFromName("lava", "scene.materials[2]"), ValueError);
+    EXPECT_THROW(Stacks::build(geometry(0, 1, 1.0), [](int, int, std::vector<Layer>&) {}, task), ValueError);
+}
+
+TEST(Convolution, HasThePapersThreePropertiesAndEqualsTheVolumeIntegral)
+{
+    Task task;
+    // A bedrock slab 0..10 m over 8 x 8 stacks of 1 m.
+    auto slab = Stacks::build(geometry(8, 8, 1.0), [](int, int, std::vector<Layer>& l) {
+        l.push_back(Layer{Material::Bedrock, 1000});
+    }, task);
+    const Skeleton sk(slab, kGroundMask);
+    const double sigma = 0.7;
+    EXPECT_DOUBLE_EQ(sk.field(Vec3d(4.1, 3.9, 5.0), sigma), 1.0);   // only material in the cube
+    EXPECT_DOUBLE_EQ(sk.field(Vec3d(4.1, 3.9, 12.0), sigma), -1.0); // none
+    EXPECT_NEAR(sk.field(Vec3d(4.1, 3.9, 10.0), sigma), 0.0, 1e-12); // half full: the surface
+    EXPECT_NEAR(sk.field(Vec3d(4.1, 3.9, 9.8), sigma), 0.2 / sigma, 1e-12); // linear within σ
+    EXPECT_NEAR(sk.field(Vec3d(0.0, 4.0, 5.0), sigma), 0.0, 1e-12); // the side wall
+    EXPECT_NEAR(sk.field(Vec3d(0.0, 0.0, 10.0), sigma), 1.0 / 8.0 * 2 - 1, 1e-12); // a corner: 1/8 full
+    // Random stacks, random skeletons, random points: the per-stack cumulative tables give the
+    // brute-force integral over every layer's box.
+    for (uint64_t seed : {1u, 2u, 3u}) {
+        const Stacks st = randomStacks(seed);
+        for (MaterialMask mask : {kGroundMask, maskOf(Material::Sand), MaterialMask(maskOf(Material::Air) | maskOf(Material::Water))}) {
+            const Skeleton s(st, mask);
+            for (int k = 0; k < 200; ++k) {
+                const Vec3d p(-0.5 + 5.5 * uniform(seed, 10, uint64_t(k)), -0.5 + 5.5 * uniform(seed, 11, uint64_t(k)),
+                              -0.3 + 4.5 * uniform(seed, 12, uint64_t(k)));
+                const double sig = 0.1 + 0.9 * uniform(seed, 13, uint64_t(k));
+                const double ours = s.field(p, sig), brute = bruteVolume(st, mask, p, sig) / (4 * sig * sig * sig) - 1;
+                ASSERT_NEAR(ours, brute, 1e-5) << "seed " << seed << " point " << k;
+            }
+        }
+    }
+}
+
+TEST(StackBake, OverhangsAreRealAndTheBandIsADistance)
+{
+    Task task;
+    const Stacks st = overhang(task);
+    const Skeleton sk(st, kGroundMask);
+    SkeletonBake b;
+    b.sigma = 0.5;
+    b.voxelSize = 0.25;
+    auto grid = bakeSkeleton(sk, b, task);
+    EXPECT_EQ(grid->getGridClass(), openvdb::GRID_LEVEL_SET);
+    EXPECT_FLOAT_EQ(grid->background(), 0.75f);
+    // A vertical ray through the cave crosses the surface 4 times (floor, cave floor, cave
+    // roof, top); one beside the overhang twice.
+    auto crossings = [&](double x, double y) {
+        openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> s(*grid);
+        int n = 0;
+        double prev = s.wsSample(Vec3d(x, y, -2.0));
+        for (double z = -2.0; z <= 9.0; z += 0.05) {
+            const double v = s.wsSample(Vec3d(x, y, z));
+            n += (v < 0) != (prev < 0);
+            prev = v;
+        }
+        return n;
+    };
+    EXPECT_EQ(crossings(6.1, 5.9), 4);
+    EXPECT_EQ(crossings(1.3, 1.4), 2);
+    // Flat parts: φ is the distance to the plane (the convolution surface of a flat top is
+    // the top itself).
+    openvdb::tools::GridSampler<openvdb::FloatGrid, openvdb::tools::BoxSampler> s(*grid);
+    // (6.7: beyond σ, where the raw convolution is flat at σ: only the redistancing gives 0.7)
+    for (double z : {5.4, 5.6, 5.8, 6.0, 6.25, 6.5, 6.7}) EXPECT_NEAR(s.wsSample(Vec3d(6.0, 6.0, z)), z - 6.0, 0.03) << z;
+    EXPECT_GT(s.wsSample(Vec3d(6.0, 6.0, 3.0)), 0.7); // mid-cave: air, 1 m from floor and roof
+    EXPECT_NEAR(s.wsSample(Vec3d(6.0, 6.0, 3.8)), 0.2, 0.03); // under the roof
+    // Every band voxel: |∇φ| near 1 (a signed distance, not the raw convolution).
+    size_t good = 0, all = 0;
+    auto acc = grid->getConstAccessor();
+    for (auto it = grid->cbeginValueOn(); it; ++it) {
+        const openvdb::Coord c = it.getCoord();
+        const double gx = (acc.getValue(c.offsetBy(1, 0, 0)) - acc.getValue(c.offsetBy(-1, 0, 0))) / (2 * b.voxelSize);
+        const double gy = (acc.getValue(c.offsetBy(0, 1, 0)) - acc.getValue(c.offsetBy(0, -1, 0))) / (2 * b.voxelSize);
+        const double gz = (acc.getValue(c.offsetBy(0, 0, 1)) - acc.getValue(c.offsetBy(0, 0, -1))) / (2 * b.voxelSize);
+        const double len = std::sqrt(gx * gx + gy * gy + gz * gz);
+        if (std::abs(*it) < 0.5 * grid->background()) {
+            ++all;
+            good += std::abs(len - 1.0) < 0.15;
+        }
+    }
+    EXPECT_GT(all, 1000u);
+    EXPECT_GT(double(good), 0.9 * double(all)) << good << " of " << all;
+}
+
+TEST(StackBake, SolidToStacksToLevelSetStaysWithinAVoxel)
+{
+    Task task;
+    // A mushroom rock: a cap (sphere) on a stem (capsule) on a base slab: the cap overhangs.
+    FieldPtr mushroom = unite(unite(sphere(Vec3d(3.0, 3.0, 3.2), 1.6), capsule(Vec3d(3, 3, 0.5), Vec3d(3, 3, 3), 0.55)),
+                              box(Vec3d(3, 3, 0.25), Vec3d(2.9, 2.9, 0.25)));
+    const double dx = 0.1;
+    StackGeometry g = geometry(60, 60, dx, 0.001);
+    const Stacks st = stacksFromSolid(*mushroom, g, 0.01, Material::Bedrock, task);
+    // The cap's overhang is in the stacks: air between the base and the cap at the rim.
+    std::vector<Layer> l;
+    st.layers(44, 30, l); // x = 4.45: under the cap's rim, beside the stem
+    ASSERT_GE(l.size(), 3u);
+    EXPECT_EQ(l[0].material, Material::Bedrock);
+    EXPECT_EQ(l[1].material, Material::Air);
+    SkeletonBake b;
+    b.sigma = 0.5 * dx;
+    b.voxelSize = dx;
+    auto grid = bakeSkeleton(Skeleton(st, kGroundMask), b, task);
+    // Against the solid's exact distance on every band voxel away from the base's edges.
+    double worst = 0;
+    size_t n = 0;
+    for (auto it = grid->cbeginValueOn(); it; ++it) {
+        const Vec3d p = grid->indexToWorld(it.getCoord());
+        if (p[2] < 0.7) continue; // the base's sharp rim
+        worst = std::max(worst, std::abs(double(*it) - double(mushroom->eval(p))));
+        ++n;
+    }
+    EXPECT_GT(n, 5000u);
+    EXPECT_LT(worst, dx) << "worst " << worst;
+}
+
+TEST(StackBake, SameBitsAtAnyThreadCount)
+{
+    auto run = [](int threads) {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, size_t(threads));
+        Task task;
+        const Stacks st = randomStacks(7, 24);
+        SkeletonBake b;
+        b.sigma = 0.3;
+        b.voxelSize = 0.1;
+        auto grid = bakeSkeleton(Skeleton(st, kGroundMask), b, task);
+        auto ids = materialGrid(st, kGroundMask, b.sigma, *grid, task);
+        return std::make_tuple(st, grid, ids);
+    };
+    auto [s1, g1, m1] = run(1);
+    auto [s2, g2, m2] = run(2);
+    EXPECT_TRUE(s1 == s2);
+    EXPECT_TRUE(test::bitwiseEqual(*g1, *g2));
+    EXPECT_TRUE(test::bitwiseEqual(*m1, *m2));
+    EXPECT_GT(g1->activeVoxelCount(), 1000);
+    // material ids are ground materials only, on the surface's voxels.
+    EXPECT_EQ(m1->activeVoxelCount(), g1->activeVoxelCount());
+    for (auto it = m1->cbeginValueOn(); it; ++it) {
+        ASSERT_TRUE(*it == 2.0f || *it == 3.0f || *it == 4.0f) << *it;
+    }
+}
+
+TEST(StackBuild, HeightfieldGivesBedrockUnderSand)
+{
+    Task task;
+    Heightfield hf;
+    hf.nx = 4;
+    hf.ny = 3;
+    hf.cellSize = 2.0;
+    hf.z.assign(12, 5.0f);
+    hf.z[5] = 0.3f;
+    const Stacks st = stacksFromHeightfield(hf, 0.01, 0.0, 0.5, nullptr, task);
+    std::vector<Layer> l;
+    st.layers(0, 0, l);
+    ASSERT_EQ(l.size(), 2u);
+    EXPECT_EQ(l[0], (Layer{Material::Bedrock, 450}));
+    EXPECT_EQ(l[1], (Layer{Material::Sand, 50}));
+    st.layers(1, 1, l); // 0.3 m high: all sand
+    ASSERT_EQ(l.size(), 1u);
+    EXPECT_EQ(l[0], (Layer{Material::Sand, 30}));
+    EXPECT_DOUBLE_EQ(st.geometry().x0, -1.0);
+    EXPECT_THROW(stacksFromHeightfield(hf, 0.01, 1.0, 0.5, nullptr, task), ValueError); // below the floor
+    EXPECT_THROW(stacksFromHeightfield(hf, 0.01, 0.0, -0.5, nullptr, task), ValueError);
+    SkeletonBake b;
+    b.sigma = 0.0;
+    EXPECT_THROW(bakeSkeleton(Skeleton(st, kGroundMask), b, task), ValueError);
+}
