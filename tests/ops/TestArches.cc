@@ -2,10 +2,12 @@
 // heightfields and solids.
 #include <rockvdb/arches/StackBake.h>
 #include <rockvdb/arches/StackBuild.h>
+#include <rockvdb/arches/Stabilize.h>
 #include <rockvdb/arches/Stacks.h>
 
 #include <rockvdb/core/Combinators.h>
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Noise.h>
 #include <rockvdb/core/Primitives.h>
 #include <rockvdb/core/Random.h>
 #include "GridCompare.h"
@@ -284,4 +286,148 @@ TEST(StackBuild, HeightfieldGivesBedrockUnderSand)
     SkeletonBake b;
     b.sigma = 0.0;
     EXPECT_THROW(bakeSkeleton(Skeleton(st, kGroundMask), b, task), ValueError);
+}
+
+// ---- stabilisation (§3.4) -------------------------------------------------------------------
+
+namespace {
+
+// Bedrock intervals of every stack (what stabilisation must not touch).
+std::vector<std::vector<std::pair<uint64_t, uint64_t>>> bedrockOf(const Stacks& st)
+{
+    const auto& g = st.geometry();
+    std::vector<std::vector<std::pair<uint64_t, uint64_t>>> r(g.count());
+    std::vector<Layer> l;
+    for (int j = 0; j < g.ny; ++j)
+        for (int i = 0; i < g.nx; ++i) {
+            st.layers(i, j, l);
+            uint64_t z = 0;
+            for (const Layer& x : l) {
+                if (x.material == Material::Bedrock) r[g.index(i, j)].emplace_back(z, z + x.thickness);
+                z += x.thickness;
+            }
+        }
+    return r;
+}
+
+// A rough terrain (fBm bedrock), 0.3 m of sand everywhere, a 6 m sand heap and a 4 m rock heap
+// dropped on it, and a cave (bedrock roof over air) holding sand on its floor.
+Stacks unstableTerrain(Task& task, int n = 48)
+{
+    noise::Fbm fbm;
+    fbm.octaves = 4;
+    fbm.frequency = 0.08;
+    const Heightfield hf = noiseHeightfield(n, n, 0.5, 3.0, fbm, 11);
+    StackGeometry g = geometry(n, n, 0.5, 0.01);
+    g.z0 = -10.0;
+    return Stacks::build(g, [&](int i, int j, std::vector<Layer>& l) {
+        uint32_t rock = uint32_t(std::lround((hf.at(i, j) + 10.0) / 0.01));
+        uint32_t sandQ = 30, rocksQ = 0;
+        if (std::abs(i - n / 3) <= 1 && std::abs(j - n / 3) <= 1) sandQ += 600;
+        if (std::abs(i - 2 * n / 3) <= 1 && std::abs(j - n / 2) <= 1) rocksQ += 400;
+        if (i >= 7 && i < 15 && j >= 29 && j < 41) {
+            // A closed cave on a flat floor at 4 m: walls all round, 2 m of room, a 1 m roof;
+            // sand heaped against one wall of its floor.
+            const uint32_t floorQ = 1400;
+            if (i == 7 || i == 14 || j == 29 || j == 40) {
+                rock = floorQ + 300;
+            } else {
+                l.push_back(Layer{Material::Bedrock, floorQ});
+                l.push_back(Layer{Material::Sand, uint32_t(i == 8 ? 150 : 10)});
+                l.push_back(Layer{Material::Air, uint32_t(i == 8 ? 50 : 190)});
+                rock = 100;
+            }
+        }
+        l.push_back(Layer{Material::Bedrock, rock});
+        l.push_back(Layer{Material::Sand, sandQ});
+        l.push_back(Layer{Material::Rocks, rocksQ});
+    }, task);
+}
+
+} // namespace
+
+TEST(Stabilize, MergesAndSortsBetweenBedrockLayers)
+{
+    Task task;
+    auto st = Stacks::build(geometry(1, 1, 1.0), [](int, int, std::vector<Layer>& l) {
+        l = {{Material::Bedrock, 100}, {Material::Rocks, 5}, {Material::Air, 20}, {Material::Sand, 7},
+             {Material::Water, 3}, {Material::Sand, 4}, {Material::Bedrock, 50}, {Material::Air, 9},
+             {Material::Rocks, 2}, {Material::Sand, 1}};
+    }, task);
+    const Stacks n = normalizeStacks(st, task);
+    std::vector<Layer> l;
+    n.layers(0, 0, l);
+    const std::vector<Layer> want = {{Material::Bedrock, 100}, {Material::Sand, 11}, {Material::Rocks, 5},
+                                     {Material::Water, 3}, {Material::Air, 20}, {Material::Bedrock, 50},
+                                     {Material::Sand, 1}, {Material::Rocks, 2}};
+    EXPECT_EQ(l, want);
+}
+
+TEST(Stabilize, SlopesEndAtTheReposeAngleMassConservedBedrockUntouched)
+{
+    Task task;
+    const Stacks before = unstableTerrain(task);
+    const ReposeAngles angles;
+    // Not stable to begin with (the test is not vacuous).
+    EXPECT_GT(largestExcess(before, Material::Sand, angles.sand), 100.0);
+    EXPECT_GT(largestExcess(before, Material::Rocks, angles.rocks), 100.0);
+    StabilizeStats stats;
+    const Stacks after = stabilizeStacks(before, angles, task, &stats);
+    EXPECT_GT(stats.moves, 100u);
+    // Stable within a quantum, for each material at its own angle.
+    EXPECT_LE(largestExcess(after, Material::Sand, angles.sand), 1.0);
+    EXPECT_LE(largestExcess(after, Material::Rocks, angles.rocks), 1.0);
+    // Mass: exactly; bedrock: untouched.
+    for (Material m : {Material::Sand, Material::Rocks, Material::Water, Material::Bedrock}) {
+        EXPECT_EQ(before.volumeQuanta(m), after.volumeQuanta(m)) << materialName(m);
+    }
+    EXPECT_EQ(bedrockOf(before), bedrockOf(after));
+    // The cave's sand stayed in the cave (bedrock walls and roof), levelled on its floor.
+    uint64_t caveSand = 0;
+    std::vector<Layer> l;
+    for (int j = 30; j < 40; ++j)
+        for (int i = 8; i < 14; ++i) {
+            after.layers(i, j, l);
+            ASSERT_GE(l.size(), 3u);
+            ASSERT_EQ(l[1].material, Material::Sand) << i << " " << j;
+            caveSand += l[1].thickness;
+        }
+    EXPECT_EQ(caveSand, 10u * (150 + 5 * 10));
+    after.layers(8, 35, l);
+    const uint32_t wallSide = l[1].thickness;
+    after.layers(13, 35, l);
+    EXPECT_LE(wallSide - l[1].thickness, 5 * uint32_t(0.5 * std::tan(33.0 * M_PI / 180.0) / 0.01) + 5); // spread out
+    // Same bits at any thread count.
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    EXPECT_TRUE(stabilizeStacks(before, angles, task) == after);
+}
+
+TEST(Stabilize, AHeapBecomesAConeAtTheReposeAngle)
+{
+    Task task;
+    // 20 m of sand on one stack of a flat 61 x 61 bedrock floor (0.5 m cells).
+    const int n = 61;
+    auto heap = Stacks::build(geometry(n, n, 0.5, 0.01), [&](int i, int j, std::vector<Layer>& l) {
+        l.push_back(Layer{Material::Bedrock, 100});
+        if (i == n / 2 && j == n / 2) l.push_back(Layer{Material::Sand, 2000});
+    }, task);
+    ReposeAngles angles;
+    angles.sand = 30.0;
+    const Stacks cone = stabilizeStacks(heap, angles, task);
+    EXPECT_EQ(cone.volumeQuanta(Material::Sand), 2000u);
+    // Along the x axis through the centre the flank stands at the angle: each step down is
+    // s·tan α within a quantum or two, wherever sand lies on both sides.
+    const double step = 0.5 * std::tan(30.0 * M_PI / 180.0) / 0.01;
+    int flank = 0;
+    for (int i = n / 2; i + 1 < n; ++i) {
+        const double h0 = double(cone.height(i, n / 2)), h1 = double(cone.height(i + 1, n / 2));
+        if (h1 <= 100) break; // bare bedrock beyond
+        EXPECT_LE(h0 - h1, step + 1.0) << i;
+        EXPECT_GE(h0 - h1, step - 2.0) << i;
+        ++flank;
+    }
+    EXPECT_GE(flank, 2);
+    EXPECT_GT(cone.height(n / 2, n / 2), 100u + uint64_t(2 * step));
+    // And it is round, not square: the diagonal flank is as steep per metre as the axis.
+    EXPECT_NEAR(double(cone.height(n / 2 + 2, n / 2 + 2)), double(cone.height(n / 2 + 3, n / 2)), 2 * step);
 }

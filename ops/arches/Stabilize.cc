@@ -1,0 +1,286 @@
+// Stabilisation of material stacks (see Stabilize.h).
+#include "Stabilize.h"
+
+#include <rockvdb/core/Error.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <deque>
+#include <limits>
+
+namespace rockvdb {
+namespace arches {
+
+namespace {
+
+constexpr uint64_t kSky = std::numeric_limits<uint64_t>::max() / 4; // the top segment's ceiling
+
+// The room between two bedrock layers (quanta above z0) and the granular material in it,
+// sorted from the floor up: sand, rocks, water, then air.
+struct Segment
+{
+    uint64_t floor = 0, ceiling = kSky;
+    uint64_t sand = 0, rocks = 0, water = 0;
+
+    uint64_t filled() const { return sand + rocks + water; }
+    uint64_t room() const { return ceiling == kSky ? kSky : ceiling - floor - filled(); }
+};
+
+// Every stack as its segments (bedrock is what lies between them).
+struct Segments
+{
+    StackGeometry geometry;
+    std::vector<uint32_t> first; // per stack: its first segment
+    std::vector<Segment> seg;
+
+    explicit Segments(const Stacks& st) : geometry(st.geometry())
+    {
+        const auto& g = geometry;
+        first.resize(g.count() + 1);
+        std::vector<Layer> layers;
+        for (int j = 0; j < g.ny; ++j)
+            for (int i = 0; i < g.nx; ++i) {
+                const size_t s = g.index(i, j);
+                first[s] = uint32_t(seg.size());
+                st.layers(i, j, layers);
+                Segment cur;
+                uint64_t z = 0;
+                for (const Layer& l : layers) {
+                    if (l.material == Material::Bedrock) {
+                        // Close the room below this bedrock (kept when it has any height).
+                        if (z > cur.floor) {
+                            cur.ceiling = z;
+                            seg.push_back(cur);
+                        }
+                        z += l.thickness;
+                        cur = Segment{};
+                        cur.floor = z;
+                        continue;
+                    }
+                    if (l.material == Material::Sand) cur.sand += l.thickness;
+                    else if (l.material == Material::Rocks) cur.rocks += l.thickness;
+                    else if (l.material == Material::Water) cur.water += l.thickness;
+                    z += l.thickness;
+                }
+                cur.ceiling = kSky;
+                seg.push_back(cur);
+            }
+        first[g.count()] = uint32_t(seg.size());
+    }
+
+    // The segment of stack s whose room contains height h (quanta), or -1 (inside bedrock).
+    int64_t at(size_t s, uint64_t h) const
+    {
+        for (uint32_t k = first[s]; k < first[s + 1]; ++k) {
+            if (seg[k].floor <= h && h < seg[k].ceiling) return int64_t(k);
+        }
+        return -1;
+    }
+
+    Stacks encode(Task& task) const
+    {
+        return Stacks::build(geometry, [&](int i, int j, std::vector<Layer>& layers) {
+            const size_t s = geometry.index(i, j);
+            uint64_t z = 0;
+            for (uint32_t k = first[s]; k < first[s + 1]; ++k) {
+                const Segment& c = seg[k];
+                auto add = [&](Material m, uint64_t t) {
+                    for (; t > 0;) { // Layer thickness is 32-bit
+                        const uint32_t part = uint32_t(std::min<uint64_t>(t, 0xffffffffu));
+                        layers.push_back(Layer{m, part});
+                        t -= part;
+                    }
+                };
+                add(Material::Bedrock, c.floor - z);
+                add(Material::Sand, c.sand);
+                add(Material::Rocks, c.rocks);
+                add(Material::Water, c.water);
+                if (c.ceiling != kSky) add(Material::Air, c.ceiling - c.floor - c.filled());
+                z = c.ceiling;
+            }
+        }, task);
+    }
+};
+
+const int kDx[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
+const int kDy[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
+
+// One material's slide over all segments: a FIFO worklist, one thread.
+void slide(Segments& S, Material material, double angleDegrees, Task& task, StabilizeStats& stats)
+{
+    const auto& g = S.geometry;
+    const bool sand = material == Material::Sand;
+    const double tanA = std::tan(angleDegrees * M_PI / 180.0);
+    // Thresholds per neighbour (quanta): d_i · tan α.
+    double threshold[8];
+    for (int n = 0; n < 8; ++n) {
+        const double d = (kDx[n] != 0 && kDy[n] != 0) ? g.cell * std::sqrt(2.0) : g.cell;
+        threshold[n] = d * tanA / g.quantum;
+    }
+    auto amount = [&](Segment& c) -> uint64_t& { return sand ? c.sand : c.rocks; };
+    auto top = [&](const Segment& c) { return c.floor + c.sand + (sand ? 0 : c.rocks); };
+
+    std::vector<uint8_t> queued(S.seg.size(), 0);
+    std::deque<uint32_t> work;
+    for (uint32_t k = 0; k < S.seg.size(); ++k) {
+        if (amount(S.seg[k]) > 0) {
+            work.push_back(k);
+            queued[k] = 1;
+        }
+    }
+    // The stack of each segment, for neighbour lookups.
+    std::vector<uint32_t> stackOf(S.seg.size());
+    for (size_t s = 0; s < g.count(); ++s)
+        for (uint32_t k = S.first[s]; k < S.first[s + 1]; ++k) stackOf[k] = uint32_t(s);
+
+    struct Out
+    {
+        uint32_t seg;
+        double excess;
+        uint64_t room;
+        uint64_t take = 0;
+    };
+    std::vector<Out> outs;
+    auto push = [&](uint32_t k) {
+        if (!queued[k]) {
+            queued[k] = 1;
+            work.push_back(k);
+        }
+    };
+    size_t sinceCheck = 0;
+    while (!work.empty()) {
+        if (++sinceCheck == 4096) {
+            sinceCheck = 0;
+            task.check();
+        }
+        const uint32_t c = work.front();
+        work.pop_front();
+        queued[c] = 0;
+        ++stats.visits;
+        Segment& cs = S.seg[c];
+        const uint64_t have = amount(cs);
+        if (have == 0) continue;
+        const uint64_t h = top(cs);
+        const size_t s = stackOf[c];
+        const int i = int(s % size_t(g.nx)), j = int(s / size_t(g.nx));
+        outs.clear();
+        double maxExcess = 0, sum = 0;
+        for (int n = 0; n < 8; ++n) {
+            const int ni = i + kDx[n], nj = j + kDy[n];
+            if (ni < 0 || nj < 0 || ni >= g.nx || nj >= g.ny) continue;
+            const int64_t k = S.at(g.index(ni, nj), h);
+            if (k < 0) continue; // a wall
+            const Segment& ns = S.seg[size_t(k)];
+            const uint64_t room = ns.room();
+            if (room == 0) continue;
+            const double excess = double(h) - double(top(ns)) - threshold[n];
+            if (excess <= 0) continue;
+            outs.push_back(Out{uint32_t(k), excess, room});
+            maxExcess = std::max(maxExcess, excess);
+            sum += excess;
+        }
+        if (maxExcess < 1.0) continue; // stable within a quantum
+        uint64_t move = std::min<uint64_t>(have, std::max<uint64_t>(1, uint64_t(maxExcess / 2.0)));
+        // In proportion to the excess, within each neighbour's room; the rounding remainder to
+        // the largest excesses first (ties: neighbour order).
+        uint64_t given = 0;
+        for (Out& o : outs) {
+            o.take = std::min(o.room, uint64_t(double(move) * o.excess / sum));
+            given += o.take;
+        }
+        std::vector<size_t> order(outs.size());
+        for (size_t o = 0; o < order.size(); ++o) order[o] = o;
+        std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return outs[a].excess > outs[b].excess; });
+        for (bool progress = true; given < move && progress;) {
+            progress = false;
+            for (size_t o : order) {
+                if (given == move) break;
+                if (outs[o].take < outs[o].room) {
+                    ++outs[o].take;
+                    ++given;
+                    progress = true;
+                }
+            }
+        }
+        if (given == 0) continue;
+        amount(cs) -= given;
+        for (const Out& o : outs) amount(S.seg[o.seg]) += o.take;
+        ++stats.moves;
+        stats.movedQuanta += given;
+        // Whatever stands next to a changed pile may now slide: the giver, the receivers and
+        // the neighbours' segments at the giver's old top.
+        push(c);
+        for (const Out& o : outs) push(o.seg);
+        for (int n = 0; n < 8; ++n) {
+            const int ni = i + kDx[n], nj = j + kDy[n];
+            if (ni < 0 || nj < 0 || ni >= g.nx || nj >= g.ny) continue;
+            const int64_t k = S.at(g.index(ni, nj), h);
+            if (k >= 0 && amount(S.seg[size_t(k)]) > 0) push(uint32_t(k));
+        }
+    }
+}
+
+} // namespace
+
+void ReposeAngles::validate() const
+{
+    if (!(sand > 0 && sand < 90)) fail<ValueError>("arches: repose angle of sand must be in (0, 90) degrees (got ", sand, ")");
+    if (!(rocks > 0 && rocks < 90)) fail<ValueError>("arches: repose angle of rocks must be in (0, 90) degrees (got ", rocks, ")");
+}
+
+Stacks normalizeStacks(const Stacks& stacks, Task& task)
+{
+    return Segments(stacks).encode(task);
+}
+
+Stacks stabilizeStacks(const Stacks& stacks, const ReposeAngles& angles, Task& task,
+                       StabilizeStats* stats)
+{
+    angles.validate();
+    const auto t0 = std::chrono::steady_clock::now();
+    StabilizeStats local;
+    Segments S(stacks);
+    // Bottom layers first: sand, then the rocks lying on it.
+    task.phase("sand", 0.5);
+    slide(S, Material::Sand, angles.sand, task, local);
+    task.phase("rocks", 0.4);
+    slide(S, Material::Rocks, angles.rocks, task, local);
+    task.phase("encode", 0.1);
+    Stacks r = S.encode(task);
+    local.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (stats) *stats = local;
+    return r;
+}
+
+double largestExcess(const Stacks& stacks, Material material, double angleDegrees)
+{
+    const Segments S(stacks);
+    const auto& g = S.geometry;
+    const bool sand = material == Material::Sand;
+    const double tanA = std::tan(angleDegrees * M_PI / 180.0);
+    double worst = 0;
+    for (int j = 0; j < g.ny; ++j)
+        for (int i = 0; i < g.nx; ++i) {
+            const size_t s = g.index(i, j);
+            for (uint32_t k = S.first[s]; k < S.first[s + 1]; ++k) {
+                const Segment& c = S.seg[k];
+                if ((sand ? c.sand : c.rocks) == 0) continue;
+                const uint64_t h = c.floor + c.sand + (sand ? 0 : c.rocks);
+                for (int n = 0; n < 8; ++n) {
+                    const int ni = i + kDx[n], nj = j + kDy[n];
+                    if (ni < 0 || nj < 0 || ni >= g.nx || nj >= g.ny) continue;
+                    const int64_t o = S.at(g.index(ni, nj), h);
+                    if (o < 0 || S.seg[size_t(o)].room() == 0) continue;
+                    const Segment& ns = S.seg[size_t(o)];
+                    const double d = (kDx[n] != 0 && kDy[n] != 0) ? g.cell * std::sqrt(2.0) : g.cell;
+                    const double top = double(ns.floor + ns.sand + (sand ? 0 : ns.rocks));
+                    worst = std::max(worst, double(h) - top - d * tanA / g.quantum);
+                }
+            }
+        }
+    return worst;
+}
+
+} // namespace arches
+} // namespace rockvdb
