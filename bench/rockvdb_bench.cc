@@ -1,6 +1,9 @@
 // rockvdb_bench — each issue's numbers beside a reference run in the same process.
 // usage: rockvdb_bench [--quick] [foundation] [blocks] [amplify] [detail] [rockpile]   (no group: all of them)
 #include <rockvdb/amplify/Amplify.h>
+#include <rockvdb/arches/StackBake.h>
+#include <rockvdb/arches/StackBuild.h>
+#include <rockvdb/arches/Stabilize.h>
 #include <rockvdb/blocks/BlockTile.h>
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Combinators.h>
@@ -442,6 +445,112 @@ void fractalGroup(bool quick)
     }
 }
 
+// Issue 17: the bench's material-stack terrain: procedural strata (bedrock, sand, bedrock, an
+// air band of overhangs, bedrock, rocks, bedrock) under an fBm top, 1 m stacks.
+rockvdb::arches::StrataSpec strataScene(int nx, int ny, double quantum)
+{
+    using namespace rockvdb::arches;
+    StrataSpec spec;
+    spec.geometry.nx = nx;
+    spec.geometry.ny = ny;
+    spec.geometry.quantum = quantum;
+    spec.base = 45.0;
+    spec.amplitude = 30.0;
+    spec.frequency = 0.01;
+    spec.warp = 2.0;
+    spec.warpFrequency = 0.03;
+    spec.seed = 3;
+    spec.strata = {{Material::Bedrock, 20}, {Material::Sand, 3}, {Material::Bedrock, 8},
+                   {Material::Air, 4}, {Material::Bedrock, 6}, {Material::Rocks, 2}, {Material::Bedrock, 100}};
+    return spec;
+}
+
+// Issue 17: material stacks at the sizes of the arches paper's Table 1.
+void archesGroup(bool quick)
+{
+    using namespace rockvdb::arches;
+    struct Scene
+    {
+        const char* name;
+        int nx, ny, levels;
+        double paperMB;
+    };
+    const Scene scenes[] = {{"cave", 1000, 750, 8000, 21}, {"canyon", 1000, 500, 5000, 14}, {"cliff", 2000, 500, 4000, 26}};
+    std::printf("\n## arches: material stacks at the paper's Table 1 sizes (procedural strata with an overhang band)\n\n");
+    std::printf("| scene | effective resolution | layers / stack | stack memory | paper | dense voxels (1 B) | ground level set | build |\n|---|---|---|---|---|---|---|---|\n");
+    for (const Scene& sc : scenes) {
+        if (quick && sc.nx > 1000) continue;
+        // Effective resolution: the top's 80 m range in sc.levels quanta.
+        const StrataSpec spec = strataScene(sc.nx, sc.ny, 80.0 / sc.levels);
+        Stacks st;
+        Task task;
+        const double build = bestOf(1, [&] { st = stacksFromStrata(spec, task); });
+        std::string vdb = "-";
+        if (sc.nx == 1000 && sc.ny == 750) {
+            // The same ground as an OpenVDB level set (bytes in memory), at the cell size.
+            SkeletonBake b;
+            b.sigma = 0.5;
+            b.voxelSize = 1.0;
+            auto g = bakeSkeleton(Skeleton(st, kGroundMask), b, task);
+            char buf[64];
+            std::snprintf(buf, sizeof buf, "%.0f MB", double(g->memUsage()) / 1e6);
+            vdb = buf;
+        }
+        std::printf("| %s | %d x %d x %d | %.2f | %.1f MB (%.1f B/stack) | %.0f MB | %.1f GB | %s | %.2f s |\n", sc.name, sc.nx,
+                    sc.ny, sc.levels, double(st.layerCount()) / double(st.geometry().count()), double(st.bytes()) / 1e6,
+                    double(st.bytes()) / double(st.geometry().count()), sc.paperMB,
+                    double(sc.nx) * sc.ny * sc.levels / 1e9, vdb.c_str(), build);
+    }
+    // Stabilise after dropping 0.5 m of sand on every stack of the 1000 x 750 scene; bake its
+    // ground at the cell size; the convolution's evaluations per second beside the sphere's.
+    const StrataSpec spec = strataScene(1000, 750, 0.01);
+    Task task;
+    const Stacks strata = stacksFromStrata(spec, task);
+    const Stacks dropped = Stacks::build(strata.geometry(), [&](int i, int j, std::vector<Layer>& out) {
+        strata.layers(i, j, out);
+        out.push_back(Layer{Material::Sand, 50});
+    }, task);
+    StabilizeStats st;
+    Stacks stable;
+    const double stab = bestOf(1, [&] { stable = stabilizeStacks(dropped, ReposeAngles(), task, &st); });
+    std::printf("\n| 1000 x 750 scene | time | target | worklist visits | moves | moved |\n|---|---|---|---|---|---|\n");
+    std::printf("| stabilise after 0.5 m of sand everywhere | %.2f s | <= 5 s | %zu | %zu | %.0f m3 |\n", stab, st.visits, st.moves,
+                double(st.movedQuanta) * 0.01);
+    SkeletonBake b;
+    b.sigma = 0.5;
+    b.voxelSize = 1.0;
+    openvdb::FloatGrid::Ptr ground;
+    BakeStats bs;
+    const double bk = bestOf(1, [&] { ground = bakeSkeleton(Skeleton(stable, kGroundMask), b, task, &bs); });
+    std::printf("| bake the ground at 1 m (sigma 0.5 m) | %.2f s | <= 20 s | %zu active voxels | %zu evaluations | |\n", bk,
+                size_t(ground->activeVoxelCount()), bs.fieldEvaluations);
+    // Evaluations per second: the convolution vs the baker's analytic sphere, same run.
+    auto conv = convolutionField(std::make_shared<Skeleton>(stable, kGroundMask), 0.5);
+    auto ball = sphere(Vec3d(500, 375, 40), 30.0);
+    BatchBuffer batch;
+    batch.n = kMaxBatch;
+    std::vector<float> out(kMaxBatch);
+    auto rate = [&](const Field& f) {
+        size_t n = 0;
+        const double t = bestOf(3, [&] {
+            n = 0;
+            for (int r = 0; r < 400; ++r) {
+                for (int k = 0; k < kMaxBatch; ++k) {
+                    batch.x[k] = float(100 + (r * 7 + k) % 800);
+                    batch.y[k] = float(100 + (r * 13 + k / 8) % 550);
+                    batch.z[k] = float(20 + (k % 64));
+                }
+                f.evalBatch(batch.view(), out.data());
+                n += kMaxBatch;
+            }
+        });
+        return double(n) / t;
+    };
+    const double rc = rate(*conv), rs = rate(*ball);
+    std::printf("| field evaluations, 1 thread | %.1f M/s convolution | %.1f M/s analytic sphere | ratio %.2f | | |\n", rc / 1e6,
+                rs / 1e6, rc / rs);
+}
+
 int main(int argc, char** argv)
 {
     initialize();
@@ -450,7 +559,8 @@ int main(int argc, char** argv)
     std::printf("allocator: %s (both sides of every ratio run in this process with it)\n\n",
                 ROCKVDB_ALLOCATOR);
     bool all = true, wantFoundation = false, wantBlocks = false, wantAmplify = false,
-         wantDetail = false, wantRockpile = false, wantFill = false, wantFractal = false;
+         wantDetail = false, wantRockpile = false, wantFill = false, wantFractal = false,
+         wantArches = false;
     for (int i = 1; i < argc; ++i) {
         if (std::strcmp(argv[i], "foundation") == 0) { wantFoundation = true; all = false; }
         if (std::strcmp(argv[i], "blocks") == 0) { wantBlocks = true; all = false; }
@@ -459,6 +569,7 @@ int main(int argc, char** argv)
         if (std::strcmp(argv[i], "rockpile") == 0) { wantRockpile = true; all = false; }
         if (std::strcmp(argv[i], "fill") == 0) { wantFill = true; all = false; }
         if (std::strcmp(argv[i], "fractal") == 0) { wantFractal = true; all = false; }
+        if (std::strcmp(argv[i], "arches") == 0) { wantArches = true; all = false; }
     }
     if (all || wantFoundation) foundation(quick);
     if (all || wantBlocks) blocksGroup(quick);
@@ -467,5 +578,6 @@ int main(int argc, char** argv)
     if (all || wantRockpile) rockpileGroup(quick);
     if (all || wantFill) fillGroup(quick);
     if (all || wantFractal) fractalGroup(quick);
+    if (all || wantArches) archesGroup(quick);
     return 0;
 }

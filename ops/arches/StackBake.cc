@@ -6,6 +6,8 @@
 
 #include <openvdb/tools/ChangeBackground.h>
 #include <openvdb/tools/FastSweeping.h>
+#include <openvdb/tools/Morphology.h>
+#include <openvdb/tools/Morphology.h>
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tools/SignedFloodFill.h>
 #include <openvdb/tree/LeafManager.h>
@@ -150,6 +152,34 @@ openvdb::FloatGrid::Ptr bakeSkeleton(const Skeleton& skeleton, const SkeletonBak
     if (stats) *stats = r.stats;
 
     task.phase("redistance", 0.4);
+    task.check();
+    // Sweep only the voxels that can end in the band: those within w + 1 voxels (Chebyshev) of
+    // a sign change. The candidate leaves hold ~2x as many (whole leaves, σ of slack).
+    {
+        auto crossing = openvdb::MaskGrid::create(false);
+        const auto& tree = r.surface->tree();
+        std::vector<const openvdb::FloatTree::LeafNodeType*> list;
+        tree.getNodes(list);
+        std::vector<std::vector<openvdb::Coord>> marks(list.size());
+        parallelFor(task, list.size(), 16, [&](size_t l) {
+            openvdb::tree::ValueAccessor<const openvdb::FloatTree> acc(tree);
+            for (auto it = list[l]->cbeginValueOn(); it; ++it) {
+                const bool in = *it < 0;
+                const openvdb::Coord c = it.getCoord();
+                if ((acc.getValue(c.offsetBy(1, 0, 0)) < 0) != in || (acc.getValue(c.offsetBy(-1, 0, 0)) < 0) != in ||
+                    (acc.getValue(c.offsetBy(0, 1, 0)) < 0) != in || (acc.getValue(c.offsetBy(0, -1, 0)) < 0) != in ||
+                    (acc.getValue(c.offsetBy(0, 0, 1)) < 0) != in || (acc.getValue(c.offsetBy(0, 0, -1)) < 0) != in) {
+                    marks[l].push_back(c);
+                }
+            }
+        });
+        auto macc = crossing->getAccessor();
+        for (const auto& m : marks)
+            for (const auto& c : m) macc.setValueOn(c);
+        openvdb::tools::dilateActiveValues(crossing->tree(), int(std::ceil(w)) + 1, openvdb::tools::NN_FACE_EDGE_VERTEX,
+                                           openvdb::tools::IGNORE_TILES);
+        r.surface->tree().topologyIntersection(crossing->tree());
+    }
     task.check();
     openvdb::FloatGrid::Ptr grid = openvdb::tools::sdfToSdf(*r.surface, 0.0f, 1);
     task.check();

@@ -5,8 +5,9 @@
 // is between 1/σ and √2/σ, and it is constant ±1 farther than σ from the material). It is baked
 // by the shared baker on the leaves that can hold the band (found from the stacks' interval
 // ends, not by culling: a field that saturates at ±σ cannot be culled), as −σ·f, and then
-// redistanced from its zero crossing by OpenVDB's fast sweeping (tools::sdfToSdf), so every
-// output is a signed distance with |∇| ≈ 1 over the whole band.
+// redistanced from its zero crossing by OpenVDB's fast sweeping (tools::sdfToSdf) on the voxels
+// within w + 1 of a sign change, so every output is a signed distance with |∇| ≈ 1 over the
+// whole band. The sweeping is ~3/4 of the time (bench `arches`).
 #pragma once
 
 #include <rockvdb/arches/Stacks.h>

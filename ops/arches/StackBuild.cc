@@ -2,6 +2,7 @@
 #include "StackBuild.h"
 
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Noise.h>
 
 #include <algorithm>
 #include <cmath>
@@ -45,6 +46,46 @@ Stacks stacksFromHeightfield(const Heightfield& hf, double quantum, double z0, d
         const uint32_t top = quanta(h, quantum), s = std::min(top, quanta(sand, quantum));
         layers.push_back(Layer{Material::Bedrock, top - s});
         layers.push_back(Layer{Material::Sand, s});
+    }, task);
+}
+
+Stacks stacksFromStrata(const StrataSpec& spec, Task& task)
+{
+    const auto& g = spec.geometry;
+    g.validate();
+    if (spec.strata.empty()) fail<ValueError>("arches: strata: at least one stratum is needed");
+    for (size_t k = 0; k < spec.strata.size(); ++k) {
+        if (!(spec.strata[k].thickness >= 0) || !std::isfinite(spec.strata[k].thickness)) {
+            fail<ValueError>("arches: strata[", k, "].thickness must be >= 0 (got ", spec.strata[k].thickness, ")");
+        }
+    }
+    noise::Fbm top;
+    top.frequency = spec.frequency;
+    top.octaves = spec.octaves;
+    noise::Fbm warp = top;
+    warp.frequency = spec.warpFrequency;
+    const double topNorm = spec.amplitude / top.amplitudeSum(), warpNorm = spec.warp / warp.amplitudeSum();
+    const size_t n = spec.strata.size();
+    return Stacks::build(g, [&](int i, int j, std::vector<Layer>& layers) {
+        const float x = float(g.x0 + (i + 0.5) * g.cell), y = float(g.y0 + (j + 0.5) * g.cell);
+        const double h = spec.base + topNorm * noise::fbm2(spec.seed, top, x, y) - g.z0;
+        if (h <= 0) return;
+        // Boundary k (k = 1..n-1) above z0: the strata below it, warped, never below the last.
+        double below = 0, nominal = 0;
+        uint32_t laid = 0;
+        for (size_t k = 0; k < n; ++k) {
+            double upper = h;
+            if (k + 1 < n) {
+                nominal += spec.strata[k].thickness;
+                upper = std::min(h, std::max(below, nominal + warpNorm * noise::fbm2(spec.seed + 1 + k, warp, x, y)));
+            }
+            const uint32_t to = quanta(std::max(upper, 0.0), g.quantum);
+            if (to > laid) {
+                layers.push_back(Layer{spec.strata[k].material, to - laid});
+                laid = to;
+            }
+            below = std::max(below, upper);
+        }
     }, task);
 }
 

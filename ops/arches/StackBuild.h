@@ -10,6 +10,8 @@
 #include <rockvdb/core/Heightfield.h>
 #include <rockvdb/core/Task.h>
 
+#include <vector>
+
 namespace rockvdb {
 namespace arches {
 
@@ -19,6 +21,31 @@ namespace arches {
 /// quanta of @a quantum. @throw ValueError for a sample below z0 or a negative depth.
 Stacks stacksFromHeightfield(const Heightfield& hf, double quantum, double z0, double sandDepth,
                              const std::vector<float>* sandMap, Task& task);
+
+/// One stratum of a procedural terrain: a material and its thickness (m).
+struct Stratum
+{
+    Material material = Material::Bedrock;
+    double thickness = 1.0;
+};
+
+/// Procedural strata: the terrain's top h(x, y) = base + amplitude · fbm(x, y) / Σgain, cut
+/// through strata laid bottom up from z0 whose boundaries are each warped by their own fBm of
+/// @c warp metres; the last stratum reaches the top. An air stratum inside the ground is a
+/// band of overhangs and caves wherever the ground stands above it.
+struct StrataSpec
+{
+    StackGeometry geometry;
+    std::vector<Stratum> strata;
+    double base = 10.0, amplitude = 5.0, frequency = 0.02; ///< the top (m, m, 1/m)
+    double warp = 1.0, warpFrequency = 0.05;               ///< boundary warp (m, 1/m)
+    int octaves = 5;
+    uint64_t seed = 0;
+};
+
+/// @brief Stacks of procedural strata (see StrataSpec). @throw ValueError for no strata or
+/// a negative thickness.
+Stacks stacksFromStrata(const StrataSpec& spec, Task& task);
 
 /// @brief Stacks of @a material where @a solid is inside (f < 0), from the roots of f along each
 /// stack's central axis, sampled every @a step metres from geometry.z0 to the top of the

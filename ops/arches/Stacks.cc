@@ -83,6 +83,10 @@ Stacks Stacks::build(const StackGeometry& geometry,
             flush();
             // Air on top is implied: drop it.
             while (codes.size() > before && codeMaterial(codes.back()) == Material::Air) codes.pop_back();
+            if (codes.size() - before > 255) {
+                fail<ValueError>("stacks: stack (", i, ", ", j, ") needs ", codes.size() - before,
+                                 " layer codes, more than the 255 a stack holds; use a larger thickness quantum");
+            }
             count[size_t(i)] = uint32_t(codes.size() - before);
         }
     });
@@ -92,25 +96,35 @@ Stacks Stacks::build(const StackGeometry& geometry,
         fail<ValueError>("stacks: ", total, " layer codes exceed the 32-bit offsets");
     }
     r.mCode.reserve(total);
-    r.mOffset.reserve(geometry.count() + 1);
-    r.mOffset.push_back(0);
+    r.mCount.reserve(geometry.count());
     for (size_t j = 0; j < rows.size(); ++j) {
         r.mCode.insert(r.mCode.end(), rows[j].begin(), rows[j].end());
-        for (const uint32_t c : counts[j]) r.mOffset.push_back(r.mOffset.back() + c);
+        for (const uint32_t c : counts[j]) r.mCount.push_back(uint8_t(c));
         std::vector<uint16_t>().swap(rows[j]);
     }
+    r.index();
     return r;
 }
 
+void Stacks::index()
+{
+    mBlock.assign((mCount.size() + kBlockMask) >> kBlockBits, 0);
+    size_t at = 0;
+    for (size_t s = 0; s < mCount.size(); ++s) {
+        if ((s & kBlockMask) == 0) mBlock[s >> kBlockBits] = uint32_t(at);
+        at += mCount[s];
+    }
+}
+
 Stacks Stacks::fromEncoding(const StackGeometry& geometry, std::vector<uint16_t> codes,
-                            std::vector<uint32_t> offsets)
+                            std::vector<uint8_t> counts)
 {
     geometry.validate();
-    if (offsets.size() != geometry.count() + 1 || offsets.front() != 0 || offsets.back() != codes.size()) {
-        fail<ValueError>("stacks: the offsets do not match ", geometry.count(), " stacks of ", codes.size(), " codes");
-    }
-    for (size_t s = 0; s + 1 < offsets.size(); ++s) {
-        if (offsets[s + 1] < offsets[s]) fail<ValueError>("stacks: offsets decrease at stack ", s);
+    size_t total = 0;
+    for (const uint8_t c : counts) total += c;
+    if (counts.size() != geometry.count() || total != codes.size()) {
+        fail<ValueError>("stacks: ", counts.size(), " stack counts holding ", total, " codes do not match ",
+                         geometry.count(), " stacks of ", codes.size(), " codes");
     }
     for (const uint16_t c : codes) {
         if (unsigned(codeMaterial(c)) >= unsigned(kMaterialCount) || codeThickness(c) == 0) {
@@ -120,15 +134,16 @@ Stacks Stacks::fromEncoding(const StackGeometry& geometry, std::vector<uint16_t>
     Stacks r;
     r.mGeometry = geometry;
     r.mCode = std::move(codes);
-    r.mOffset = std::move(offsets);
+    r.mCount = std::move(counts);
+    r.index();
     return r;
 }
 
 void Stacks::layers(int i, int j, std::vector<Layer>& out) const
 {
     out.clear();
-    const size_t s = mGeometry.index(i, j);
-    for (uint32_t c = mOffset[s]; c < mOffset[s + 1]; ++c) {
+    const size_t s = mGeometry.index(i, j), b = begin(s);
+    for (size_t c = b; c < b + mCount[s]; ++c) {
         const Material m = codeMaterial(mCode[c]);
         const uint32_t t = codeThickness(mCode[c]);
         if (!out.empty() && out.back().material == m) out.back().thickness += t;
@@ -138,9 +153,9 @@ void Stacks::layers(int i, int j, std::vector<Layer>& out) const
 
 uint64_t Stacks::height(int i, int j) const
 {
-    const size_t s = mGeometry.index(i, j);
+    const size_t s = mGeometry.index(i, j), b = begin(s);
     uint64_t h = 0;
-    for (uint32_t c = mOffset[s]; c < mOffset[s + 1]; ++c) h += codeThickness(mCode[c]);
+    for (size_t c = b; c < b + mCount[s]; ++c) h += codeThickness(mCode[c]);
     return h;
 }
 
@@ -159,13 +174,16 @@ Skeleton::Skeleton(const Stacks& stacks, MaterialMask mask) : mGeometry(stacks.g
 {
     const auto& g = mGeometry;
     const auto& codes = stacks.codes();
-    const auto& offsets = stacks.offsets();
+    const auto& counts = stacks.counts();
     mFirst.resize(g.count() + 1);
     mFirst[0] = 0;
+    size_t next = 0;
     for (size_t s = 0; s < g.count(); ++s) {
         uint64_t z = 0;
         bool inside = false;
-        for (uint32_t c = offsets[s]; c < offsets[s + 1]; ++c) {
+        const size_t b = next;
+        next += counts[s];
+        for (size_t c = b; c < next; ++c) {
             const bool in = (mask & maskOf(Stacks::codeMaterial(codes[c]))) != 0;
             const double at = g.z0 + double(z) * g.quantum;
             if (in && !inside) {

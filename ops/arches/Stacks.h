@@ -6,9 +6,11 @@
 //
 // Storage is the point of the model (the paper stores 6 billion effective voxels in 21 MB):
 // one contiguous array of 16-bit layer codes — material in the top 3 bits, thickness in the
-// low 13 bits, in quanta of q metres — and one 32-bit offset per stack: 4 + 2·L bytes for a
-// stack of L layers. A layer thicker than 8 191 quanta is stored as a run of codes of the same
-// material, which decoding merges. Thickness accounting is in whole quanta, so the volume of
+// low 13 bits, in quanta of q metres — a code count per stack (one byte) and a 32-bit offset
+// per block of 64 stacks: ~1.06 + 2·L bytes for a stack of L layers (a stack's first code is
+// its block's offset plus the counts before it in the block, at most 63 bytes to add). A
+// layer thicker than 8 191 quanta is stored as a run of codes of the same material, which
+// decoding merges; a stack holds at most 255 codes. Thickness accounting is in whole quanta, so the volume of
 // every material is an integer the stabilisation conserves exactly.
 #pragma once
 
@@ -83,40 +85,50 @@ public:
     /// @brief The layers of stack (i, j), bottom first, runs merged.
     void layers(int i, int j, std::vector<Layer>& out) const;
     /// Number of codes in stack (i, j) (its stored layers).
-    size_t codeCount(int i, int j) const
+    size_t codeCount(int i, int j) const { return mCount[mGeometry.index(i, j)]; }
+    /// Index of stack s's first code.
+    size_t begin(size_t s) const
     {
-        const size_t s = mGeometry.index(i, j);
-        return mOffset[s + 1] - mOffset[s];
+        size_t b = mBlock[s >> kBlockBits];
+        for (size_t t = s & ~kBlockMask; t < s; ++t) b += mCount[t];
+        return b;
     }
     /// @brief Height of stack (i, j)'s top (quanta above z0).
     uint64_t height(int i, int j) const;
 
     /// Total thickness of @a m over all stacks (quanta · stacks): volume / (s² q).
     uint64_t volumeQuanta(Material m) const;
-    /// Bytes the stacks occupy (codes and offsets).
-    size_t bytes() const { return mCode.size() * sizeof(uint16_t) + mOffset.size() * sizeof(uint32_t); }
+    /// Bytes the stacks occupy (codes, counts and block offsets).
+    size_t bytes() const
+    {
+        return mCode.size() * sizeof(uint16_t) + mCount.size() + mBlock.size() * sizeof(uint32_t);
+    }
     size_t layerCount() const { return mCode.size(); }
 
     bool operator==(const Stacks& o) const
     {
-        return mGeometry == o.mGeometry && mCode == o.mCode && mOffset == o.mOffset;
+        return mGeometry == o.mGeometry && mCode == o.mCode && mCount == o.mCount;
     }
 
-    /// The raw encoding (for files and numpy views): codes, and offsets (count() + 1).
+    /// The raw encoding (for files and numpy views): the codes, and the codes per stack.
     const std::vector<uint16_t>& codes() const { return mCode; }
-    const std::vector<uint32_t>& offsets() const { return mOffset; }
+    const std::vector<uint8_t>& counts() const { return mCount; }
     /// @brief Stacks from a raw encoding. @throw ValueError if it is inconsistent.
     static Stacks fromEncoding(const StackGeometry& geometry, std::vector<uint16_t> codes,
-                               std::vector<uint32_t> offsets);
+                               std::vector<uint8_t> counts);
 
     static Material codeMaterial(uint16_t c) { return Material(c >> 13); }
     static uint32_t codeThickness(uint16_t c) { return c & kMaxCode; }
     static uint16_t code(Material m, uint32_t t) { return uint16_t((unsigned(m) << 13) | t); }
 
 private:
+    static constexpr size_t kBlockBits = 6, kBlockMask = (size_t(1) << kBlockBits) - 1;
+    void index(); // mBlock from mCount
+
     StackGeometry mGeometry;
     std::vector<uint16_t> mCode;
-    std::vector<uint32_t> mOffset;
+    std::vector<uint8_t> mCount;   // codes per stack
+    std::vector<uint32_t> mBlock;  // first code of each block of 64 stacks
 };
 
 /// @brief A skeleton (§3.3): per stack, the z intervals where the stack holds a material of

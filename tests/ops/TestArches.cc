@@ -109,13 +109,20 @@ TEST(Stacks, EncodingMergesRunsAndSplitsThickLayers)
     EXPECT_EQ(l[0], (Layer{Material::Air, 10}));
     EXPECT_EQ(st.height(1, 0), 14u);
     EXPECT_EQ(st.volumeQuanta(Material::Sand), 20000u);
-    EXPECT_EQ(st.bytes(), 6 * 2 + 3 * 4u); // 6 codes, 3 offsets
+    EXPECT_EQ(st.bytes(), 6 * 2 + 2 + 4u); // 6 codes, 2 counts, 1 block offset
     // The raw encoding round-trips; a corrupt one is refused.
-    EXPECT_TRUE(Stacks::fromEncoding(st.geometry(), st.codes(), st.offsets()) == st);
+    EXPECT_TRUE(Stacks::fromEncoding(st.geometry(), st.codes(), st.counts()) == st);
     auto codes = st.codes();
     codes[0] = Stacks::code(Material(7), 3);
-    EXPECT_THROW(Stacks::fromEncoding(st.geometry(), codes, st.offsets()), ValueError);
-    EXPECT_THROW(Stacks::fromEncoding(st.geometry(), st.codes(), {0, 1}), ValueError);
+    EXPECT_THROW(Stacks::fromEncoding(st.geometry(), codes, st.counts()), ValueError);
+    EXPECT_THROW(Stacks::fromEncoding(st.geometry(), st.codes(), {4, 1}), ValueError);
+    // Random access across blocks of 64 stacks agrees with the sequential decoding.
+    const Stacks big = randomStacks(5, 23);
+    size_t at = 0;
+    for (size_t s2 = 0; s2 < big.geometry().count(); ++s2) {
+        ASSERT_EQ(big.begin(s2), at);
+        at += big.counts()[s2];
+    }
     EXPECT_EQ(materialFromName("rocks", "x"), Material::Rocks);
     EXPECT_THROW(materialFromName("lava", "scene.materials[2]"), ValueError);
     EXPECT_THROW(Stacks::build(geometry(0, 1, 1.0), [](int, int, std::vector<Layer>&) {}, task), ValueError);
@@ -430,4 +437,53 @@ TEST(Stabilize, AHeapBecomesAConeAtTheReposeAngle)
     EXPECT_GT(cone.height(n / 2, n / 2), 100u + uint64_t(2 * step));
     // And it is round, not square: the diagonal flank is as steep per metre as the axis.
     EXPECT_NEAR(double(cone.height(n / 2 + 2, n / 2 + 2)), double(cone.height(n / 2 + 3, n / 2)), 2 * step);
+}
+
+TEST(StackBuild, StrataFollowTheirOrderAndTheAirBandMakesOverhangs)
+{
+    Task task;
+    StrataSpec spec;
+    spec.geometry = geometry(40, 30, 1.0, 0.01);
+    spec.base = 20.0;
+    spec.amplitude = 8.0;
+    spec.frequency = 0.05;
+    spec.warp = 1.5;
+    spec.warpFrequency = 0.1;
+    spec.seed = 9;
+    spec.strata = {{Material::Bedrock, 6}, {Material::Sand, 2}, {Material::Bedrock, 3}, {Material::Air, 2},
+                   {Material::Bedrock, 100}};
+    const Stacks st = stacksFromStrata(spec, task);
+    noise::Fbm top;
+    top.frequency = spec.frequency;
+    top.octaves = spec.octaves;
+    std::vector<Layer> l;
+    size_t overhangs = 0;
+    for (int j = 0; j < 30; ++j)
+        for (int i = 0; i < 40; ++i) {
+            st.layers(i, j, l);
+            // The top: base + amplitude · fbm at the stack's centre, to a quantum.
+            const double h = spec.base + spec.amplitude / top.amplitudeSum() * noise::fbm2(spec.seed, top, float(i + 0.5), float(j + 0.5));
+            // (a top inside the air band ends the stack at the band's floor: air on top is implied)
+            EXPECT_LE(double(st.height(i, j)) * 0.01, h + 0.0051);
+            if (h > 15.0) EXPECT_NEAR(double(st.height(i, j)) * 0.01, h, 0.0051);
+            // Materials appear in the strata's order (each at most once: boundaries never cross).
+            size_t next = 0;
+            for (const Layer& x : l) {
+                while (next < spec.strata.size() && spec.strata[next].material != x.material) ++next;
+                ASSERT_LT(next, spec.strata.size()) << i << " " << j;
+                ++next;
+            }
+            // Where the top stands above the air band: bedrock, air, bedrock — an overhang.
+            for (size_t k = 1; k + 1 < l.size(); ++k) {
+                if (l[k].material == Material::Air && l[k - 1].material == Material::Bedrock && l[k + 1].material == Material::Bedrock) {
+                    ++overhangs;
+                }
+            }
+        }
+    EXPECT_GT(overhangs, 200u);
+    EXPECT_TRUE(stacksFromStrata(spec, task) == st);
+    spec.strata[1].thickness = -1;
+    EXPECT_THROW(stacksFromStrata(spec, task), ValueError);
+    spec.strata.clear();
+    EXPECT_THROW(stacksFromStrata(spec, task), ValueError);
 }
