@@ -2,6 +2,7 @@
 // heightfields and solids.
 #include <rockvdb/arches/StackBake.h>
 #include <rockvdb/arches/StackBuild.h>
+#include <rockvdb/arches/StackFile.h>
 #include <rockvdb/arches/Stabilize.h>
 #include <rockvdb/arches/Stacks.h>
 
@@ -486,4 +487,30 @@ TEST(StackBuild, StrataFollowTheirOrderAndTheAirBandMakesOverhangs)
     EXPECT_THROW(stacksFromStrata(spec, task), ValueError);
     spec.strata.clear();
     EXPECT_THROW(stacksFromStrata(spec, task), ValueError);
+}
+
+TEST(StackFile, RoundTripsAndRefusesAnyDamage)
+{
+    Task task;
+    const Stacks st = randomStacks(4, 13);
+    const std::string params = R"({"sigma": 0.5, "materials": ["sand"]})";
+    const std::string bytes = encodeStackFile(st, params);
+    const StackFile back = decodeStackFile(bytes, "t");
+    EXPECT_TRUE(back.stacks == st);
+    EXPECT_EQ(back.params, params);
+    // Every truncation and every single flipped byte is refused with an IoError.
+    for (size_t n = 0; n < bytes.size(); n += 7) {
+        EXPECT_THROW(decodeStackFile(bytes.substr(0, n), "t"), IoError) << n;
+    }
+    for (size_t i = 0; i < bytes.size(); i += 5) {
+        std::string bad = bytes;
+        bad[i] = char(bad[i] ^ 0x20);
+        EXPECT_THROW(decodeStackFile(bad, "t"), IoError) << i;
+    }
+    // Through a real file; a missing file and a folder are refused.
+    const std::string path = ::testing::TempDir() + "/t.stacks";
+    writeStackFile(path, st, params);
+    EXPECT_TRUE(readStackFile(path).stacks == st);
+    EXPECT_THROW(readStackFile(path + ".missing"), IoError);
+    EXPECT_THROW(readStackFile(::testing::TempDir()), IoError);
 }
