@@ -1,6 +1,7 @@
 // Level sets of material stacks (see StackBake.h).
 #include "StackBake.h"
 
+#include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/GridUtil.h>
 
@@ -57,11 +58,29 @@ private:
 // height where neighbouring stacks disagree); so, per column of leaves, over the stacks within
 // R of its footprint: every interval end ± R, and every height range where those stacks (and
 // the empty outside, when the footprint leaves the grid) do not all agree, ± R.
-openvdb::MaskGrid::Ptr candidateLeaves(const Skeleton& sk, double dx, double reach, Task& task)
+openvdb::MaskGrid::Ptr candidateLeaves(const Skeleton& sk, double dx, double reach, double maxMemoryBytes, Task& task)
 {
     const auto& g = sk.geometry();
     const double xmin = g.x0 - reach, xmax = g.x0 + g.nx * g.cell + reach;
     const double ymin = g.y0 - reach, ymax = g.y0 + g.ny * g.cell + reach;
+    // One list per column of leaves (~32 bytes each before any leaf): refuse absurd sizes
+    // before allocating (and before index coordinates could overflow).
+    const double wide = (xmax - xmin) / dx / 8.0 + 2.0, deep = (ymax - ymin) / dx / 8.0 + 2.0;
+    const double estimate = wide * deep * 32.0, limit = memoryLimitBytes(maxMemoryBytes);
+    if (!(estimate <= limit)) {
+        fail<ValueError>("arches: the level set's ", wide, " x ", deep, " columns of leaves need at least ",
+                         formatBytes(estimate), ", over the ", formatBytes(limit),
+                         " allowed; use a larger voxel size or raise --max-memory");
+    }
+    double top = g.z0;
+    for (size_t s = 0; s < g.count(); ++s) {
+        if (sk.intervalCount(s) > 0) top = std::max(top, sk.end(s, sk.intervalCount(s) - 1));
+    }
+    const double far = std::max({std::abs(xmin), std::abs(xmax), std::abs(ymin), std::abs(ymax), std::abs(g.z0) + reach,
+                                 std::abs(top) + reach}) / dx;
+    if (!(far < 1e9)) {
+        fail<ValueError>("arches: the terrain reaches ", far, " voxels from the origin, beyond the 1e9 an index holds; use a larger voxel size");
+    }
     const int lx0 = floorDiv(int(std::floor(xmin / dx)), 8), lx1 = floorDiv(int(std::ceil(xmax / dx)), 8);
     const int ly0 = floorDiv(int(std::floor(ymin / dx)), 8), ly1 = floorDiv(int(std::ceil(ymax / dx)), 8);
     const size_t ncx = size_t(lx1 - lx0 + 1), ncy = size_t(ly1 - ly0 + 1);
@@ -135,7 +154,7 @@ openvdb::FloatGrid::Ptr bakeSkeleton(const Skeleton& skeleton, const SkeletonBak
     // Reach: the band, plus a voxel for the sweeping to start from outside it.
     const double reach = sigma + (w + 1) * dx;
     task.phase("candidates", 0.1);
-    auto candidates = candidateLeaves(skeleton, dx, reach, task);
+    auto candidates = candidateLeaves(skeleton, dx, reach, settings.maxMemoryBytes, task);
 
     // Share the skeleton without copying it: the field only lives through this bake.
     std::shared_ptr<const Skeleton> shared(&skeleton, [](const Skeleton*) {});

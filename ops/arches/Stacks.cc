@@ -1,6 +1,7 @@
 // Material stacks and their skeletons (see Stacks.h).
 #include "Stacks.h"
 
+#include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
 
 #include <algorithm>
@@ -45,9 +46,17 @@ bool StackGeometry::operator==(const StackGeometry& o) const
 }
 
 Stacks Stacks::build(const StackGeometry& geometry,
-                     const std::function<void(int, int, std::vector<Layer>&)>& column, Task& task)
+                     const std::function<void(int, int, std::vector<Layer>&)>& column, Task& task,
+                     double maxMemoryBytes)
 {
     geometry.validate();
+    // At least a count byte, one code and the row buffers' share per stack, built and copied.
+    const double estimate = double(geometry.count()) * (1.0 + 2.0) * 2.0 + double(geometry.ny) * 64.0;
+    const double limit = memoryLimitBytes(maxMemoryBytes);
+    if (estimate > limit) {
+        fail<ValueError>("stacks: ", geometry.nx, " x ", geometry.ny, " stacks need at least ", formatBytes(estimate),
+                         ", over the ", formatBytes(limit), " allowed; use a larger cell size or a smaller extent, or raise --max-memory");
+    }
     Stacks r;
     r.mGeometry = geometry;
     // Each row encoded alone, then concatenated in row order.

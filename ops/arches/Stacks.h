@@ -76,9 +76,11 @@ public:
     /// @brief Build every stack from @a column(i, j, layers) — called in parallel, rows at a
     /// time, with an empty vector to fill bottom first; zero thicknesses are dropped and
     /// neighbours of the same material merged. The result does not depend on thread count.
+    /// @throw ValueError when even one layer per stack would exceed @a maxMemoryBytes (0: 75%
+    /// of RAM), with the estimate, before allocating.
     static Stacks build(const StackGeometry& geometry,
                         const std::function<void(int i, int j, std::vector<Layer>& layers)>& column,
-                        Task& task);
+                        Task& task, double maxMemoryBytes = 0);
 
     const StackGeometry& geometry() const { return mGeometry; }
 

@@ -514,3 +514,21 @@ TEST(StackFile, RoundTripsAndRefusesAnyDamage)
     EXPECT_THROW(readStackFile(path + ".missing"), IoError);
     EXPECT_THROW(readStackFile(::testing::TempDir()), IoError);
 }
+
+TEST(Stacks, AbsurdSizesAreRefusedWithAnEstimateBeforeAllocating)
+{
+    Task task;
+    try {
+        Stacks::build(geometry(2000000, 2000000, 1.0), [](int, int, std::vector<Layer>&) {}, task);
+        FAIL() << "no error";
+    } catch (const ValueError& e) {
+        EXPECT_NE(std::string(e.what()).find("TB"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("--max-memory"), std::string::npos) << e.what();
+    }
+    // A small terrain baked at an absurdly fine voxel size.
+    const Stacks st = randomStacks(1, 4);
+    SkeletonBake b;
+    b.sigma = 0.1;
+    b.voxelSize = 1e-6;
+    EXPECT_THROW(bakeSkeleton(Skeleton(st, kGroundMask), b, task), ValueError);
+}
