@@ -38,34 +38,33 @@ struct Segments
     {
         const auto& g = geometry;
         first.resize(g.count() + 1);
-        std::vector<Layer> layers;
-        for (int j = 0; j < g.ny; ++j)
-            for (int i = 0; i < g.nx; ++i) {
-                const size_t s = g.index(i, j);
-                first[s] = uint32_t(seg.size());
-                st.layers(i, j, layers);
-                Segment cur;
-                uint64_t z = 0;
-                for (const Layer& l : layers) {
-                    if (l.material == Material::Bedrock) {
-                        // Close the room below this bedrock (kept when it has any height).
-                        if (z > cur.floor) {
-                            cur.ceiling = z;
-                            seg.push_back(cur);
-                        }
-                        z += l.thickness;
-                        cur = Segment{};
-                        cur.floor = z;
-                        continue;
+        st.forEachStack([&](size_t s, const uint16_t* codes, size_t n) {
+            first[s] = uint32_t(seg.size());
+            Segment cur;
+            uint64_t z = 0;
+            for (size_t c = 0; c < n; ++c) {
+                const Material m = Stacks::codeMaterial(codes[c]);
+                const uint32_t t = Stacks::codeThickness(codes[c]);
+                if (m == Material::Bedrock) {
+                    // Close the room below this bedrock (kept when it has any height; a run
+                    // of bedrock codes leaves none between them).
+                    if (z > cur.floor) {
+                        cur.ceiling = z;
+                        seg.push_back(cur);
                     }
-                    if (l.material == Material::Sand) cur.sand += l.thickness;
-                    else if (l.material == Material::Rocks) cur.rocks += l.thickness;
-                    else if (l.material == Material::Water) cur.water += l.thickness;
-                    z += l.thickness;
+                    z += t;
+                    cur = Segment{};
+                    cur.floor = z;
+                    continue;
                 }
-                cur.ceiling = kSky;
-                seg.push_back(cur);
+                if (m == Material::Sand) cur.sand += t;
+                else if (m == Material::Rocks) cur.rocks += t;
+                else if (m == Material::Water) cur.water += t;
+                z += t;
             }
+            cur.ceiling = kSky;
+            seg.push_back(cur);
+        });
         first[g.count()] = uint32_t(seg.size());
     }
 

@@ -70,8 +70,8 @@ std::string encodeStackFile(const Stacks& stacks, const std::string& params)
     put(out, int32_t(g.nx));
     put(out, int32_t(g.ny));
     for (double v : {g.cell, g.x0, g.y0, g.z0, g.quantum}) put(out, v);
-    put(out, uint64_t(stacks.codes().size()));
-    out.append(reinterpret_cast<const char*>(stacks.codes().data()), stacks.codes().size() * sizeof(uint16_t));
+    put(out, uint64_t(stacks.stream().size()));
+    out.append(reinterpret_cast<const char*>(stacks.stream().data()), stacks.stream().size());
     out.append(reinterpret_cast<const char*>(stacks.counts().data()), stacks.counts().size());
     put(out, fnv1a(out.data(), out.size()));
     return out;
@@ -110,17 +110,15 @@ StackFile decodeStackFile(const std::string& bytes, const std::string& what)
     } catch (const ValueError& e) {
         fail<IoError>(what, ": ", e.what());
     }
-    const uint64_t codes = r.get<uint64_t>("code count");
+    const uint64_t streamBytes = r.get<uint64_t>("stream size");
     // Sizes against what is left, before any allocation.
     const size_t left = body.size() - r.at;
-    if (codes > left / 2 || g.count() != left - 2 * codes) {
-        fail<IoError>(what, ": inconsistent .stacks file (", codes, " codes and ", g.count(), " stacks in ", left, " bytes)");
+    if (streamBytes > left || g.count() != left - streamBytes) {
+        fail<IoError>(what, ": inconsistent .stacks file (", streamBytes, " stream bytes and ", g.count(), " stacks in ", left, " bytes)");
     }
-    std::vector<uint16_t> c(codes);
-    std::memcpy(c.data(), body.data() + r.at, 2 * codes);
-    r.at += 2 * codes;
-    std::vector<uint8_t> n(g.count());
-    std::memcpy(n.data(), body.data() + r.at, g.count());
+    std::vector<uint8_t> c(body.begin() + std::ptrdiff_t(r.at), body.begin() + std::ptrdiff_t(r.at + streamBytes));
+    r.at += streamBytes;
+    std::vector<uint8_t> n(body.begin() + std::ptrdiff_t(r.at), body.end());
     try {
         f.stacks = Stacks::fromEncoding(g, std::move(c), std::move(n));
     } catch (const ValueError& e) {

@@ -2,9 +2,9 @@
 // continue later (`vdb_arches --stacks` writes it, `--from-stacks` reads it back).
 //
 // Layout (little-endian): "RVSTACKS", format version (u32), the parameters as JSON (u32 length,
-// UTF-8), the geometry (nx, ny: i32; cell, x0, y0, z0, quantum: f64), the code count (u64),
-// the 16-bit codes, one count byte per stack, and an FNV-1a 64 checksum of everything before
-// it. Reading checks every size against the file's length before allocating, the checksum and
+// UTF-8), the geometry (nx, ny: i32; cell, x0, y0, z0, quantum: f64), the code stream's size
+// (u64) and bytes (Stacks.h), one count byte per stack, and an FNV-1a 64 checksum of
+// everything before it. Reading checks every size against the file's length before allocating, the checksum and
 // the encoding, so a truncated or corrupt file is refused with one line, never half-read.
 #pragma once
 

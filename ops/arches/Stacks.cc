@@ -57,11 +57,9 @@ Stacks Stacks::build(const StackGeometry& geometry,
         fail<ValueError>("stacks: ", geometry.nx, " x ", geometry.ny, " stacks need at least ", formatBytes(estimate),
                          ", over the ", formatBytes(limit), " allowed; use a larger cell size or a smaller extent, or raise --max-memory");
     }
-    Stacks r;
-    r.mGeometry = geometry;
-    // Each row encoded alone, then concatenated in row order.
+    // 1. Each row's codes (runs split at kMaxCode), rows in parallel.
     std::vector<std::vector<uint16_t>> rows(size_t(geometry.ny));
-    std::vector<std::vector<uint32_t>> counts(size_t(geometry.ny));
+    std::vector<std::vector<uint8_t>> counts(size_t(geometry.ny));
     parallelFor(task, size_t(geometry.ny), 1, [&](size_t j) {
         std::vector<Layer> layers;
         auto& codes = rows[j];
@@ -72,10 +70,10 @@ Stacks Stacks::build(const StackGeometry& geometry,
             column(i, int(j), layers);
             const size_t before = codes.size();
             Material last = Material::Air;
-            uint32_t pending = 0;
+            uint64_t pending = 0;
             auto flush = [&] {
                 while (pending > 0) {
-                    const uint32_t t = std::min(pending, kMaxCode);
+                    const uint32_t t = uint32_t(std::min<uint64_t>(pending, kMaxCode));
                     codes.push_back(code(last, t));
                     pending -= t;
                 }
@@ -96,65 +94,153 @@ Stacks Stacks::build(const StackGeometry& geometry,
                 fail<ValueError>("stacks: stack (", i, ", ", j, ") needs ", codes.size() - before,
                                  " layer codes, more than the 255 a stack holds; use a larger thickness quantum");
             }
-            count[size_t(i)] = uint32_t(codes.size() - before);
+            count[size_t(i)] = uint8_t(codes.size() - before);
         }
     });
-    size_t total = 0;
-    for (const auto& row : rows) total += row.size();
-    if (total > std::numeric_limits<uint32_t>::max()) {
-        fail<ValueError>("stacks: ", total, " layer codes exceed the 32-bit offsets");
-    }
-    r.mCode.reserve(total);
+    Stacks r;
+    r.mGeometry = geometry;
     r.mCount.reserve(geometry.count());
+    std::vector<uint16_t> all;
     for (size_t j = 0; j < rows.size(); ++j) {
-        r.mCode.insert(r.mCode.end(), rows[j].begin(), rows[j].end());
-        for (const uint32_t c : counts[j]) r.mCount.push_back(uint8_t(c));
+        all.insert(all.end(), rows[j].begin(), rows[j].end());
+        r.mCount.insert(r.mCount.end(), counts[j].begin(), counts[j].end());
         std::vector<uint16_t>().swap(rows[j]);
     }
-    r.index();
+    r.mCodes = all.size();
+    // 2. Blocks of 64 stacks byte-coded in parallel, each against its stacks' predecessors.
+    const size_t n = geometry.count(), blocks = (n + kBlock - 1) / kBlock;
+    std::vector<size_t> first(n + 1, 0);
+    for (size_t s2 = 0; s2 < n; ++s2) first[s2 + 1] = first[s2] + r.mCount[s2];
+    std::vector<std::vector<uint8_t>> coded(blocks);
+    parallelFor(task, blocks, 16, [&](size_t b) {
+        std::vector<uint16_t> prev;
+        for (size_t s2 = b * kBlock; s2 < std::min(n, (b + 1) * kBlock); ++s2) {
+            if (s2 == b * kBlock) prev.clear();
+            encodeStack(prev, all.data() + first[s2], r.mCount[s2], coded[b]);
+            prev.assign(all.begin() + std::ptrdiff_t(first[s2]), all.begin() + std::ptrdiff_t(first[s2 + 1]));
+        }
+    });
+    r.mBlock.resize(blocks);
+    size_t total = 0;
+    for (size_t b = 0; b < blocks; ++b) {
+        if (total > std::numeric_limits<uint32_t>::max()) fail<ValueError>("stacks: the code stream exceeds 4 GB");
+        r.mBlock[b] = uint32_t(total);
+        total += coded[b].size();
+    }
+    r.mStream.reserve(total);
+    for (auto& c : coded) {
+        r.mStream.insert(r.mStream.end(), c.begin(), c.end());
+        std::vector<uint8_t>().swap(c);
+    }
     return r;
 }
 
-void Stacks::index()
+void Stacks::encodeStack(const std::vector<uint16_t>& prev, const uint16_t* codes, size_t n,
+                         std::vector<uint8_t>& out)
 {
-    mBlock.assign((mCount.size() + kBlockMask) >> kBlockBits, 0);
-    size_t at = 0;
-    for (size_t s = 0; s < mCount.size(); ++s) {
-        if ((s & kBlockMask) == 0) mBlock[s >> kBlockBits] = uint32_t(at);
-        at += mCount[s];
+    for (size_t k = 0; k < n; ++k) {
+        const unsigned m = unsigned(codeMaterial(codes[k]));
+        const int t = int(codeThickness(codes[k]));
+        if (k < prev.size() && unsigned(codeMaterial(prev[k])) == m) {
+            const int d = t - int(codeThickness(prev[k]));
+            if (d >= -64 && d <= 63) {
+                out.push_back(uint8_t(d + 64));
+                continue;
+            }
+        }
+        out.push_back(uint8_t(0x80u | (m << 4) | unsigned(t >> 8)));
+        out.push_back(uint8_t(t & 0xff));
     }
 }
 
-Stacks Stacks::fromEncoding(const StackGeometry& geometry, std::vector<uint16_t> codes,
+size_t Stacks::decodeStack(const std::vector<uint8_t>& stream, size_t at, size_t n,
+                           const std::vector<uint16_t>& prev, std::vector<uint16_t>& out)
+{
+    out.clear();
+    for (size_t k = 0; k < n; ++k) {
+        if (at >= stream.size()) fail<ValueError>("stacks: the code stream ends inside a stack");
+        const uint8_t b = stream[at++];
+        unsigned m;
+        int t;
+        if (b & 0x80u) {
+            if (at >= stream.size()) fail<ValueError>("stacks: the code stream ends inside a code");
+            m = (b >> 4) & 7u;
+            t = int((b & 0x0fu) << 8) | int(stream[at++]);
+        } else {
+            if (k >= prev.size()) fail<ValueError>("stacks: a delta code with no layer below it in the previous stack");
+            m = unsigned(codeMaterial(prev[k]));
+            t = int(codeThickness(prev[k])) + int(b) - 64;
+        }
+        if (m >= unsigned(kMaterialCount) || t < 1 || t > int(kMaxCode)) {
+            fail<ValueError>("stacks: invalid layer code (material ", m, ", thickness ", t, ")");
+        }
+        out.push_back(code(Material(m), uint32_t(t)));
+    }
+    return at;
+}
+
+void Stacks::decodeUpTo(size_t s, std::vector<uint16_t>& out) const
+{
+    std::vector<uint16_t> prev;
+    size_t at = mBlock[s / kBlock];
+    for (size_t t = s - s % kBlock; t <= s; ++t) {
+        at = decodeStack(mStream, at, mCount[t], prev, out);
+        prev.swap(out);
+    }
+    out.swap(prev);
+}
+
+void Stacks::forEachStack(const std::function<void(size_t, const uint16_t*, size_t)>& visit) const
+{
+    std::vector<uint16_t> prev, cur;
+    size_t at = 0;
+    for (size_t s = 0; s < mCount.size(); ++s) {
+        if (s % kBlock == 0) prev.clear();
+        at = decodeStack(mStream, at, mCount[s], prev, cur);
+        visit(s, cur.data(), cur.size());
+        prev.swap(cur);
+    }
+}
+
+Stacks Stacks::fromEncoding(const StackGeometry& geometry, std::vector<uint8_t> stream,
                             std::vector<uint8_t> counts)
 {
     geometry.validate();
-    size_t total = 0;
-    for (const uint8_t c : counts) total += c;
-    if (counts.size() != geometry.count() || total != codes.size()) {
-        fail<ValueError>("stacks: ", counts.size(), " stack counts holding ", total, " codes do not match ",
-                         geometry.count(), " stacks of ", codes.size(), " codes");
-    }
-    for (const uint16_t c : codes) {
-        if (unsigned(codeMaterial(c)) >= unsigned(kMaterialCount) || codeThickness(c) == 0) {
-            fail<ValueError>("stacks: invalid layer code ", c);
-        }
+    if (counts.size() != geometry.count()) {
+        fail<ValueError>("stacks: ", counts.size(), " stack counts for ", geometry.count(), " stacks");
     }
     Stacks r;
     r.mGeometry = geometry;
-    r.mCode = std::move(codes);
+    r.mStream = std::move(stream);
     r.mCount = std::move(counts);
-    r.index();
+    // Decode everything once: block offsets, the code total, and the proof it is well formed.
+    const size_t n = r.mCount.size();
+    r.mBlock.resize((n + kBlock - 1) / kBlock);
+    std::vector<uint16_t> prev, cur;
+    size_t at = 0;
+    for (size_t s = 0; s < n; ++s) {
+        if (s % kBlock == 0) {
+            r.mBlock[s / kBlock] = uint32_t(at);
+            prev.clear();
+        }
+        at = decodeStack(r.mStream, at, r.mCount[s], prev, cur);
+        // A block's first stack is coded in full, and air is never on top.
+        if (!cur.empty() && codeMaterial(cur.back()) == Material::Air) fail<ValueError>("stacks: stack ", s, " ends with air");
+        r.mCodes += cur.size();
+        prev.swap(cur);
+    }
+    if (at != r.mStream.size()) fail<ValueError>("stacks: ", r.mStream.size() - at, " bytes left after the last stack");
     return r;
 }
 
 void Stacks::layers(int i, int j, std::vector<Layer>& out) const
 {
     out.clear();
-    const size_t s = mGeometry.index(i, j), b = begin(s);
-    for (size_t c = b; c < b + mCount[s]; ++c) {
-        const Material m = codeMaterial(mCode[c]);
-        const uint32_t t = codeThickness(mCode[c]);
+    std::vector<uint16_t> codes;
+    decodeUpTo(mGeometry.index(i, j), codes);
+    for (const uint16_t c : codes) {
+        const Material m = codeMaterial(c);
+        const uint32_t t = codeThickness(c);
         if (!out.empty() && out.back().material == m) out.back().thickness += t;
         else out.push_back(Layer{m, t});
     }
@@ -162,18 +248,21 @@ void Stacks::layers(int i, int j, std::vector<Layer>& out) const
 
 uint64_t Stacks::height(int i, int j) const
 {
-    const size_t s = mGeometry.index(i, j), b = begin(s);
+    std::vector<uint16_t> codes;
+    decodeUpTo(mGeometry.index(i, j), codes);
     uint64_t h = 0;
-    for (size_t c = b; c < b + mCount[s]; ++c) h += codeThickness(mCode[c]);
+    for (const uint16_t c : codes) h += codeThickness(c);
     return h;
 }
 
 uint64_t Stacks::volumeQuanta(Material m) const
 {
     uint64_t v = 0;
-    for (const uint16_t c : mCode) {
-        if (codeMaterial(c) == m) v += codeThickness(c);
-    }
+    forEachStack([&](size_t, const uint16_t* codes, size_t n) {
+        for (size_t k = 0; k < n; ++k) {
+            if (codeMaterial(codes[k]) == m) v += codeThickness(codes[k]);
+        }
+    });
     return v;
 }
 
@@ -182,17 +271,12 @@ uint64_t Stacks::volumeQuanta(Material m) const
 Skeleton::Skeleton(const Stacks& stacks, MaterialMask mask) : mGeometry(stacks.geometry()), mMask(mask)
 {
     const auto& g = mGeometry;
-    const auto& codes = stacks.codes();
-    const auto& counts = stacks.counts();
     mFirst.resize(g.count() + 1);
     mFirst[0] = 0;
-    size_t next = 0;
-    for (size_t s = 0; s < g.count(); ++s) {
+    stacks.forEachStack([&](size_t s, const uint16_t* codes, size_t n) {
         uint64_t z = 0;
         bool inside = false;
-        const size_t b = next;
-        next += counts[s];
-        for (size_t c = b; c < next; ++c) {
+        for (size_t c = 0; c < n; ++c) {
             const bool in = (mask & maskOf(Stacks::codeMaterial(codes[c]))) != 0;
             const double at = g.z0 + double(z) * g.quantum;
             if (in && !inside) {
@@ -204,7 +288,7 @@ Skeleton::Skeleton(const Stacks& stacks, MaterialMask mask) : mGeometry(stacks.g
             inside = in;
         }
         mFirst[s + 1] = uint32_t(mStart.size());
-    }
+    });
     mBefore.resize(mStart.size());
     for (size_t s = 0; s < g.count(); ++s) {
         double sum = 0;

@@ -4,14 +4,17 @@
 // (material, thickness) from a common floor z0 upwards; above its last layer a stack holds air.
 // An air layer between two bedrock layers is an overhang, an arch or a cave.
 //
-// Storage is the point of the model (the paper stores 6 billion effective voxels in 21 MB):
-// one contiguous array of 16-bit layer codes — material in the top 3 bits, thickness in the
-// low 13 bits, in quanta of q metres — a code count per stack (one byte) and a 32-bit offset
-// per block of 64 stacks: ~1.06 + 2·L bytes for a stack of L layers (a stack's first code is
-// its block's offset plus the counts before it in the block, at most 63 bytes to add). A
-// layer thicker than 8 191 quanta is stored as a run of codes of the same material, which
-// decoding merges; a stack holds at most 255 codes. Thickness accounting is in whole quanta, so the volume of
-// every material is an integer the stabilisation conserves exactly.
+// Storage is the point of the model (the paper stores 6 billion effective voxels in 21 MB).
+// A layer is a 16-bit code — material (3 bits) and thickness (up to 4 095 quanta of q metres;
+// thicker layers are runs of codes, which decoding merges) — and the codes are stored as a
+// byte stream, delta-coded against the stack before: a code whose material matches the
+// previous stack's code at the same place and whose thickness is within −64..63 of it takes
+// one byte (0ddddddd), any other two (1mmmtttt tttttttt). Neighbouring stacks of a terrain
+// mostly have the same strata a little thicker or thinner, so most layers take one byte.
+// Per stack a code count (one byte, at most 255 codes); per block of 64 stacks the byte offset
+// of its first stack, which is coded in full: a stack is decoded from its block's start.
+// About 1.06 + ~1.1·L bytes for a stack of L layers. Thickness accounting is in whole quanta,
+// so the volume of every material is an integer the stabilisation conserves exactly.
 #pragma once
 
 #include <rockvdb/core/Field.h>
@@ -69,7 +72,7 @@ class Stacks
 {
 public:
     /// Largest thickness one code holds (quanta); thicker layers become runs.
-    static constexpr uint32_t kMaxCode = (1u << 13) - 1;
+    static constexpr uint32_t kMaxCode = 4095;
 
     Stacks() = default;
 
@@ -84,53 +87,55 @@ public:
 
     const StackGeometry& geometry() const { return mGeometry; }
 
-    /// @brief The layers of stack (i, j), bottom first, runs merged.
+    /// @brief The layers of stack (i, j), bottom first, runs merged (decodes its block up to it).
     void layers(int i, int j, std::vector<Layer>& out) const;
     /// Number of codes in stack (i, j) (its stored layers).
     size_t codeCount(int i, int j) const { return mCount[mGeometry.index(i, j)]; }
-    /// Index of stack s's first code.
-    size_t begin(size_t s) const
-    {
-        size_t b = mBlock[s >> kBlockBits];
-        for (size_t t = s & ~kBlockMask; t < s; ++t) b += mCount[t];
-        return b;
-    }
     /// @brief Height of stack (i, j)'s top (quanta above z0).
     uint64_t height(int i, int j) const;
 
+    /// @brief Visit every stack in index order (s = j·nx + i) with its codes (runs unmerged):
+    /// the sequential decoding that whole-terrain passes use.
+    void forEachStack(const std::function<void(size_t s, const uint16_t* codes, size_t n)>& visit) const;
+
     /// Total thickness of @a m over all stacks (quanta · stacks): volume / (s² q).
     uint64_t volumeQuanta(Material m) const;
-    /// Bytes the stacks occupy (codes, counts and block offsets).
-    size_t bytes() const
-    {
-        return mCode.size() * sizeof(uint16_t) + mCount.size() + mBlock.size() * sizeof(uint32_t);
-    }
-    size_t layerCount() const { return mCode.size(); }
+    /// Bytes the stacks occupy (code stream, counts and block offsets).
+    size_t bytes() const { return mStream.size() + mCount.size() + mBlock.size() * sizeof(uint32_t); }
+    /// Number of codes over all stacks.
+    size_t layerCount() const { return mCodes; }
 
     bool operator==(const Stacks& o) const
     {
-        return mGeometry == o.mGeometry && mCode == o.mCode && mCount == o.mCount;
+        return mGeometry == o.mGeometry && mStream == o.mStream && mCount == o.mCount;
     }
 
-    /// The raw encoding (for files and numpy views): the codes, and the codes per stack.
-    const std::vector<uint16_t>& codes() const { return mCode; }
+    /// The encoding (for files): the byte stream and the codes per stack.
+    const std::vector<uint8_t>& stream() const { return mStream; }
     const std::vector<uint8_t>& counts() const { return mCount; }
-    /// @brief Stacks from a raw encoding. @throw ValueError if it is inconsistent.
-    static Stacks fromEncoding(const StackGeometry& geometry, std::vector<uint16_t> codes,
+    /// @brief Stacks from an encoding. @throw ValueError if it does not decode exactly.
+    static Stacks fromEncoding(const StackGeometry& geometry, std::vector<uint8_t> stream,
                                std::vector<uint8_t> counts);
 
     static Material codeMaterial(uint16_t c) { return Material(c >> 13); }
-    static uint32_t codeThickness(uint16_t c) { return c & kMaxCode; }
+    static uint32_t codeThickness(uint16_t c) { return c & 0x1fffu; }
     static uint16_t code(Material m, uint32_t t) { return uint16_t((unsigned(m) << 13) | t); }
 
 private:
-    static constexpr size_t kBlockBits = 6, kBlockMask = (size_t(1) << kBlockBits) - 1;
-    void index(); // mBlock from mCount
+    static constexpr size_t kBlock = 64;
+    // Decode stack s's codes from the stream at @a at, given the previous stack's (empty for a
+    // block's first); returns the position after them. @throw ValueError if malformed.
+    static size_t decodeStack(const std::vector<uint8_t>& stream, size_t at, size_t n,
+                              const std::vector<uint16_t>& prev, std::vector<uint16_t>& out);
+    static void encodeStack(const std::vector<uint16_t>& prev, const uint16_t* codes, size_t n,
+                            std::vector<uint8_t>& out);
+    void decodeUpTo(size_t s, std::vector<uint16_t>& out) const;
 
     StackGeometry mGeometry;
-    std::vector<uint16_t> mCode;
-    std::vector<uint8_t> mCount;   // codes per stack
-    std::vector<uint32_t> mBlock;  // first code of each block of 64 stacks
+    std::vector<uint8_t> mStream;
+    std::vector<uint8_t> mCount;  // codes per stack
+    std::vector<uint32_t> mBlock; // stream offset of each block of 64 stacks
+    size_t mCodes = 0;
 };
 
 /// @brief A skeleton (§3.3): per stack, the z intervals where the stack holds a material of

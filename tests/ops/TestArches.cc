@@ -104,26 +104,42 @@ TEST(Stacks, EncodingMergesRunsAndSplitsThickLayers)
     ASSERT_EQ(l.size(), 2u); // bedrock 12, sand 20000; air on top dropped
     EXPECT_EQ(l[0], (Layer{Material::Bedrock, 12}));
     EXPECT_EQ(l[1], (Layer{Material::Sand, 20000}));
-    EXPECT_EQ(st.codeCount(0, 0), 4u); // 12 | 8191 + 8191 + 3618
+    EXPECT_EQ(st.codeCount(0, 0), 6u); // 12 | 4095 x 4 + 3620
     st.layers(1, 0, l);
     ASSERT_EQ(l.size(), 2u);
     EXPECT_EQ(l[0], (Layer{Material::Air, 10}));
     EXPECT_EQ(st.height(1, 0), 14u);
     EXPECT_EQ(st.volumeQuanta(Material::Sand), 20000u);
-    EXPECT_EQ(st.bytes(), 6 * 2 + 2 + 4u); // 6 codes, 2 counts, 1 block offset
+    // A block's first stack in full (6 x 2 bytes); stack 1's codes differ in material from
+    // stack 0's at the same place (2 x 2); 2 counts; 1 block offset.
+    EXPECT_EQ(st.bytes(), 12 + 4 + 2 + 4u);
+    EXPECT_EQ(st.layerCount(), 8u);
     // The raw encoding round-trips; a corrupt one is refused.
-    EXPECT_TRUE(Stacks::fromEncoding(st.geometry(), st.codes(), st.counts()) == st);
-    auto codes = st.codes();
-    codes[0] = Stacks::code(Material(7), 3);
-    EXPECT_THROW(Stacks::fromEncoding(st.geometry(), codes, st.counts()), ValueError);
-    EXPECT_THROW(Stacks::fromEncoding(st.geometry(), st.codes(), {4, 1}), ValueError);
-    // Random access across blocks of 64 stacks agrees with the sequential decoding.
+    EXPECT_TRUE(Stacks::fromEncoding(st.geometry(), st.stream(), st.counts()) == st);
+    auto stream = st.stream();
+    stream[0] = 0xf0; // material 7
+    EXPECT_THROW(Stacks::fromEncoding(st.geometry(), stream, st.counts()), ValueError);
+    EXPECT_THROW(Stacks::fromEncoding(st.geometry(), st.stream(), {4, 1}), ValueError);
+    EXPECT_THROW(Stacks::fromEncoding(st.geometry(), st.stream(), {6, 3}), ValueError);
+    // Delta codes: random access (from each block's start) and the sequential decoding agree
+    // across blocks of 64 stacks, and a smooth terrain takes about a byte per layer.
     const Stacks big = randomStacks(5, 23);
-    size_t at = 0;
-    for (size_t s2 = 0; s2 < big.geometry().count(); ++s2) {
-        ASSERT_EQ(big.begin(s2), at);
-        at += big.counts()[s2];
-    }
+    std::vector<Layer> seq, rnd;
+    big.forEachStack([&](size_t s2, const uint16_t* codes, size_t n) {
+        seq.clear();
+        for (size_t k = 0; k < n; ++k) {
+            const Material m = Stacks::codeMaterial(codes[k]);
+            if (!seq.empty() && seq.back().material == m) seq.back().thickness += Stacks::codeThickness(codes[k]);
+            else seq.push_back(Layer{m, Stacks::codeThickness(codes[k])});
+        }
+        big.layers(int(s2 % 23), int(s2 / 23), rnd);
+        ASSERT_EQ(seq, rnd) << s2;
+    });
+    auto smooth = Stacks::build(geometry(100, 100, 1.0), [](int i, int j, std::vector<Layer>& l) {
+        l = {{Material::Bedrock, uint32_t(1000 + 3 * i + 2 * j)}, {Material::Sand, uint32_t(50 + (i % 7))},
+             {Material::Air, 200}, {Material::Bedrock, 300}};
+    }, task);
+    EXPECT_LT(double(smooth.bytes()) / 10000.0, 1.1 + 1.2 * 4) << smooth.bytes();
     EXPECT_EQ(materialFromName("rocks", "x"), Material::Rocks);
     EXPECT_THROW(materialFromName("lava", "scene.materials[2]"), ValueError);
     EXPECT_THROW(Stacks::build(geometry(0, 1, 1.0), [](int, int, std::vector<Layer>&) {}, task), ValueError);
