@@ -1,0 +1,240 @@
+// The material-stack stage (see ArchesStage.h).
+#include "ArchesStage.h"
+
+#include <rockvdb/arches/StackBuild.h>
+
+#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
+#include <rockvdb/core/GridField.h>
+#include <rockvdb/core/Heightfield.h>
+#include <rockvdb/core/VdbIO.h>
+
+#include <chrono>
+#include <cmath>
+
+namespace rockvdb {
+namespace arches {
+
+using json = nlohmann::json;
+
+namespace {
+
+template<typename T>
+void row(Schema<ArchesParams>& s, ParamInfo info, T ArchesParams::*m)
+{
+    s.member(std::move(info), m);
+}
+
+Schema<ArchesParams> makeArchesSchema()
+{
+    using P = ArchesParams;
+    Schema<P> s("arches", "Material-stack terrain (arches §3): stacks of sand, bedrock, rocks, water "
+                          "and air layers from a heightfield, procedural strata or any solid, "
+                          "stabilised at the repose angles and baked as convolution-surface level sets.");
+    row(s, param("terrain", ParamType::Json, "", json(), Range::any(),
+                 "The initial terrain: a heightfield expression node (heightfield, noise_terrain, "
+                 "sea_cliff), {\"type\": \"strata\", ...}, {\"type\": \"level_set\", \"file\": ...} or any "
+                 "solid expression (JSON, or the path of a JSON file)"),
+        &P::terrain);
+    row(s, param("extent", ParamType::Reals, "m", json(), Range::any(),
+                 "xmin, ymin, xmax, ymax of a solid terrain's stacks (unset: the solid's bounds)", 4),
+        &P::extent);
+    row(s, param("cell-size", ParamType::Real, "m", json(), Range::above(0),
+                 "Stack size s (unset: a heightfield's sample spacing, else 1 m)"),
+        &P::cellSize);
+    row(s, param("floor", ParamType::Real, "m", json(), Range::any(),
+                 "Bottom z0 of every stack (unset: the terrain's bottom)"),
+        &P::floor);
+    row(s, param("quantum", ParamType::Real, "m", 0.01, Range::above(0),
+                 "Thickness unit q: layers are whole multiples of it (exact mass accounting)"),
+        &P::quantum);
+    row(s, param("sand-depth", ParamType::Real, "m", 0.0, Range::atLeast(0),
+                 "Sand laid on a heightfield terrain"),
+        &P::sandDepth);
+    row(s, param("sigma", ParamType::Real, "m", json(), Range::above(0),
+                 "Half size σ of the convolution's cubic kernel (§3.3; unset: half the cell size)"),
+        &P::sigma);
+    row(s, param("voxel-size", ParamType::Real, "m", json(), Range::above(0),
+                 "Voxel edge of the level sets (unset: the cell size)"),
+        &P::voxelSize);
+    row(s, param("half-width", ParamType::Real, "voxels", 3.0, Range::closed(1, 64), "Narrow-band half width"),
+        &P::halfWidth);
+    row(s, param("repose-sand", ParamType::Real, "degrees", 33.0, Range::open(0, 90),
+                 "Repose angle of sand (§3.4: 30-35)"),
+        &P::reposeSand);
+    row(s, param("repose-rocks", ParamType::Real, "degrees", 42.0, Range::open(0, 90),
+                 "Repose angle of rocks (§3.4: 40-45)"),
+        &P::reposeRocks);
+    row(s, param("stabilize", ParamType::Bool, "", true, Range::any(),
+                 "Merge, sort and slide the granular layers to rest before baking (§3.4)"),
+        &P::stabilize);
+    row(s, param("seed", ParamType::Int, "", 0, Range::atLeast(0), "Seed of noise terrains and warps"), &P::seed);
+    row(s, param("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0),
+                 "Refuse work estimated above this (0 = 75% of RAM)"),
+        &P::maxMemoryGB);
+    s.rule([](const P& p) {
+        if (p.terrain.is_null()) fail<ValueError>("arches: terrain is required (a heightfield, strata, level_set or solid node)");
+    });
+    return s;
+}
+
+double cellOf(const ArchesParams& p, double fallback) { return p.cellSize.value_or(fallback); }
+
+json at(const json& node, const char* key, const std::string& path)
+{
+    if (!node.contains(key)) fail<ValueError>("arches: ", path, ".", key, " is required");
+    return node.at(key);
+}
+
+Stacks strataStacks(const ArchesParams& p, const json& node, Task& task)
+{
+    static const std::vector<std::string> keys = {"type", "samples", "layers", "base", "amplitude", "frequency",
+                                                  "warp", "warp_frequency", "octaves", "seed"};
+    for (auto it = node.begin(); it != node.end(); ++it) {
+        if (std::find(keys.begin(), keys.end(), it.key()) == keys.end()) {
+            fail<ValueError>("arches: terrain.", it.key(), " is not a key of a strata terrain");
+        }
+    }
+    StrataSpec spec;
+    try {
+        const json samples = at(node, "samples", "terrain");
+        if (!samples.is_array() || samples.size() != 2) fail<ValueError>("arches: terrain.samples must be [nx, ny]");
+        spec.geometry.nx = samples.at(0).get<int>();
+        spec.geometry.ny = samples.at(1).get<int>();
+        spec.geometry.cell = cellOf(p, 1.0);
+        spec.geometry.z0 = p.floor.value_or(0.0);
+        spec.geometry.quantum = p.quantum;
+        const json layers = at(node, "layers", "terrain");
+        if (!layers.is_array() || layers.empty()) fail<ValueError>("arches: terrain.layers must be a non-empty list");
+        for (size_t k = 0; k < layers.size(); ++k) {
+            const std::string path = "terrain.layers[" + std::to_string(k) + "]";
+            Stratum st;
+            st.material = materialFromName(at(layers[k], "material", path).get<std::string>(), path + ".material");
+            st.thickness = at(layers[k], "thickness", path).get<double>();
+            spec.strata.push_back(st);
+        }
+        spec.base = node.value("base", spec.base);
+        spec.amplitude = node.value("amplitude", spec.amplitude);
+        spec.frequency = node.value("frequency", spec.frequency);
+        spec.warp = node.value("warp", spec.warp);
+        spec.warpFrequency = node.value("warp_frequency", spec.warpFrequency);
+        spec.octaves = node.value("octaves", spec.octaves);
+        spec.seed = node.value("seed", uint64_t(p.seed));
+    } catch (const json::exception& e) {
+        fail<ValueError>("arches: terrain: a strata value has the wrong type (", e.what(), ")");
+    }
+    return stacksFromStrata(spec, task);
+}
+
+} // namespace
+
+const Schema<ArchesParams>& archesSchema()
+{
+    static const Schema<ArchesParams> s = makeArchesSchema();
+    return s;
+}
+
+ArchesParams::ArchesParams() { archesSchema().reset(*this); }
+
+Stacks buildStacks(const ArchesParams& p, Task& task)
+{
+    archesSchema().validate(p);
+    task.phase("stacks", 1.0);
+    const json node = jsonOrFile(p.terrain);
+    if (!node.is_object()) fail<ValueError>("arches: terrain must be a JSON object (a terrain node)");
+    const std::string type = node.value("type", std::string());
+    if (type == "strata") return strataStacks(p, node, task);
+    ExpressionContext ctx;
+    ctx.baseDir = p.baseDir;
+    ctx.seed = uint64_t(p.seed);
+    // A heightfield node: one stack per sample.
+    if (auto hf = heightfieldFromJson(node, ctx)) {
+        if (p.cellSize && *p.cellSize != hf->heightfield->cellSize) {
+            fail<ValueError>("arches: cell-size ", *p.cellSize, " differs from the heightfield's sample spacing ",
+                             hf->heightfield->cellSize, " (leave it unset)");
+        }
+        double low = std::numeric_limits<double>::max();
+        for (float z : hf->heightfield->z) low = std::min(low, double(z));
+        const double z0 = p.floor.value_or(low - hf->baseDepth);
+        return stacksFromHeightfield(*hf->heightfield, p.quantum, z0, p.sandDepth, nullptr, task);
+    }
+    // A solid: a level set file, or any expression.
+    FieldPtr solid;
+    if (type == "level_set") {
+        for (auto it = node.begin(); it != node.end(); ++it) {
+            if (it.key() != "type" && it.key() != "file" && it.key() != "grid") {
+                fail<ValueError>("arches: terrain.", it.key(), " is not a key of a level_set terrain (file, grid)");
+            }
+        }
+        std::string file = at(node, "file", "terrain").get<std::string>();
+        if (!file.empty() && file[0] != '/') file = p.baseDir + "/" + file;
+        solid = levelSetField(readLevelSet(file, node.value("grid", std::string())));
+    } else {
+        solid = fieldFromJson(node, ctx);
+    }
+    const BBoxd b = solid->bounds();
+    if (!p.extent && !isBounded(b)) {
+        fail<ValueError>("arches: the terrain solid is unbounded; give extent (xmin, ymin, xmax, ymax)");
+    }
+    const double cell = cellOf(p, 1.0);
+    const std::array<double, 4> e = p.extent.value_or(std::array<double, 4>{b.min()[0], b.min()[1], b.max()[0], b.max()[1]});
+    if (!(e[2] > e[0]) || !(e[3] > e[1])) fail<ValueError>("arches: extent must have xmax > xmin and ymax > ymin");
+    StackGeometry g;
+    g.cell = cell;
+    g.x0 = e[0];
+    g.y0 = e[1];
+    const double nx = std::ceil((e[2] - e[0]) / cell), ny = std::ceil((e[3] - e[1]) / cell);
+    if (!(nx * ny <= 1e10)) fail<ValueError>("arches: ", nx, " x ", ny, " stacks; use a larger cell-size or a smaller extent");
+    g.nx = int(nx);
+    g.ny = int(ny);
+    g.z0 = p.floor.value_or(isBounded(b) ? b.min()[2] : 0.0);
+    g.quantum = p.quantum;
+    // Sample along the axes at a tenth of a cell, at least a quantum.
+    return stacksFromSolid(*solid, g, std::max(p.quantum, 0.1 * cell), Material::Bedrock, task);
+}
+
+ArchesResult runArches(const ArchesParams& p, Stacks stacks, Task& task)
+{
+    archesSchema().validate(p);
+    ArchesResult r;
+    const auto t0 = std::chrono::steady_clock::now();
+    if (p.stabilize) {
+        ReposeAngles a;
+        a.sand = p.reposeSand;
+        a.rocks = p.reposeRocks;
+        stacks = stabilizeStacks(stacks, a, task, &r.stats.stabilize);
+    }
+    r.stats.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const auto& g = stacks.geometry();
+    SkeletonBake b;
+    b.sigma = p.sigma.value_or(0.5 * g.cell);
+    b.voxelSize = p.voxelSize.value_or(g.cell);
+    b.halfWidth = p.halfWidth;
+    b.maxMemoryBytes = p.maxMemoryGB * 1e9;
+    const auto t1 = std::chrono::steady_clock::now();
+    // §6: the ground is one convolution over the union of sand, bedrock and rocks.
+    r.surface = bakeSkeleton(Skeleton(stacks, kGroundMask), b, task);
+    r.surface->setName("surface");
+    for (Material m : {Material::Sand, Material::Bedrock, Material::Rocks}) {
+        if (stacks.volumeQuanta(m) == 0) continue;
+        auto grid = bakeSkeleton(Skeleton(stacks, maskOf(m)), b, task);
+        grid->setName(materialName(m));
+        r.materials.push_back(grid);
+    }
+    r.material = materialGrid(stacks, kGroundMask, b.sigma, *r.surface, task);
+    r.stats.bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    const std::string prov = archesSchema().toJson(p).dump();
+    stampProvenance(*r.surface, kToolName, prov);
+    for (auto& m : r.materials) stampProvenance(*m, kToolName, prov);
+    stampProvenance(*r.material, kToolName, prov);
+    r.stats.stacks = g.count();
+    r.stats.layers = stacks.layerCount();
+    r.stats.bytes = stacks.bytes();
+    r.stats.activeVoxels = size_t(r.surface->activeVoxelCount());
+    r.stacks = std::move(stacks);
+    return r;
+}
+
+} // namespace arches
+} // namespace rockvdb

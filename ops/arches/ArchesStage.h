@@ -1,0 +1,84 @@
+// rockvdb — the material-stack stage's front door ("Arches: a Framework for Modeling Complex
+// Terrains", §3, §6): its parameter table and entry point.
+//
+// A scene is the table's JSON (what `vdb_arches scene.json` and `--params` read, and what every
+// output's rockvdb:params records). Its "terrain" row is the initial terrain:
+//   - a heightfield node of the expression language (heightfield, noise_terrain, sea_cliff):
+//     one stack per sample, bedrock under sand-depth metres of sand;
+//   - {"type": "strata", "samples": [nx, ny], "layers": [{"material": m, "thickness": t}, ...],
+//      "base": b, "amplitude": a, "frequency": f, "warp": w, "warp_frequency": wf,
+//      "octaves": n, "seed": s}: procedural strata (StackBuild.h);
+//   - {"type": "level_set", "file": "x.vdb", "grid": "surface"}, or any other expression node:
+//     a solid, turned into bedrock stacks by the roots along each stack's axis over extent.
+#pragma once
+
+#include <rockvdb/arches/StackBake.h>
+#include <rockvdb/arches/Stabilize.h>
+#include <rockvdb/arches/Stacks.h>
+
+#include <rockvdb/core/Schema.h>
+#include <rockvdb/core/Task.h>
+
+#include <nlohmann/json.hpp>
+#include <openvdb/openvdb.h>
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace rockvdb {
+namespace arches {
+
+constexpr const char* kToolName = "vdb_arches";
+
+struct ArchesParams
+{
+    ArchesParams();
+
+    nlohmann::json terrain;                     ///< the initial terrain (see file comment)
+    std::optional<std::array<double, 4>> extent; ///< xmin, ymin, xmax, ymax of a solid's stacks
+    std::optional<double> cellSize;             ///< s (m); unset: a heightfield's spacing, else 1
+    std::optional<double> floor;                ///< z0 (m); unset: the terrain's bottom
+    double quantum;                             ///< q (m)
+    double sandDepth;                           ///< sand on a heightfield terrain (m)
+    std::optional<double> sigma;                ///< σ (m); unset: half the cell size
+    std::optional<double> voxelSize;            ///< m; unset: the cell size
+    double halfWidth;                           ///< voxels
+    double reposeSand, reposeRocks;             ///< degrees
+    bool stabilize;
+    int seed;
+    double maxMemoryGB;
+    std::string baseDir = ".";                  ///< relative paths in terrain (not a row: the scene file's folder)
+};
+
+/// @brief The table of ArchesParams (vdb_arches and rockvdb.Stacks).
+const Schema<ArchesParams>& archesSchema();
+
+struct ArchesStats
+{
+    size_t stacks = 0, layers = 0, bytes = 0;
+    StabilizeStats stabilize;
+    size_t activeVoxels = 0;
+    double buildSeconds = 0, bakeSeconds = 0;
+};
+
+struct ArchesResult
+{
+    Stacks stacks;
+    openvdb::FloatGrid::Ptr surface;               ///< the ground (sand ∪ bedrock ∪ rocks), 'surface'
+    std::vector<openvdb::FloatGrid::Ptr> materials; ///< one level set per ground material present, named by it
+    openvdb::FloatGrid::Ptr material;              ///< 'material' ids over the ground's band
+    ArchesStats stats;
+};
+
+/// @brief The initial stacks of @a params' terrain (phase "stacks").
+/// @throw ValueError naming the terrain key at fault; IoError for unreadable files.
+Stacks buildStacks(const ArchesParams& params, Task& task);
+
+/// @brief Stabilise @a stacks when asked, then bake the ground, the per-material level sets
+/// and 'material', stamped with provenance (the table's JSON).
+ArchesResult runArches(const ArchesParams& params, Stacks stacks, Task& task);
+
+} // namespace arches
+} // namespace rockvdb
