@@ -112,6 +112,9 @@ Stacks strataStacks(const ArchesParams& p, const json& node, Task& task)
             Stratum st;
             st.material = materialFromName(at(layers[k], "material", path).get<std::string>(), path + ".material");
             st.thickness = at(layers[k], "thickness", path).get<double>();
+            if (!(st.thickness >= 0) || !std::isfinite(st.thickness)) {
+                fail<ValueError>("arches: ", path, ".thickness must be >= 0 (got ", st.thickness, ")");
+            }
             spec.strata.push_back(st);
         }
         spec.base = node.value("base", spec.base);

@@ -1,0 +1,88 @@
+"""vdb_arches: material-stack terrain from a scene file (arches §3, §6)."""
+import json
+import os
+
+import numpy as np
+import pyopenvdb as vdb
+import pytest
+
+from conftest import assert_bitwise_equal, one_line_error, run, tool
+
+AR = tool("vdb_arches")
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SCENE = os.path.join(ROOT, "samples", "data", "arches_strata.json")
+
+
+def small_scene(tmp_path, **extra):
+    scene = json.load(open(SCENE))
+    scene["terrain"]["samples"] = [40, 30]
+    scene.update(extra)
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(scene))
+    return path
+
+
+def test_a_scene_gives_the_ground_one_level_set_per_material_and_ids(tmp_path):
+    out = tmp_path / "t.vdb"
+    run([AR, "-q", str(small_scene(tmp_path)), "-o", str(out)], check=True)
+    grids, meta = vdb.readAll(str(out))
+    names = [g.name for g in grids]
+    assert sorted(names) == sorted(["surface", "sand", "bedrock", "rocks", "material"])
+    by = {g.name: g for g in grids}
+    for n in ["surface", "sand", "bedrock", "rocks"]:
+        assert by[n].gridClass == vdb.GridClass.LEVEL_SET
+        assert by[n].metadata["rockvdb:generator"] == "vdb_arches"
+    ids = set(np.unique([v.value for v in by["material"].citerOnValues()]))
+    assert ids <= {2.0, 3.0, 4.0} and 3.0 in ids
+    # Overhangs: some vertical ray crosses the ground 4 times (the air stratum under bedrock).
+    acc = by["surface"].getConstAccessor()
+    bbox = by["surface"].evalActiveVoxelBoundingBox()
+    most = 0
+    for i in range(bbox[0][0], bbox[1][0], 3):
+        for j in range(bbox[0][1], bbox[1][1], 3):
+            col = [acc.getValue((i, j, k)) < 0 for k in range(bbox[0][2] - 2, bbox[1][2] + 2)]
+            most = max(most, sum(a != b for a, b in zip(col, col[1:])))
+    assert most >= 4
+
+
+def test_a_file_replays_from_its_own_provenance_and_from_its_stacks(tmp_path):
+    first, stacks = tmp_path / "first.vdb", tmp_path / "t.stacks"
+    run([AR, "-q", str(small_scene(tmp_path)), "--repose-sand", "31", "-o", str(first), "--stacks", str(stacks)],
+        check=True)
+    prov = json.loads(vdb.read(str(first), "surface").metadata["rockvdb:params"])
+    assert prov["repose-sand"] == 31 and prov["terrain"]["type"] == "strata"
+    (tmp_path / "p.json").write_text(json.dumps(prov))
+    run([AR, "-q", "--params", str(tmp_path / "p.json"), "-o", str(tmp_path / "again.vdb")], check=True)
+    run([AR, "-q", "--from-stacks", str(stacks), "-o", str(tmp_path / "stacks.vdb")], check=True)
+    for name in ["surface", "bedrock", "material"]:
+        a = vdb.read(str(first), name)
+        assert_bitwise_equal(a, vdb.read(str(tmp_path / "again.vdb"), name))
+        assert_bitwise_equal(a, vdb.read(str(tmp_path / "stacks.vdb"), name))
+
+
+@pytest.mark.parametrize("edit,needles", [
+    (lambda s: s["terrain"]["layers"][1].update(material="lava"), ["terrain.layers[1].material", "lava"]),
+    (lambda s: s["terrain"]["layers"][2].update(thickness=-1), ["terrain.layers[2]", ">= 0"]),
+    (lambda s: s.update(sigma=0), ["sigma"]),
+    (lambda s: s.update({"cell-sise": 1}), ["cell-size"]),
+    (lambda s: s["terrain"].update(samples=[200000, 200000]), ["GB", "--max-memory"]),
+])
+def test_bad_scenes_are_one_line_and_no_file(tmp_path, edit, needles):
+    scene = json.load(open(SCENE))
+    edit(scene)
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(scene))
+    out = tmp_path / "o.vdb"
+    p = run([AR, "-q", str(path), "-o", str(out), "--stacks", str(tmp_path / "o.stacks")])
+    one_line_error(p, 2, *needles)
+    assert not out.exists() and not (tmp_path / "o.stacks").exists()
+    assert not [f for f in os.listdir(tmp_path) if ".tmp-" in f]
+
+
+def test_malformed_json_and_a_corrupt_stacks_file_are_refused(tmp_path):
+    (tmp_path / "m.json").write_text('{"terrain": {"type": "strata",')
+    one_line_error(run([AR, "-q", str(tmp_path / "m.json"), "-o", str(tmp_path / "o.vdb")]), 2, "m.json")
+    (tmp_path / "c.stacks").write_bytes(b"RVSTACKS" + b"\x00" * 40)
+    one_line_error(run([AR, "-q", "--from-stacks", str(tmp_path / "c.stacks"), "-o", str(tmp_path / "o.vdb")]), 1,
+                   "c.stacks")
+    assert not (tmp_path / "o.vdb").exists()
