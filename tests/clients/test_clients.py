@@ -89,6 +89,20 @@ def fractal(tmp_path_factory):
     return d
 
 
+@pytest.fixture(scope="module")
+def arches(tmp_path_factory):
+    """vdb_arches: a small strata terrain with a band of overhangs (5 cm stacks and voxels)."""
+    d = tmp_path_factory.mktemp("arches")
+    layers = [["bedrock", 0.3], ["sand", 0.05], ["bedrock", 0.1], ["air", 0.1], ["bedrock", 2.0]]
+    scene = {"terrain": {"type": "strata", "samples": [60, 40], "base": 0.6, "amplitude": 0.3,
+                         "frequency": 0.5, "warp": 0.05, "warp_frequency": 1.0,
+                         "layers": [{"material": m, "thickness": t} for m, t in layers]},
+             "cell-size": 0.05, "quantum": 0.001}
+    (d / "scene.json").write_text(json.dumps(scene))
+    run([tool("vdb_arches"), "-q", str(d / "scene.json"), "-o", str(d / "arches.vdb")], check=True)
+    return d / "arches.vdb"
+
+
 def every_output(tmp_path, scene, heightfield_png, blocks, amplified=None, detailed=None,
                  piled=None):
     files = [scene, blocks] + ([amplified] if amplified else []) + ([detailed] if detailed else [])
@@ -102,10 +116,10 @@ def every_output(tmp_path, scene, heightfield_png, blocks, amplified=None, detai
 
 
 def test_pyopenvdb_reads_every_file(tmp_path, scene, heightfield_png, blocks, amplified,
-                                    detailed, piled, fractal):
+                                    detailed, piled, fractal, arches):
     import pyopenvdb as vdb
     for f in every_output(tmp_path, scene, heightfield_png, blocks, amplified, detailed, piled) + [
-            fractal / "rock.vdb", fractal / "scatter.vdb"]:
+            fractal / "rock.vdb", fractal / "scatter.vdb", arches]:
         grids, meta = vdb.readAll(str(f))
         names = [g.name for g in grids]
         assert "surface" in names
@@ -154,13 +168,13 @@ def test_vdb_render_renders(scene, tmp_path):
 
 @pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
 @pytest.mark.parametrize("which", ["scene", "blocks", "amplified", "detailed", "piled",
-                                   "fractal", "scatter"])
+                                   "fractal", "scatter", "arches"])
 def test_blender_imports_and_meshes_surface(which, scene, blocks, amplified, detailed, piled,
-                                            fractal, tmp_path):
+                                            fractal, arches, tmp_path):
     import pyopenvdb as vdb
     scene = {"scene": scene, "blocks": blocks, "amplified": amplified, "detailed": detailed,
              "piled": piled, "fractal": fractal / "rock.vdb",
-             "scatter": fractal / "scatter.vdb"}[which]
+             "scatter": fractal / "scatter.vdb", "arches": arches}[which]
     report = tmp_path / "blender.json"
     p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
                         os.path.join(HERE, "blender_mesh.py"), "--", str(scene), str(report)],
