@@ -10,8 +10,10 @@
 #include <rockvdb/core/Heightfield.h>
 #include <rockvdb/core/VdbIO.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 namespace rockvdb {
 namespace arches {
