@@ -203,14 +203,12 @@ ArchesResult runArches(const ArchesParams& p, Stacks stacks, Task& task)
 {
     archesSchema().validate(p);
     ArchesResult r;
-    const auto t0 = std::chrono::steady_clock::now();
     if (p.stabilize) {
         ReposeAngles a;
         a.sand = p.reposeSand;
         a.rocks = p.reposeRocks;
         stacks = stabilizeStacks(stacks, a, task, &r.stats.stabilize);
     }
-    r.stats.buildSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const auto& g = stacks.geometry();
     SkeletonBake b;
     b.sigma = p.sigma.value_or(0.5 * g.cell);
@@ -221,13 +219,23 @@ ArchesResult runArches(const ArchesParams& p, Stacks stacks, Task& task)
     // §6: the ground is one convolution over the union of sand, bedrock and rocks.
     r.surface = bakeSkeleton(Skeleton(stacks, kGroundMask), b, task);
     r.surface->setName("surface");
+    // One skeleton per material present: its level set, and (all of them) the ids.
+    std::vector<Skeleton> skeletons;
+    std::vector<std::pair<Material, const Skeleton*>> parts;
     for (Material m : {Material::Sand, Material::Bedrock, Material::Rocks}) {
-        if (stacks.volumeQuanta(m) == 0) continue;
-        auto grid = bakeSkeleton(Skeleton(stacks, maskOf(m)), b, task);
-        grid->setName(materialName(m));
-        r.materials.push_back(grid);
+        if (stacks.volumeQuanta(m) > 0) skeletons.emplace_back(stacks, maskOf(m));
     }
-    r.material = materialGrid(stacks, kGroundMask, b.sigma, *r.surface, task);
+    size_t k = 0;
+    for (Material m : {Material::Sand, Material::Bedrock, Material::Rocks}) {
+        if (k < skeletons.size() && skeletons[k].mask() == maskOf(m)) {
+            auto grid = bakeSkeleton(skeletons[k], b, task);
+            grid->setName(materialName(m));
+            r.materials.push_back(grid);
+            parts.emplace_back(m, &skeletons[k]);
+            ++k;
+        }
+    }
+    r.material = materialGrid(parts, b.sigma, *r.surface, task);
     r.stats.bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     const std::string prov = archesSchema().toJson(p).dump();
     stampProvenance(*r.surface, kToolName, prov);

@@ -60,7 +60,7 @@ struct ArchesStats
     size_t stacks = 0, layers = 0, bytes = 0;
     StabilizeStats stabilize;
     size_t activeVoxels = 0;
-    double buildSeconds = 0, bakeSeconds = 0;
+    double bakeSeconds = 0; ///< every level set and 'material' (stabilisation: stabilize.seconds)
 };
 
 struct ArchesResult

@@ -219,10 +219,21 @@ openvdb::FloatGrid::Ptr bakeSkeleton(const Skeleton& skeleton, const SkeletonBak
 openvdb::FloatGrid::Ptr materialGrid(const Stacks& stacks, MaterialMask mask, double sigma,
                                      const openvdb::FloatGrid& surface, Task& task)
 {
-    std::vector<std::pair<Material, Skeleton>> parts;
+    std::vector<Skeleton> skeletons;
+    std::vector<Material> which;
     for (int m = 0; m < kMaterialCount; ++m) {
-        if (mask & maskOf(Material(m))) parts.emplace_back(Material(m), Skeleton(stacks, maskOf(Material(m))));
+        if (!(mask & maskOf(Material(m)))) continue;
+        skeletons.emplace_back(stacks, maskOf(Material(m)));
+        which.push_back(Material(m));
     }
+    std::vector<std::pair<Material, const Skeleton*>> parts;
+    for (size_t k = 0; k < skeletons.size(); ++k) parts.emplace_back(which[k], &skeletons[k]);
+    return materialGrid(parts, sigma, surface, task);
+}
+
+openvdb::FloatGrid::Ptr materialGrid(const std::vector<std::pair<Material, const Skeleton*>>& parts,
+                                     double sigma, const openvdb::FloatGrid& surface, Task& task)
+{
     auto ids = openvdb::FloatGrid::create(-1.0f);
     ids->setTransform(surface.transform().copy());
     ids->setName("material");
@@ -242,7 +253,7 @@ openvdb::FloatGrid::Ptr materialGrid(const Stacks& stacks, MaterialMask mask, do
             double bestV = -1;
             float id = -1.0f;
             for (const auto& [m, sk] : parts) {
-                const double v = sk.volume(p, half);
+                const double v = sk->volume(p, half);
                 if (v > bestV) {
                     bestV = v;
                     id = float(unsigned(m));

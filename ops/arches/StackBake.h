@@ -17,6 +17,9 @@
 
 #include <openvdb/openvdb.h>
 
+#include <utility>
+#include <vector>
+
 namespace rockvdb {
 namespace arches {
 
@@ -38,6 +41,9 @@ openvdb::FloatGrid::Ptr bakeSkeleton(const Skeleton& skeleton, const SkeletonBak
 /// voxel (the cube reaches the surface; ties to the lower id).
 openvdb::FloatGrid::Ptr materialGrid(const Stacks& stacks, MaterialMask mask, double sigma,
                                      const openvdb::FloatGrid& surface, Task& task);
+/// @brief The same from the skeletons of single materials already built (in id order).
+openvdb::FloatGrid::Ptr materialGrid(const std::vector<std::pair<Material, const Skeleton*>>& parts,
+                                     double sigma, const openvdb::FloatGrid& surface, Task& task);
 
 /// @brief The convolution field as a Field (value −σ·f; for tests and benchmarks).
 FieldPtr convolutionField(std::shared_ptr<const Skeleton> skeleton, double sigma);
