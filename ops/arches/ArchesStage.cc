@@ -62,10 +62,10 @@ Schema<ArchesParams> makeArchesSchema()
         &P::voxelSize);
     row(s, param("half-width", ParamType::Real, "voxels", 3.0, Range::closed(1, 64), "Narrow-band half width"),
         &P::halfWidth);
-    row(s, param("repose-sand", ParamType::Real, "degrees", 33.0, Range::open(0, 90),
+    row(s, param("repose-sand", ParamType::Real, "degrees", ReposeAngles().sand, Range::open(0, 90),
                  "Repose angle of sand (§3.4: 30-35)"),
         &P::reposeSand);
-    row(s, param("repose-rocks", ParamType::Real, "degrees", 42.0, Range::open(0, 90),
+    row(s, param("repose-rocks", ParamType::Real, "degrees", ReposeAngles().rocks, Range::open(0, 90),
                  "Repose angle of rocks (§3.4: 40-45)"),
         &P::reposeRocks);
     row(s, param("stabilize", ParamType::Bool, "", true, Range::any(),
