@@ -26,11 +26,7 @@ public:
     ConvolutionField(std::shared_ptr<const Skeleton> s, double sigma) : mSkeleton(std::move(s)), mSigma(sigma)
     {
         const auto& g = mSkeleton->geometry();
-        double top = g.z0;
-        for (size_t s2 = 0; s2 < g.count(); ++s2) {
-            const size_t n = mSkeleton->intervalCount(s2);
-            if (n > 0) top = std::max(top, mSkeleton->end(s2, n - 1));
-        }
+        const double top = mSkeleton->top();
         mBounds = BBoxd(Vec3d(g.x0 - sigma, g.y0 - sigma, g.z0 - sigma),
                         Vec3d(g.x0 + g.nx * g.cell + sigma, g.y0 + g.ny * g.cell + sigma, top + sigma));
     }
@@ -71,10 +67,7 @@ openvdb::MaskGrid::Ptr candidateLeaves(const Skeleton& sk, double dx, double rea
                          formatBytes(estimate), ", over the ", formatBytes(limit),
                          " allowed; use a larger voxel size or raise --max-memory");
     }
-    double top = g.z0;
-    for (size_t s = 0; s < g.count(); ++s) {
-        if (sk.intervalCount(s) > 0) top = std::max(top, sk.end(s, sk.intervalCount(s) - 1));
-    }
+    const double top = sk.top();
     const double far = std::max({std::abs(xmin), std::abs(xmax), std::abs(ymin), std::abs(ymax), std::abs(g.z0) + reach,
                                  std::abs(top) + reach}) / dx;
     if (!(far < 1e9)) {

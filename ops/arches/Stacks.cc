@@ -299,6 +299,13 @@ Skeleton::Skeleton(const Stacks& stacks, MaterialMask mask) : mGeometry(stacks.g
     }
 }
 
+double Skeleton::top() const
+{
+    double t = mGeometry.z0;
+    for (const double e : mEnd) t = std::max(t, e);
+    return t;
+}
+
 double Skeleton::below(size_t s, double z) const
 {
     const uint32_t a = mFirst[s], b = mFirst[s + 1];

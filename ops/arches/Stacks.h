@@ -161,6 +161,9 @@ public:
     /// outside, 0 where the cube is half full.
     double field(const Vec3d& p, double sigma) const { return volume(p, sigma) / (4.0 * sigma * sigma * sigma) - 1.0; }
 
+    /// The highest interval end (m), z0 when the skeleton is empty.
+    double top() const;
+
     /// Intervals of stack s: [start, end) pairs (metres), bottom first.
     size_t intervalCount(size_t s) const { return mFirst[s + 1] - mFirst[s]; }
     double start(size_t s, size_t k) const { return mStart[mFirst[s] + k]; }
