@@ -7,7 +7,6 @@
 #include <rockvdb/arches/ArchesStage.h>
 #include <rockvdb/arches/StackFile.h>
 #include <rockvdb/core/Error.h>
-#include <rockvdb/core/Expression.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <cstdio>
@@ -47,10 +46,7 @@ int main(int argc, char** argv)
         std::string baseDir = ".";
         std::optional<Stacks> saved;
         if (!scene.empty()) {
-            given = readJsonFile(scene);
-            if (!given.is_object()) fail<ValueError>("arches: ", scene, " must hold a JSON object of the table's keys");
-            baseDir = std::filesystem::path(scene).parent_path().string();
-            if (baseDir.empty()) baseDir = ".";
+            given = readScene(scene, baseDir);
         } else if (!stacksIn.empty()) {
             StackFile f = readStackFile(stacksIn);
             given = nlohmann::json::parse(f.params, nullptr, false);

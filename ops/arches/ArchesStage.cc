@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 
 namespace rockvdb {
@@ -142,7 +143,16 @@ const Schema<ArchesParams>& archesSchema()
 
 ArchesParams::ArchesParams() { archesSchema().reset(*this); }
 
-Stacks buildStacks(const ArchesParams& p, Task& task)
+json readScene(const std::string& path, std::string& baseDir)
+{
+    json scene = readJsonFile(path);
+    if (!scene.is_object()) fail<ValueError>("arches: ", path, " must hold a JSON object of the table's keys");
+    baseDir = std::filesystem::path(path).parent_path().string();
+    if (baseDir.empty()) baseDir = ".";
+    return scene;
+}
+
+Stacks buildStacks(const ArchesParams& p, Task& task, openvdb::FloatGrid::ConstPtr grid)
 {
     archesSchema().validate(p);
     task.phase("stacks", 1.0);
@@ -166,15 +176,22 @@ Stacks buildStacks(const ArchesParams& p, Task& task)
     }
     // A solid: a level set file, or any expression.
     FieldPtr solid;
+    if (grid && type != "level_set") fail<ValueError>("arches: a terrain grid needs a level_set terrain node");
     if (type == "level_set") {
+        // "source" records where a grid given in memory came from (Python); it is not read.
         for (auto it = node.begin(); it != node.end(); ++it) {
-            if (it.key() != "type" && it.key() != "file" && it.key() != "grid") {
+            if (it.key() != "type" && it.key() != "file" && it.key() != "grid" && it.key() != "source") {
                 fail<ValueError>("arches: terrain.", it.key(), " is not a key of a level_set terrain (file, grid)");
             }
         }
-        std::string file = at(node, "file", "terrain").get<std::string>();
-        if (!file.empty() && file[0] != '/') file = p.baseDir + "/" + file;
-        solid = levelSetField(readLevelSet(file, node.value("grid", std::string())));
+        if (grid) {
+            requireLevelSet(*grid, "arches terrain");
+            solid = levelSetField(grid);
+        } else {
+            std::string file = at(node, "file", "terrain").get<std::string>();
+            if (!file.empty() && file[0] != '/') file = p.baseDir + "/" + file;
+            solid = levelSetField(readLevelSet(file, node.value("grid", std::string())));
+        }
     } else {
         solid = fieldFromJson(node, ctx);
     }
@@ -199,16 +216,34 @@ Stacks buildStacks(const ArchesParams& p, Task& task)
     return stacksFromSolid(*solid, g, std::max(p.quantum, 0.1 * cell), Material::Bedrock, task);
 }
 
-ArchesResult runArches(const ArchesParams& p, Stacks stacks, Task& task)
+StabilizeStats stabilizeIfAsked(const ArchesParams& p, Stacks& stacks, Task& task)
+{
+    StabilizeStats st;
+    if (!p.stabilize) return st;
+    ReposeAngles a;
+    a.sand = p.reposeSand;
+    a.rocks = p.reposeRocks;
+    stacks = stabilizeStacks(stacks, a, task, &st);
+    return st;
+}
+
+ArchesOutput archesOutputFromString(const std::string& name, const std::string& what)
+{
+    if (name == "all") return ArchesOutput::All;
+    if (name == "surface" || name == "ground") return ArchesOutput::Surface;
+    if (name == "sand") return ArchesOutput::Sand;
+    if (name == "bedrock") return ArchesOutput::Bedrock;
+    if (name == "rocks") return ArchesOutput::Rocks;
+    if (name == "water") return ArchesOutput::Water;
+    if (name == "material") return ArchesOutput::Ids;
+    fail<ValueError>(what, " must be all, surface, ground, sand, bedrock, rocks, water or material (got '", name, "')");
+}
+
+ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutput output,
+                        const json& inputs, Task& task)
 {
     archesSchema().validate(p);
     ArchesResult r;
-    if (p.stabilize) {
-        ReposeAngles a;
-        a.sand = p.reposeSand;
-        a.rocks = p.reposeRocks;
-        stacks = stabilizeStacks(stacks, a, task, &r.stats.stabilize);
-    }
     const auto& g = stacks.geometry();
     SkeletonBake b;
     b.sigma = p.sigma.value_or(0.5 * g.cell);
@@ -216,35 +251,57 @@ ArchesResult runArches(const ArchesParams& p, Stacks stacks, Task& task)
     b.halfWidth = p.halfWidth;
     b.maxMemoryBytes = p.maxMemoryGB * 1e9;
     const auto t1 = std::chrono::steady_clock::now();
+    const bool all = output == ArchesOutput::All;
     // §6: the ground is one convolution over the union of sand, bedrock and rocks.
-    r.surface = bakeSkeleton(Skeleton(stacks, kGroundMask), b, task);
-    r.surface->setName("surface");
-    // One skeleton per material present: its level set, and (all of them) the ids.
+    if (all || output == ArchesOutput::Surface || output == ArchesOutput::Ids) {
+        r.surface = bakeSkeleton(Skeleton(stacks, kGroundMask), b, task);
+        r.surface->setName("surface");
+    }
+    // One skeleton per material present (in id order): its level set, and all of them the ids.
+    const std::pair<Material, ArchesOutput> kinds[] = {{Material::Water, ArchesOutput::Water},
+                                                       {Material::Sand, ArchesOutput::Sand},
+                                                       {Material::Bedrock, ArchesOutput::Bedrock},
+                                                       {Material::Rocks, ArchesOutput::Rocks}};
     std::vector<Skeleton> skeletons;
+    skeletons.reserve(4);
     std::vector<std::pair<Material, const Skeleton*>> parts;
-    for (Material m : {Material::Sand, Material::Bedrock, Material::Rocks}) {
-        if (stacks.volumeQuanta(m) > 0) skeletons.emplace_back(stacks, maskOf(m));
-    }
-    size_t k = 0;
-    for (Material m : {Material::Sand, Material::Bedrock, Material::Rocks}) {
-        if (k < skeletons.size() && skeletons[k].mask() == maskOf(m)) {
-            auto grid = bakeSkeleton(skeletons[k], b, task);
-            grid->setName(materialName(m));
-            r.materials.push_back(grid);
-            parts.emplace_back(m, &skeletons[k]);
-            ++k;
+    for (const auto& [m, o] : kinds) {
+        const bool ground = (maskOf(m) & kGroundMask) != 0;
+        const bool wanted = output == o || (all && ground);
+        if (output == ArchesOutput::Ids && ground && stacks.volumeQuanta(m) > 0) {
+            skeletons.emplace_back(stacks, maskOf(m));
+            parts.emplace_back(m, &skeletons.back());
         }
+        if (!wanted) continue;
+        if (stacks.volumeQuanta(m) == 0 && all) continue; // "all": the materials present
+        skeletons.emplace_back(stacks, maskOf(m));
+        auto grid = bakeSkeleton(skeletons.back(), b, task);
+        grid->setName(materialName(m));
+        r.materials.push_back(grid);
+        if (ground) parts.emplace_back(m, &skeletons.back());
     }
-    r.material = materialGrid(parts, b.sigma, *r.surface, task);
+    if (all || output == ArchesOutput::Ids) r.material = materialGrid(parts, b.sigma, *r.surface, task);
     r.stats.bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-    const std::string prov = archesSchema().toJson(p).dump();
-    stampProvenance(*r.surface, kToolName, prov);
-    for (auto& m : r.materials) stampProvenance(*m, kToolName, prov);
-    stampProvenance(*r.material, kToolName, prov);
+    json prov = archesSchema().toJson(p);
+    for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
+    const std::string text = prov.dump();
+    for (auto* grid : {&r.surface, &r.material}) {
+        if (*grid) stampProvenance(**grid, kToolName, text);
+    }
+    for (auto& m : r.materials) stampProvenance(*m, kToolName, text);
     r.stats.stacks = g.count();
     r.stats.layers = stacks.layerCount();
     r.stats.bytes = stacks.bytes();
-    r.stats.activeVoxels = size_t(r.surface->activeVoxelCount());
+    if (r.surface) r.stats.activeVoxels = size_t(r.surface->activeVoxelCount());
+    return r;
+}
+
+ArchesResult runArches(const ArchesParams& p, Stacks stacks, Task& task)
+{
+    archesSchema().validate(p);
+    const StabilizeStats st = stabilizeIfAsked(p, stacks, task);
+    ArchesResult r = bakeStacks(p, stacks, ArchesOutput::All, json::object(), task);
+    r.stats.stabilize = st;
     r.stacks = std::move(stacks);
     return r;
 }

@@ -72,12 +72,40 @@ struct ArchesResult
     ArchesStats stats;
 };
 
-/// @brief The initial stacks of @a params' terrain (phase "stacks").
-/// @throw ValueError naming the terrain key at fault; IoError for unreadable files.
-Stacks buildStacks(const ArchesParams& params, Task& task);
+/// @brief A scene file: its JSON object of the table's keys, and in @a baseDir its folder (what
+/// relative paths in its terrain resolve against). @throw ValueError / IoError naming @a path.
+nlohmann::json readScene(const std::string& path, std::string& baseDir);
 
-/// @brief Stabilise @a stacks when asked, then bake the ground, the per-material level sets
-/// and 'material', stamped with provenance (the table's JSON).
+/// @brief The initial stacks of @a params' terrain (phase "stacks"). @a solid, when given,
+/// is the level set of a {"type": "level_set"} terrain already in memory (Python passes
+/// grids; the node's file is then not read).
+/// @throw ValueError naming the terrain key at fault; IoError for unreadable files.
+Stacks buildStacks(const ArchesParams& params, Task& task,
+                   openvdb::FloatGrid::ConstPtr solid = nullptr);
+
+/// @brief Stabilise @a stacks in place when params.stabilize says so (§3.4), at the table's
+/// repose angles.
+StabilizeStats stabilizeIfAsked(const ArchesParams& params, Stacks& stacks, Task& task);
+
+/// What bakeStacks makes.
+enum class ArchesOutput
+{
+    All,      ///< surface, one level set per ground material present, material
+    Surface,  ///< the ground only
+    Sand, Bedrock, Rocks, Water, ///< that material's level set only (empty grid if absent)
+    Ids       ///< surface and 'material'
+};
+/// @brief "all", "surface" (or "ground"), "sand", "bedrock", "rocks", "water", "material".
+/// @throw ValueError naming @a what.
+ArchesOutput archesOutputFromString(const std::string& name, const std::string& what);
+
+/// @brief Bake @a stacks as they are (no stabilisation): the grids of @a output, stamped with
+/// provenance (the table's JSON, with @a inputs' keys on top, e.g. how a grid terrain was
+/// made). Each grid is the same bit for bit whichever @a output asked for it.
+ArchesResult bakeStacks(const ArchesParams& params, const Stacks& stacks, ArchesOutput output,
+                        const nlohmann::json& inputs, Task& task);
+
+/// @brief stabilizeIfAsked, then bakeStacks(All): what `vdb_arches` writes.
 ArchesResult runArches(const ArchesParams& params, Stacks stacks, Task& task);
 
 } // namespace arches

@@ -16,7 +16,8 @@ Fields: sphere, box, capsule, plane, polytope, expression -> Field (| & -, union
 warp, tag, bake). Grids: heightfield, csg, detail, read, write, mesh, preview, provenance,
 write_heightfield, read_image, coverage. Stages: block_tile / load_tile -> BlockTile (implicit-blocks
 §4), amplify (§5), detail (§4.2 and the Gabor details paper), rock_tiles / rock_library /
-rock_pile (aperiodic rock piles, arches §5).
+rock_pile (aperiodic rock piles, arches §5), fractal_rock / fractal_scatter / fractal_carve
+(fractal rocks), Stacks (material-stack terrain with overhangs, arches §3).
 
 Errors: ValueError for bad values, TypeError (naming the parameter and the type expected) for
 wrong types, IOError for files, KeyboardInterrupt when interrupted.
@@ -850,3 +851,219 @@ fractal_carve = _stage_function(
     "'cave'. path also writes both. Ctrl-C raises KeyboardInterrupt.",
     before=["solid"], after=[("path", None)],
     exclude=_SINGLE_ROCK_ROWS + list(_FRACTAL_ROWS["ground"]))
+
+
+# ---------------------------------------------------------------------------------------------
+# Material stacks (arches-material-stacks-terrain §3, §6)
+
+_ARCHES = _table("arches")
+# The rows a bake may change (the rest make the stacks, so they stay as built).
+_ARCHES_BAKE_ROWS = ("voxel-size", "half-width", "sigma", "max-memory")
+_ARCHES_GROUND = ("sand", "bedrock", "rocks")
+_IMAGE_EXTENSIONS = (".exr", ".png")
+
+
+def _arches_terrain(terrain, fn):
+    """The terrain row's JSON and the grid given in memory, if any."""
+    if isinstance(terrain, pyopenvdb.FloatGrid):
+        return {"type": "level_set", "grid": terrain.name}, terrain
+    if isinstance(terrain, (str, _os.PathLike)):
+        path = _os.fspath(terrain)
+        ext = _os.path.splitext(path)[1].lower()
+        if ext == ".vdb":
+            return {"type": "level_set", "file": path}, None
+        if ext in _IMAGE_EXTENSIONS:
+            return {"type": "heightfield", "file": path}, None
+        return path, None  # a JSON file (or JSON text) of a terrain node
+    if isinstance(terrain, dict):
+        return terrain, None
+    raise _type_error(fn, "terrain", "a terrain node (dict), a .json / .vdb / heightfield image "
+                      "path or a pyopenvdb.FloatGrid level set", terrain)
+
+
+def _materials(value, fn):
+    names = [value] if isinstance(value, str) else value
+    if not isinstance(names, (list, tuple)) or not all(isinstance(n, str) for n in names):
+        raise _type_error(fn, "material", "a material name or a sequence of names", value)
+    return list(names)
+
+
+class Stacks:
+    """Material stacks (vdb_arches from Python; arches §3): a 2D grid of stacks, each a list of
+    (material, thickness) layers bottom up - air, water, sand, bedrock, rocks; an air layer
+    between bedrock is an overhang, arch or cave. Thicknesses are whole quanta, so volumes are
+    exact.
+
+        s = rockvdb.Stacks("samples/data/arches_strata.json" or a terrain, **table keywords)
+        surface, materials, material = s.bake()   # what vdb_arches writes, bit for bit
+        s.save("terrain.stacks"); s = rockvdb.Stacks.load("terrain.stacks")
+
+    Stacks(terrain, ...) builds the stacks of a terrain: a terrain node (dict: strata,
+    heightfield, noise_terrain, sea_cliff, level_set or any solid expression), a .json file of
+    one, a heightfield image (.exr / 16-bit .png, 1 m spacing), a level set .vdb, or a
+    pyopenvdb.FloatGrid level set; Stacks.from_scene(path) reads a vdb_arches scene file. With
+    stabilize=True (the default) the stacks are stabilised at once, as vdb_arches does.
+    stabilize_stats holds that run's counts and time."""
+
+    __slots__ = ("_s", "stabilize_stats")
+
+    def __init__(self, terrain, **params):
+        _init_stacks(self, terrain, **params)
+
+    @classmethod
+    def _wrap(cls, native, stats=None):
+        s = object.__new__(cls)
+        s._s = native
+        s.stabilize_stats = stats
+        return s
+
+    @classmethod
+    def from_scene(cls, path, **params):
+        """The stacks of a vdb_arches scene file (keywords override its keys, as command-line
+        options do); relative paths in its terrain resolve against its folder."""
+        fn = "Stacks.from_scene"
+        scene = _path(path, "path", fn)
+        native, stats = _rockvdb.arches_build(_stage_params(_ARCHES, fn, params), scene, None)
+        return cls._wrap(native, stats)
+
+    @classmethod
+    def load(cls, path):
+        """Stacks saved by save() or vdb_arches --stacks (.stacks)."""
+        return cls._wrap(_rockvdb.arches_load(_path(path, "path", "Stacks.load")))
+
+    def save(self, path):
+        """Write a .stacks file with the scene parameters (atomic); vdb_arches --from-stacks
+        and Stacks.load continue from it."""
+        path = _path(path, "path", "Stacks.save")
+        if not path.endswith(".stacks"):
+            raise ValueError(f"Stacks.save: the path must end in .stacks (got '{path}')")
+        self._s.save(path)
+
+    def stabilize(self):
+        """Stabilise (§3.4) at the scene's repose angles: merge and sort the granular layers
+        between bedrock, then slide sand and rocks down every slope steeper than their angle.
+        Bedrock never moves; every material's volume is kept exactly. Returns the run's counts
+        and time (moves is 0 when the stacks were already at rest). Ctrl-C raises
+        KeyboardInterrupt and leaves the stacks as they were."""
+        stats = self._s.stabilize()
+        self.stabilize_stats = stats
+        return stats
+
+    def bake(self, material="all", *, voxel_size=None, half_width=None, sigma=None,
+             max_memory=None):
+        """Bake the convolution surfaces (§3.3, §6) as narrow-band level sets.
+
+        material: 'all' (default) -> (surface, [one level set per ground material present:
+        sand, bedrock, rocks], material ids), what vdb_arches writes; 'surface' (or 'ground') ->
+        the ground (sand, bedrock and rocks under one convolution); 'sand', 'bedrock', 'rocks'
+        or 'water' -> that material's level set (empty when absent); 'material' -> (surface,
+        material ids: sand 2, bedrock 3, rocks 4). The same grid is the same bit for bit
+        whichever call makes it.
+
+        voxel_size, half_width, sigma, max_memory: as the table's rows (default: the stacks'
+        scene); provenance records them, so the grids replay through vdb_arches --params."""
+        fn = "Stacks.bake"
+        _str(material, "material", fn)
+        given = {"voxel_size": voxel_size, "half_width": half_width, "sigma": sigma,
+                 "max_memory": max_memory}
+        overrides = _stage_params(_ARCHES, fn, {k: v for k, v in given.items() if v is not None})
+        return self._s.bake(material, overrides)
+
+    def layers(self, i, j):
+        """Stack (i, j)'s layers bottom up as (material name, thickness in m); stack (i, j)
+        covers x in [x0 + i·s, x0 + (i+1)·s), y likewise, and starts at z0 (origin)."""
+        fn = "Stacks.layers"
+        return self._s.layers(_int(i, "i", fn), _int(j, "j", fn))
+
+    def arrays(self):
+        """Every layer as numpy arrays (runs merged, stacks in order j·nx + i): offsets
+        (nx·ny + 1; stack k's layers are offsets[k]:offsets[k+1]), material (ids: air 0, water
+        1, sand 2, bedrock 3, rocks 4), bottom and thickness in quanta (exact integers) and
+        bottom_m / thickness_m in metres."""
+        d = self._s.arrays()
+        q, z0 = self.quantum, self.origin[2]
+        d["bottom_m"] = z0 + d["bottom"] * q
+        d["thickness_m"] = d["thickness"] * q
+        return d
+
+    def top(self, material=_ARCHES_GROUND):
+        """(ny, nx) heights (m) of the top of the highest layer of material (a name or names;
+        default the ground: sand, bedrock, rocks); NaN where a stack has none."""
+        return self._s.top(_materials(material, "Stacks.top"))
+
+    def thickness(self, material):
+        """(ny, nx) total thickness (m) of material (a name or names) in each stack."""
+        return self._s.thickness(_materials(material, "Stacks.thickness"))
+
+    def volume(self, material):
+        """Total volume of material (m³), exact to the quantum: quanta · s² · q."""
+        n = self._s.volume_quanta(_str(material, "material", "Stacks.volume"))
+        return n * self.cell_size * self.cell_size * self.quantum
+
+    @property
+    def shape(self):
+        """(ny, nx): stacks along y and x."""
+        return self._s.shape
+
+    @property
+    def cell_size(self):
+        """Stack size s (m)."""
+        return self._s.cell_size
+
+    @property
+    def origin(self):
+        """(x0, y0, z0) in metres: the corner of stack (0, 0) and the bottom of every stack."""
+        return self._s.origin
+
+    @property
+    def quantum(self):
+        """Thickness unit q (m)."""
+        return self._s.quantum
+
+    @property
+    def bytes(self):
+        """Bytes the stacks occupy (delta-coded layers, counts, block offsets)."""
+        return self._s.bytes
+
+    @property
+    def layer_count(self):
+        """Stored layers (codes) over all stacks."""
+        return self._s.layer_count
+
+    @property
+    def params(self):
+        """The scene (the table's keys) that made these stacks; 'stabilize' is True once they
+        are stabilised."""
+        return _json.loads(self._s.params)
+
+    def __eq__(self, other):
+        return isinstance(other, Stacks) and self._s == other._s
+
+    __hash__ = None
+
+    def __repr__(self):
+        ny, nx = self.shape
+        return (f"<rockvdb.Stacks {nx} x {ny} stacks of {self.cell_size} m, {self.layer_count} "
+                f"layers, {self.bytes} bytes>")
+
+
+def _build_stacks(terrain, **params):
+    fn = "Stacks"
+    node, grid = _arches_terrain(terrain, fn)
+    params["terrain"] = node
+    return _rockvdb.arches_build(_stage_params(_ARCHES, fn, params), None, grid)
+
+
+_stacks_factory = _stage_function(
+    _ARCHES, _build_stacks, "Stacks", Stacks.__doc__,
+    "Keywords are vdb_arches' options ('-' spelt '_'). Ctrl-C raises KeyboardInterrupt.",
+    before=["terrain"], exclude=["terrain"])
+
+
+def _init_stacks(self, *args, **kwargs):
+    self._s, self.stabilize_stats = _stacks_factory(*args, **kwargs)
+
+
+Stacks.__signature__ = _stacks_factory.__signature__
+Stacks.__doc__ = _stacks_factory.__doc__
+__all__.append("Stacks")

@@ -1,6 +1,7 @@
 // The rockvdb Python module: fields that compose like fogleman/sdf, bakes that return
 // pyopenvdb.FloatGrid objects, CSG, heightfields and I/O helpers.
 #include "GridCaster.h"
+#include "Host.h"
 
 #include <rockvdb/amplify/AmplifyStage.h>
 #include <rockvdb/blocks/BlocksStage.h>
@@ -31,6 +32,7 @@
 
 namespace py = pybind11;
 using namespace rockvdb;
+using namespace rockvdb::pyhost;
 using nlohmann::json;
 using Grid = openvdb::FloatGrid::Ptr;
 
@@ -94,52 +96,6 @@ py::object bakeField(const PyField& f, double voxelSize, double halfWidth,
     if (!r.attribute) return py::cast(r.surface);
     stampProvenance(*r.attribute, generator, p.dump());
     return py::make_tuple(py::cast(r.surface), py::cast(r.attribute));
-}
-
-/// A Task's host in Python: Ctrl-C (the interpreter's pending SIGINT, or any signal whose
-/// handler raises) cancels; polled from the calling thread, which works in every TBB loop, at
-/// most every 50 ms, with the GIL taken just for the check. Stages then raise
-/// KeyboardInterrupt. Python delivers signals to the main thread only: calls from other
-/// Python threads run to the end.
-class PyTaskHost : public TaskHost
-{
-public:
-    bool cancelled() override
-    {
-        if (mCancelled.load()) return true;
-        if (std::this_thread::get_id() != mCaller) return false;
-        const auto now = std::chrono::steady_clock::now();
-        if (now < mNext) return false;
-        mNext = now + std::chrono::milliseconds(50);
-        py::gil_scoped_acquire gil;
-        if (PyErr_CheckSignals() != 0) {
-            PyErr_Clear(); // raised again as KeyboardInterrupt by the Interrupted translator
-            mCancelled.store(true);
-        }
-        return mCancelled.load();
-    }
-
-private:
-    std::thread::id mCaller = std::this_thread::get_id();
-    std::chrono::steady_clock::time_point mNext{};
-    std::atomic<bool> mCancelled{false};
-};
-
-/// The JSON text of a Python call's parameters (the wrapper spells keys as the CLI does).
-json parseParams(const std::string& text, const char* op)
-{
-    json j = json::parse(text, nullptr, false);
-    if (j.is_discarded()) fail<ValueError>(op, ": parameters are not JSON");
-    return j;
-}
-
-/// What provenance records of a grid input: its own generator and parameters.
-json gridSource(const openvdb::GridBase& g)
-{
-    auto p = provenance(g);
-    if (!p) return {{"grid", g.getName()}};
-    return {{"grid", g.getName()}, {"generator", p->generator},
-            {"params", json::parse(p->params, nullptr, false)}};
 }
 
 struct PyTile
@@ -390,6 +346,8 @@ PYBIND11_MODULE(_rockvdb, m)
 
     // Stage tables: the Python wrappers build their signatures, defaults and docstrings
     // from these (python/rockvdb/__init__.py).
+    bindArches(m);
+
     m.def("schema", [](const std::string& stage) {
         if (stage == "rock_tiles") return rockpile::tilesSchema().describe().dump();
         if (stage == "rock_pile") return rockpile::pileSchema().describe().dump();
@@ -398,6 +356,7 @@ PYBIND11_MODULE(_rockvdb, m)
         if (stage == "tile") return blocks::tileSchema().describe().dump();
         if (stage == "amplify") return amplify::amplifySchema().describe().dump();
         if (stage == "fractal_rock" || stage == "fractal_scatter") return fractal::rockSchema().describe().dump();
+        if (stage == "arches") return archesSchemaText();
         throw ValueError("schema: no stage '" + stage + "'");
     }, py::arg("stage"));
 

@@ -1,0 +1,72 @@
+// What the rockvdb extension's translation units share: the Task host that turns Ctrl-C into
+// cancellation, parameter JSON from the Python wrappers, and how provenance names a grid input.
+#pragma once
+
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Task.h>
+#include <rockvdb/core/VdbIO.h>
+
+#include <nlohmann/json.hpp>
+#include <openvdb/openvdb.h>
+#include <pybind11/pybind11.h>
+
+#include <atomic>
+#include <chrono>
+#include <string>
+#include <thread>
+
+namespace rockvdb {
+namespace pyhost {
+
+/// A Task's host in Python: Ctrl-C (the interpreter's pending SIGINT, or any signal whose
+/// handler raises) cancels; polled from the calling thread, which works in every TBB loop, at
+/// most every 50 ms, with the GIL taken just for the check. Stages then raise
+/// KeyboardInterrupt. Python delivers signals to the main thread only: calls from other
+/// Python threads run to the end.
+class PyTaskHost : public TaskHost
+{
+public:
+    bool cancelled() override
+    {
+        if (mCancelled.load()) return true;
+        if (std::this_thread::get_id() != mCaller) return false;
+        const auto now = std::chrono::steady_clock::now();
+        if (now < mNext) return false;
+        mNext = now + std::chrono::milliseconds(50);
+        pybind11::gil_scoped_acquire gil;
+        if (PyErr_CheckSignals() != 0) {
+            PyErr_Clear(); // raised again as KeyboardInterrupt by the Interrupted translator
+            mCancelled.store(true);
+        }
+        return mCancelled.load();
+    }
+
+private:
+    std::thread::id mCaller = std::this_thread::get_id();
+    std::chrono::steady_clock::time_point mNext{};
+    std::atomic<bool> mCancelled{false};
+};
+
+/// The JSON text of a Python call's parameters (the wrapper spells keys as the CLI does).
+inline nlohmann::json parseParams(const std::string& text, const char* op)
+{
+    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+    if (j.is_discarded()) fail<ValueError>(op, ": parameters are not JSON");
+    return j;
+}
+
+/// What provenance records of a grid input: its own generator and parameters.
+inline nlohmann::json gridSource(const openvdb::GridBase& g)
+{
+    auto p = provenance(g);
+    if (!p) return {{"grid", g.getName()}};
+    return {{"grid", g.getName()}, {"generator", p->generator},
+            {"params", nlohmann::json::parse(p->params, nullptr, false)}};
+}
+
+/// rockvdb.Stacks' native half (arches.cc) and the arches table's description.
+void bindArches(pybind11::module_& m);
+std::string archesSchemaText();
+
+} // namespace pyhost
+} // namespace rockvdb

@@ -1,0 +1,250 @@
+// rockvdb.Stacks' native half: material stacks (arches §3) built, stabilised, baked, saved and
+// read from Python through the arches stage (ArchesStage.h), so Python and vdb_arches make the
+// same stacks and grids from the same table JSON. The Python class (rockvdb/__init__.py) checks
+// types and spells keywords; values are checked here, by the table.
+#include "GridCaster.h"
+#include "Host.h"
+
+#include <rockvdb/arches/ArchesStage.h>
+#include <rockvdb/arches/StackFile.h>
+
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <limits>
+#include <optional>
+#include <vector>
+
+namespace py = pybind11;
+using nlohmann::json;
+
+namespace rockvdb {
+namespace pyhost {
+
+namespace {
+
+using namespace arches;
+
+/// Stacks with the scene that made them: params is the table's JSON, its "stabilize" true once
+/// the stacks have been stabilised, so a bake's provenance replays through vdb_arches.
+struct PyStacks
+{
+    Stacks stacks;
+    json params;
+    json inputs = json::object(); ///< provenance on top of params (a grid terrain's source)
+};
+
+ArchesParams paramsOf(const json& j) { return archesSchema().fromJson(j); }
+
+py::dict stabilizeStats(const StabilizeStats& st)
+{
+    py::dict d;
+    d["visits"] = st.visits;
+    d["moves"] = st.moves;
+    d["moved_quanta"] = st.movedQuanta;
+    d["seconds"] = st.seconds;
+    return d;
+}
+
+/// Every stack's layers, runs merged, bottom first: the walk the numpy views share.
+template<typename Visit>
+void eachLayer(const Stacks& s, Visit&& visit)
+{
+    s.forEachStack([&](size_t k, const uint16_t* codes, size_t n) {
+        uint64_t z = 0;
+        size_t i = 0;
+        while (i < n) {
+            const Material m = Stacks::codeMaterial(codes[i]);
+            uint64_t t = 0;
+            while (i < n && Stacks::codeMaterial(codes[i]) == m) t += Stacks::codeThickness(codes[i++]);
+            visit(k, m, z, t);
+            z += t;
+        }
+    });
+}
+
+MaterialMask maskFromNames(const std::vector<std::string>& names)
+{
+    MaterialMask mask = 0;
+    for (const auto& n : names) mask |= maskOf(materialFromName(n, "Stacks: material"));
+    return mask;
+}
+
+py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::string& overrides)
+{
+    const ArchesOutput output = archesOutputFromString(what, "Stacks.bake: material");
+    json j = s.params;
+    const json o = parseParams(overrides, "arches");
+    for (auto it = o.begin(); it != o.end(); ++it) j[it.key()] = it.value();
+    const ArchesParams p = paramsOf(j);
+    ArchesResult r;
+    {
+        py::gil_scoped_release release;
+        PyTaskHost host;
+        Task task(&host);
+        r = bakeStacks(p, s.stacks, output, s.inputs, task);
+    }
+    using G = openvdb::FloatGrid::Ptr;
+    switch (output) {
+    case ArchesOutput::All: {
+        py::list mats;
+        for (const auto& g : r.materials) mats.append(py::cast(G(g)));
+        return py::make_tuple(py::cast(G(r.surface)), mats, py::cast(G(r.material)));
+    }
+    case ArchesOutput::Surface: return py::cast(G(r.surface));
+    case ArchesOutput::Ids: return py::make_tuple(py::cast(G(r.surface)), py::cast(G(r.material)));
+    default: return py::cast(G(r.materials.at(0)));
+    }
+}
+
+} // namespace
+
+std::string archesSchemaText() { return archesSchema().describe().dump(); }
+
+void bindArches(py::module_& m)
+{
+    py::class_<PyStacks>(m, "Stacks", "Material stacks (arches §3.2); see rockvdb.Stacks")
+        .def_property_readonly("shape", [](const PyStacks& s) {
+            return py::make_tuple(s.stacks.geometry().ny, s.stacks.geometry().nx);
+        })
+        .def_property_readonly("cell_size", [](const PyStacks& s) { return s.stacks.geometry().cell; })
+        .def_property_readonly("origin", [](const PyStacks& s) {
+            const auto& g = s.stacks.geometry();
+            return py::make_tuple(g.x0, g.y0, g.z0);
+        })
+        .def_property_readonly("quantum", [](const PyStacks& s) { return s.stacks.geometry().quantum; })
+        .def_property_readonly("bytes", [](const PyStacks& s) { return s.stacks.bytes(); })
+        .def_property_readonly("layer_count", [](const PyStacks& s) { return s.stacks.layerCount(); })
+        .def_property_readonly("params", [](const PyStacks& s) { return s.params.dump(); })
+        .def("volume_quanta", [](const PyStacks& s, const std::string& name) {
+            return s.stacks.volumeQuanta(materialFromName(name, "Stacks.volume: material"));
+        }, py::arg("material"))
+        .def("layers", [](const PyStacks& s, int i, int j) {
+            const auto& g = s.stacks.geometry();
+            if (i < 0 || j < 0 || i >= g.nx || j >= g.ny) {
+                throw py::index_error("Stacks.layers: (" + std::to_string(i) + ", " + std::to_string(j) +
+                                      ") is outside the " + std::to_string(g.nx) + " x " + std::to_string(g.ny) +
+                                      " stacks");
+            }
+            std::vector<Layer> layers;
+            s.stacks.layers(i, j, layers);
+            py::list out;
+            for (const auto& l : layers) {
+                out.append(py::make_tuple(materialName(l.material), double(l.thickness) * g.quantum));
+            }
+            return out;
+        }, py::arg("i"), py::arg("j"))
+        .def("arrays", [](const PyStacks& s) {
+            size_t n = 0;
+            eachLayer(s.stacks, [&](size_t, Material, uint64_t, uint64_t) { ++n; });
+            const size_t count = s.stacks.geometry().count();
+            py::array_t<int64_t> offsets(count + 1);
+            py::array_t<uint8_t> material(n);
+            py::array_t<int64_t> bottom(n), thickness(n);
+            int64_t* off = offsets.mutable_data();
+            uint8_t* mat = material.mutable_data();
+            int64_t* bot = bottom.mutable_data();
+            int64_t* th = thickness.mutable_data();
+            std::fill(off, off + count + 1, 0);
+            size_t at = 0;
+            eachLayer(s.stacks, [&](size_t k, Material m, uint64_t z, uint64_t t) {
+                off[k + 1] = int64_t(at + 1);
+                mat[at] = uint8_t(m);
+                bot[at] = int64_t(z);
+                th[at] = int64_t(t);
+                ++at;
+            });
+            // Stacks without layers take the offset before them.
+            for (size_t k = 1; k <= count; ++k) off[k] = std::max(off[k], off[k - 1]);
+            py::dict d;
+            d["offsets"] = offsets;
+            d["material"] = material;
+            d["bottom"] = bottom;
+            d["thickness"] = thickness;
+            return d;
+        })
+        .def("top", [](const PyStacks& s, const std::vector<std::string>& names) {
+            const MaterialMask mask = maskFromNames(names);
+            const auto& g = s.stacks.geometry();
+            py::array_t<double> out({size_t(g.ny), size_t(g.nx)});
+            double* o = out.mutable_data();
+            std::fill(o, o + g.count(), std::numeric_limits<double>::quiet_NaN());
+            eachLayer(s.stacks, [&](size_t k, Material m, uint64_t z, uint64_t t) {
+                if (maskOf(m) & mask) o[k] = g.z0 + double(z + t) * g.quantum;
+            });
+            return out;
+        }, py::arg("materials"))
+        .def("thickness", [](const PyStacks& s, const std::vector<std::string>& names) {
+            const MaterialMask mask = maskFromNames(names);
+            const auto& g = s.stacks.geometry();
+            py::array_t<double> out({size_t(g.ny), size_t(g.nx)});
+            double* o = out.mutable_data();
+            std::fill(o, o + g.count(), 0.0);
+            eachLayer(s.stacks, [&](size_t k, Material m, uint64_t, uint64_t t) {
+                if (maskOf(m) & mask) o[k] += double(t) * g.quantum;
+            });
+            return out;
+        }, py::arg("materials"))
+        .def("stabilize", [](PyStacks& s) {
+            ArchesParams p = paramsOf(s.params);
+            p.stabilize = true;
+            StabilizeStats st;
+            {
+                py::gil_scoped_release release;
+                PyTaskHost host;
+                Task task(&host);
+                Stacks next = s.stacks;
+                st = stabilizeIfAsked(p, next, task);
+                s.stacks = std::move(next); // only once finished: Ctrl-C leaves the stacks as they were
+            }
+            s.params["stabilize"] = true;
+            return stabilizeStats(st);
+        })
+        .def("bake", &bakeStacksPy, py::arg("material"), py::arg("overrides"))
+        .def("save", [](const PyStacks& s, const std::string& path) {
+            writeStackFile(path, s.stacks, s.params.dump());
+        }, py::arg("path"))
+        .def("__eq__", [](const PyStacks& a, const PyStacks& b) { return a.stacks == b.stacks; });
+
+    // Build the stacks of a scene (the table's JSON), stabilised when it says so, as vdb_arches
+    // does; grid: the level set of a {"type": "level_set"} terrain given in memory.
+    // scene: a scene file read first (its folder resolves relative paths), params on top.
+    m.def("arches_build", [](const std::string& params, std::optional<std::string> scene,
+                             std::optional<openvdb::FloatGrid::Ptr> grid) {
+        PyStacks s;
+        std::string baseDir = ".";
+        json j = scene ? readScene(*scene, baseDir) : json::object();
+        const json given = parseParams(params, "arches");
+        for (auto it = given.begin(); it != given.end(); ++it) j[it.key()] = it.value();
+        ArchesParams p = paramsOf(j);
+        p.baseDir = baseDir;
+        if (grid) {
+            s.inputs["terrain"] = jsonOrFile(p.terrain);
+            s.inputs["terrain"]["source"] = gridSource(**grid);
+        }
+        StabilizeStats st;
+        {
+            py::gil_scoped_release release;
+            PyTaskHost host;
+            Task task(&host);
+            s.stacks = buildStacks(p, task, grid ? *grid : nullptr);
+            st = stabilizeIfAsked(p, s.stacks, task);
+        }
+        s.params = archesSchema().toJson(p);
+        return py::make_tuple(std::move(s), stabilizeStats(st));
+    }, py::arg("params"), py::arg("scene") = std::nullopt, py::arg("grid") = std::nullopt);
+
+    m.def("arches_load", [](const std::string& path) {
+        StackFile f = readStackFile(path);
+        PyStacks s;
+        s.params = json::parse(f.params, nullptr, false);
+        if (!s.params.is_object()) fail<IoError>("arches: ", path, " holds no scene parameters");
+        s.params = archesSchema().toJson(paramsOf(s.params)); // validated, every row present
+        s.stacks = std::move(f.stacks);
+        return s;
+    }, py::arg("path"));
+}
+
+} // namespace pyhost
+} // namespace rockvdb

@@ -1,0 +1,228 @@
+"""rockvdb.Stacks: material stacks from Python (arches §3, §6) - the same stacks and grids as
+vdb_arches for the same scene, stabilisation that conserves every material, numpy views that
+agree with the stacks, files that round-trip, and bad input refused with one clear error."""
+import json
+import os
+
+import numpy as np
+import pyopenvdb as vdb
+import pytest
+
+import rockvdb
+from conftest import assert_bitwise_equal, run, tool
+
+AR = tool("vdb_arches")
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SCENE = os.path.join(ROOT, "samples", "data", "arches_strata.json")
+GROUND = ("sand", "bedrock", "rocks")
+
+
+def small_scene(tmp_path, **extra):
+    scene = json.load(open(SCENE))
+    scene["terrain"]["samples"] = [40, 30]
+    scene.update(extra)
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(scene))
+    return path
+
+
+def by_name(path):
+    return {g.name: g for g in vdb.readAll(str(path))[0]}
+
+
+def same_grids(cli_path, surface, materials, material):
+    cli = by_name(cli_path)
+    py = {"surface": surface, "material": material, **{g.name: g for g in materials}}
+    assert sorted(cli) == sorted(py)
+    for name, g in py.items():
+        if g.activeVoxelCount() == 0:  # a material too thin for σ (the small scene's rocks)
+            assert cli[name].activeVoxelCount() == 0
+        else:
+            assert_bitwise_equal(cli[name], g)
+        assert g.metadata["rockvdb:generator"] == "vdb_arches"
+        assert json.loads(g.metadata["rockvdb:params"]) == json.loads(cli[name].metadata["rockvdb:params"])
+
+
+@pytest.fixture(scope="module")
+def cliff_scene(tmp_path_factory):
+    """A heightfield with a steep scarp under 1.5 m of sand: the sand must slide."""
+    d = tmp_path_factory.mktemp("cliff")
+    x = np.arange(48, dtype=np.float32)
+    rows = np.tile(np.where(x < 20, 12.0, 2.0) + 0.05 * x, (32, 1)).astype(np.float32)
+    rockvdb.write_heightfield(str(d / "scarp.exr"), rows)
+    scene = {"terrain": {"type": "heightfield", "file": "scarp.exr", "cell_size": 0.5},
+             "sand-depth": 1.5, "quantum": 0.01}
+    (d / "scene.json").write_text(json.dumps(scene))
+    return d / "scene.json"
+
+
+def test_python_and_the_cli_give_the_same_grids_for_the_same_scene(tmp_path):
+    scene = small_scene(tmp_path)
+    run([AR, "-q", str(scene), "-o", str(tmp_path / "cli.vdb"), "--stacks", str(tmp_path / "cli.stacks")],
+        check=True)
+    s = rockvdb.Stacks.from_scene(scene)
+    same_grids(tmp_path / "cli.vdb", *s.bake())
+    # The terrain given as a dict with the same keywords: the same stacks.
+    params = json.load(open(scene))
+    terrain = params.pop("terrain")
+    t = rockvdb.Stacks(terrain, **{k.replace("-", "_"): v for k, v in params.items()})
+    assert t == s and t.params == s.params
+    assert rockvdb.Stacks.load(tmp_path / "cli.stacks") == s
+
+
+def test_stabilize_conserves_every_material_leaves_bedrock_and_is_the_clis(tmp_path, cliff_scene):
+    raw = rockvdb.Stacks.from_scene(cliff_scene, stabilize=False)
+    before = {m: raw.volume(m) for m in GROUND}
+    bedrock = raw.thickness("bedrock"), raw.top("bedrock")
+    assert raw.params["stabilize"] is False and raw.stabilize_stats["moves"] == 0
+    stats = raw.stabilize()
+    assert stats["moves"] > 100 and stats["moved_quanta"] > 0
+    assert {m: raw.volume(m) for m in GROUND} == before  # whole quanta: exactly
+    assert np.array_equal(raw.thickness("bedrock"), bedrock[0])
+    assert np.array_equal(raw.top("bedrock"), bedrock[1], equal_nan=True)
+    # At rest: no sand slope between 8-neighbours steeper than the repose angle (+ one quantum
+    # over the diagonal's run, the rounding of whole-quantum moves).
+    top = raw.top()
+    s, q = raw.cell_size, raw.quantum
+    sand = raw.thickness("sand") > 0
+    tan = np.tan(np.radians(raw.params["repose-sand"]))
+    for dj, di in [(0, 1), (1, 0), (1, 1), (1, -1)]:
+        run_ = s * np.hypot(di, dj)
+        a = top[max(0, -dj):top.shape[0] - max(0, dj), max(0, -di):top.shape[1] - max(0, di)]
+        b = top[max(0, dj):, max(0, di):][:a.shape[0], :a.shape[1]]
+        sa = sand[max(0, -dj):top.shape[0] - max(0, dj), max(0, -di):top.shape[1] - max(0, di)]
+        sb = sand[max(0, dj):, max(0, di):][:a.shape[0], :a.shape[1]]
+        drop = a - b
+        # Sand on the high side that could slide: the drop is within the angle.
+        high = np.where(drop > 0, sa, sb)
+        assert np.all(np.abs(drop)[high] <= run_ * tan + q + 1e-9)
+    # Again: already at rest, nothing moves and nothing changes.
+    copy = raw.arrays()
+    assert raw.stabilize()["moves"] == 0
+    assert all(np.array_equal(copy[k], raw.arrays()[k]) for k in copy)
+    # Built stabilised (the default), the stacks are the same; so are vdb_arches' grids.
+    assert rockvdb.Stacks.from_scene(cliff_scene) == raw and raw.params["stabilize"] is True
+    run([AR, "-q", str(cliff_scene), "-o", str(tmp_path / "cli.vdb")], check=True)
+    same_grids(tmp_path / "cli.vdb", *raw.bake())
+
+
+def test_numpy_views_agree_with_the_stacks(tmp_path):
+    s = rockvdb.Stacks.from_scene(small_scene(tmp_path))
+    a = s.arrays()
+    ny, nx = s.shape
+    assert a["offsets"].shape == (nx * ny + 1,) and a["offsets"][-1] == len(a["material"])
+    # Per stack: contiguous layers from z0, runs merged, as layers(i, j) gives them.
+    for (i, j) in [(0, 0), (7, 3), (nx - 1, ny - 1), (20, 15)]:
+        k = j * nx + i
+        lo, hi = a["offsets"][k], a["offsets"][k + 1]
+        names = ["air", "water", "sand", "bedrock", "rocks"]
+        got = [(names[m], t) for m, t in zip(a["material"][lo:hi], a["thickness_m"][lo:hi])]
+        assert [(m, pytest.approx(t)) for m, t in s.layers(i, j)] == got
+        assert np.array_equal(a["bottom"][lo + 1:hi], (a["bottom"] + a["thickness"])[lo:hi - 1])
+        assert all(a["material"][lo:hi - 1] != a["material"][lo + 1:hi])
+    for mid, m in [(2, "sand"), (3, "bedrock"), (4, "rocks")]:
+        quanta = int(a["thickness"][a["material"] == mid].sum())
+        assert s.volume(m) == pytest.approx(quanta * s.cell_size ** 2 * s.quantum, rel=1e-12)
+        assert s.thickness(m).sum() == pytest.approx(quanta * s.quantum, rel=1e-9)
+    # The strata's air band: overhangs are air between ground below and above.
+    assert (a["material"] == 0).sum() > 0
+    top = s.top()
+    assert top.shape == (ny, nx) and not np.isnan(top).any()
+    assert s.bytes < 3 * len(a["material"]) + nx * ny + 64  # delta-coded: under 3 bytes a layer
+
+
+def test_each_grid_is_the_same_whichever_bake_asks_for_it(tmp_path):
+    s = rockvdb.Stacks.from_scene(small_scene(tmp_path))
+    surface, materials, material = s.bake()
+    assert_bitwise_equal(surface, s.bake("surface"))
+    assert_bitwise_equal(surface, s.bake("ground"))
+    for g in materials:
+        if g.activeVoxelCount():
+            assert_bitwise_equal(g, s.bake(g.name))
+    su, ids = s.bake("material")
+    assert_bitwise_equal(su, surface)
+    assert_bitwise_equal(ids, material)
+    water = s.bake("water")  # no water in these strata: an empty level set
+    assert water.name == "water" and water.activeVoxelCount() == 0
+    # Bake rows: recorded, so the file replays through vdb_arches --params.
+    coarse = s.bake("surface", voxel_size=1.0)
+    prov = json.loads(coarse.metadata["rockvdb:params"])
+    assert prov["voxel-size"] == 1.0 and coarse.transform.voxelSize()[0] == 1.0
+    (tmp_path / "p.json").write_text(json.dumps(prov))
+    run([AR, "-q", "--params", str(tmp_path / "p.json"), "-o", str(tmp_path / "r.vdb")], check=True)
+    assert_bitwise_equal(coarse, vdb.read(str(tmp_path / "r.vdb"), "surface"))
+
+
+def test_a_level_set_grid_terrain_keeps_its_overhang(tmp_path):
+    """A mushroom rock's level set as stacks: the cap's rim stands over air; baked again, a
+    vertical ray under the rim crosses the surface 4 times; provenance names the grid's own."""
+    mushroom = (rockvdb.sphere(1.6, (3, 3, 3.2)) | rockvdb.capsule((3, 3, 0.5), (3, 3, 3), 0.55)
+                | rockvdb.box((5.8, 5.8, 0.5), (3, 3, 0.25)))
+    grid = mushroom.bake(voxel_size=0.1)
+    s = rockvdb.Stacks(grid, cell_size=0.1, quantum=0.001, extent=(0, 0, 6, 6), floor=0)
+    assert [m for m, _ in s.layers(44, 30)][:3] == ["bedrock", "air", "bedrock"]
+    g = s.bake("surface")
+    prov = json.loads(g.metadata["rockvdb:params"])
+    assert prov["terrain"]["source"]["generator"] == "rockvdb.Field.bake"
+    acc = g.getConstAccessor()
+    col = [acc.getValue((44, 30, k)) < 0 for k in range(-5, 60)]
+    assert sum(a != b for a, b in zip(col, col[1:])) == 4
+    # From a file, the same stacks.
+    rockvdb.write(str(tmp_path / "m.vdb"), [grid])
+    assert rockvdb.Stacks(tmp_path / "m.vdb", cell_size=0.1, quantum=0.001, extent=(0, 0, 6, 6), floor=0) == s
+
+
+def test_save_and_load_round_trip_and_continue_in_the_cli(tmp_path, cliff_scene):
+    s = rockvdb.Stacks.from_scene(cliff_scene, stabilize=False)
+    s.stabilize()
+    s.save(tmp_path / "t.stacks")
+    back = rockvdb.Stacks.load(tmp_path / "t.stacks")
+    assert back == s and back.params == s.params and back.params["stabilize"] is True
+    run([AR, "-q", "--from-stacks", str(tmp_path / "t.stacks"), "-o", str(tmp_path / "c.vdb")], check=True)
+    same_grids(tmp_path / "c.vdb", *back.bake())
+
+
+@pytest.mark.parametrize("call,error,needles", [
+    (lambda d: rockvdb.Stacks({"type": "strata"}, cell_sise=1), TypeError, ["cell_sise", "cell_size"]),
+    (lambda d: rockvdb.Stacks(42), TypeError, ["terrain", "int"]),
+    (lambda d: rockvdb.Stacks({"type": "strata", "samples": [4, 4],
+                               "layers": [{"material": "lava", "thickness": 1}]}),
+     ValueError, ["terrain.layers[0].material", "lava"]),
+    (lambda d: rockvdb.Stacks({"type": "strata", "samples": [4, 4],
+                               "layers": [{"material": "sand", "thickness": -1}]}),
+     ValueError, ["terrain.layers[0].thickness", ">= 0"]),
+    (lambda d: rockvdb.Stacks({"type": "strata", "samples": [200000, 200000],
+                               "layers": [{"material": "sand", "thickness": 1}]}),
+     ValueError, ["GB", "max-memory"]),
+    (lambda d: rockvdb.Stacks.from_scene(d / "missing.json"), IOError, ["missing.json"]),
+    (lambda d: rockvdb.Stacks.from_scene(d / "bad.json"), ValueError, ["bad.json"]),
+    (lambda d: rockvdb.Stacks.from_scene(d / "scene.json", sigma=0), ValueError, ["sigma"]),
+    (lambda d: rockvdb.Stacks.from_scene(d / "scene.json").bake("lava"), ValueError, ["material", "lava"]),
+    (lambda d: rockvdb.Stacks.from_scene(d / "scene.json").layers(40, 0), IndexError, ["(40, 0)", "40 x 30"]),
+    (lambda d: rockvdb.Stacks.from_scene(d / "scene.json").save(d / "x.vdb"), ValueError, [".stacks"]),
+    (lambda d: rockvdb.Stacks.load(d / "bad.json"), IOError, ["bad.json"]),
+])
+def test_bad_input_is_one_clear_error(tmp_path, call, error, needles):
+    small_scene(tmp_path)
+    (tmp_path / "bad.json").write_text("{\"terrain\": ")
+    before = sorted(os.listdir(tmp_path))
+    with pytest.raises(error) as e:
+        call(tmp_path)
+    text = str(e.value)
+    assert "\n" not in text
+    for n in needles:
+        assert n in text, text
+    assert sorted(os.listdir(tmp_path)) == before
+
+
+def test_stacks_help_lists_the_tables_keywords():
+    import inspect
+    sig = inspect.signature(rockvdb.Stacks)
+    table = json.loads(rockvdb._rockvdb.schema("arches"))["params"]
+    assert list(sig.parameters)[0] == "terrain"
+    assert sorted(sig.parameters) == sorted(r["python"] for r in table)
+    for r in table:
+        if r["name"] != "terrain":
+            default = sig.parameters[r["python"]].default
+            assert default == (tuple(r["default"]) if isinstance(r["default"], list) else r["default"])
+            assert r["python"] in rockvdb.Stacks.__doc__
