@@ -14,6 +14,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <memory>
 
 namespace rockvdb {
 namespace arches {
@@ -130,6 +132,64 @@ openvdb::MaskGrid::Ptr candidateLeaves(const Skeleton& sk, double dx, double rea
     return mask;
 }
 
+// OpenVDB's fast sweeping cannot be interrupted, and on a 1 000 x 750 terrain one sweep runs
+// for seconds. So the band is swept in xy tiles of kTile voxels, each with a halo of at least
+// w + 2 voxels (whole leaves): every zero crossing within the band of a tile's own voxels is in
+// its sweep, so its voxels get the distances a whole sweep gives them. Tiles run in parallel
+// with the task checked between them (Ctrl-C waits for one tile, ~0.1 s); they depend only on
+// index coordinates, never on thread count, and each tile's own leaves are taken from its
+// sweep alone, so the result is deterministic. Leaves are shared by up to 4 tiles' sweeps:
+// ~30% more voxels swept than once, for sweeps that fit in cache.
+openvdb::FloatGrid::Ptr sweepTiled(const openvdb::FloatGrid& in, double w, Task& task)
+{
+    using Leaf = openvdb::FloatTree::LeafNodeType;
+    constexpr int kTile = 128;
+    const int halo = 8 * int(std::ceil((std::ceil(w) + 2.0) / 8.0));
+    std::vector<const Leaf*> leaves;
+    in.tree().getNodes(leaves);
+    // Each tile's swept leaves (its own and its halo's), tiles in key order.
+    std::map<std::pair<int, int>, std::vector<uint32_t>> tiles;
+    for (size_t l = 0; l < leaves.size(); ++l) {
+        const openvdb::Coord o = leaves[l]->origin();
+        for (int ty = floorDiv(o.y() - halo, kTile); ty <= floorDiv(o.y() + halo, kTile); ++ty)
+            for (int tx = floorDiv(o.x() - halo, kTile); tx <= floorDiv(o.x() + halo, kTile); ++tx)
+                tiles[{tx, ty}].push_back(uint32_t(l));
+    }
+    std::vector<const std::pair<const std::pair<int, int>, std::vector<uint32_t>>*> order;
+    for (const auto& t : tiles) order.push_back(&t);
+    std::vector<std::unique_ptr<Leaf>> out(leaves.size());
+    parallelFor(task, order.size(), 1, [&](size_t t) {
+        const auto& [key, members] = *order[t];
+        auto part = openvdb::FloatGrid::create(in.background());
+        part->setTransform(in.transform().copy());
+        part->setGridClass(openvdb::GRID_LEVEL_SET);
+        for (const uint32_t l : members) part->tree().addLeaf(new Leaf(*leaves[l]));
+        // The inside between leaves (a thick stratum's middle) as the whole grid has it; the
+        // part's outer edge may read as outside, a false crossing at least the halo away from
+        // the tile's own voxels, farther than their band.
+        openvdb::tools::signedFloodFill(part->tree());
+        // Without the sweep's finalising step: it re-backgrounds the part by its extreme
+        // values, which a tile that only grazes the inside (all of it within a rounding of 0)
+        // does not have; the band cut below does that job for the whole grid.
+        openvdb::tools::FastSweeping<openvdb::FloatGrid> fs;
+        openvdb::FloatGrid::Ptr swept;
+        if (fs.initSdf(*part, 0.0f, true)) {
+            fs.sweep(1, false);
+            swept = fs.sdfGrid();
+        }
+        for (const uint32_t l : members) {
+            const openvdb::Coord o = leaves[l]->origin();
+            if (floorDiv(o.x(), kTile) != key.first || floorDiv(o.y(), kTile) != key.second) continue;
+            const Leaf* r = swept ? swept->tree().probeConstLeaf(o) : nullptr;
+            out[l] = std::make_unique<Leaf>(r ? *r : *leaves[l]);
+        }
+    });
+    auto grid = openvdb::FloatGrid::create(in.background());
+    grid->setTransform(in.transform().copy());
+    for (auto& leaf : out) grid->tree().addLeaf(leaf.release());
+    return grid;
+}
+
 } // namespace
 
 FieldPtr convolutionField(std::shared_ptr<const Skeleton> skeleton, double sigma)
@@ -192,7 +252,7 @@ openvdb::FloatGrid::Ptr bakeSkeleton(const Skeleton& skeleton, const SkeletonBak
         r.surface->tree().topologyIntersection(crossing->tree());
     }
     task.check();
-    openvdb::FloatGrid::Ptr grid = openvdb::tools::sdfToSdf(*r.surface, 0.0f, 1);
+    openvdb::FloatGrid::Ptr grid = sweepTiled(*r.surface, w, task);
     task.check();
     // The band: |φ| < w·dx active, the rest off at ±background.
     const float bg = float(w * dx);
