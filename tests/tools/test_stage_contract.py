@@ -330,7 +330,22 @@ LONG_RUNS = {
     "fractal scatter": lambda tmp, tile_file: [tool("vdb_fractal_rock"), "--count", "600",
                                                "--levels", "2", "--area", "-10,-10,10,10",
                                                "--size", "0.6,0.5,0.35", "--voxel-size", "0.02"],
+    "arches": lambda tmp, tile_file: [tool("vdb_arches"), str(arches_scene(tmp))],
 }
+
+ARCHES_TERRAIN = {"type": "strata", "samples": [300, 240], "base": 14, "amplitude": 9,
+                  "layers": [{"material": "bedrock", "thickness": 6},
+                             {"material": "sand", "thickness": 1.5},
+                             {"material": "air", "thickness": 2},
+                             {"material": "bedrock", "thickness": 40}]}
+
+
+def arches_scene(tmp, samples=(300, 240)):
+    """A strata terrain with an overhang band: ~3 s to bake at 1 m on 2 cores."""
+    path = tmp / f"arches{samples[0]}.json"
+    terrain = dict(ARCHES_TERRAIN, samples=list(samples))
+    path.write_text(json.dumps({"terrain": terrain, "cell-size": 1.0}))
+    return path
 
 
 def big_cliff(tmp):
@@ -396,10 +411,11 @@ def test_interrupt_stops_within_a_second_and_writes_nothing(tmp_path, tile_file,
     ["vdb_amplify", "--terrain", "CLIFF", "--tiles", "TILE", "--voxel-size", "0.1"],
     ["vdb_fractal_rock", "--levels", "3", "--voxel-size", "0.01", "--normal-map", "N_EXR"],
     ["vdb_fractal_rock", "--count", "100", "--levels", "1", "--voxel-size", "0.03"],
+    ["vdb_arches", "ARCHES"],
 ])
 def test_progress_only_goes_up_and_ends_at_100_for(tmp_path, ball_vdb, cliff, args):
     swap = {"BALL": str(ball_vdb), "CLIFF": str(cliff / "cliff.exr"), "TILE": str(cliff / "eq.tile"),
-            "N_EXR": str(tmp_path / "n.exr")}
+            "N_EXR": str(tmp_path / "n.exr"), "ARCHES": str(arches_scene(tmp_path, (80, 60)))}
     args = [swap.get(a, a) for a in args]
     seen = progress_of([tool(args[0]), *args[1:], "-o", str(tmp_path / "o.vdb")])
     assert len(seen) >= 3 and seen == sorted(seen) and seen[-1] == 100, seen
@@ -427,11 +443,13 @@ print("finished", time.monotonic() - t0)
     "rockvdb.block_tile(voxel_size=0.04)",
     "rockvdb.fractal_rock(levels=4, voxel_size=0.004)",
     "rockvdb.fractal_scatter(count=600, levels=2, area=(-10, -10, 10, 10), voxel_size=0.02)",
+    "rockvdb.Stacks.from_scene(sys.argv[3]).bake()",
 ])
 def test_python_calls_raise_keyboard_interrupt(tmp_path, tile_file, call):
     script = tmp_path / "s.py"
     script.write_text(PY_INTERRUPT.format(call=call))
-    p = subprocess.run([sys.executable, str(script), str(tile_file), str(medium_ball(tmp_path))],
+    p = subprocess.run([sys.executable, str(script), str(tile_file), str(medium_ball(tmp_path)),
+                        str(arches_scene(tmp_path))],
                        capture_output=True,
                        text=True, timeout=120)
     assert p.returncode == 0, p.stderr
