@@ -68,9 +68,10 @@ int main(int argc, char** argv)
                       r.stats.stacks, r.stats.layers, double(r.stats.bytes) / 1e6, r.stats.stabilize.seconds,
                       r.stats.stabilize.moves, r.stats.bakeSeconds, r.stats.activeVoxels);
         tool.info(line);
-        openvdb::GridCPtrVec out{r.surface};
+        // The ids first and the ground last: vdb_tool acts on the last grid read.
+        openvdb::GridCPtrVec out{r.material};
         for (const auto& g : r.materials) out.push_back(g);
-        out.push_back(r.material);
+        out.push_back(r.surface);
         // The stacks first: if the .vdb fails after, the run is repeatable from them; the
         // reverse would leave a terrain whose stacks were lost.
         if (!stacksOut.empty()) writeStackFile(stacksOut, r.stacks, archesSchema().toJson(p).dump());

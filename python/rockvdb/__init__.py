@@ -950,7 +950,7 @@ class Stacks:
         return stats
 
     def bake(self, material="all", *, voxel_size=None, half_width=None, sigma=None,
-             max_memory=None):
+             max_memory=None, path=None):
         """Bake the convolution surfaces (§3.3, §6) as narrow-band level sets.
 
         material: 'all' (default) -> (surface, [one level set per ground material present:
@@ -961,13 +961,25 @@ class Stacks:
         whichever call makes it.
 
         voxel_size, half_width, sigma, max_memory: as the table's rows (default: the stacks'
-        scene); provenance records them, so the grids replay through vdb_arches --params."""
+        scene); provenance records them, so the grids replay through vdb_arches --params.
+        path also writes the grids (atomically), ids first and the ground last as vdb_arches
+        does (vdb_tool acts on the last grid)."""
         fn = "Stacks.bake"
         _str(material, "material", fn)
+        target = _opt(path, _path, "path", fn)
         given = {"voxel_size": voxel_size, "half_width": half_width, "sigma": sigma,
                  "max_memory": max_memory}
         overrides = _stage_params(_ARCHES, fn, {k: v for k, v in given.items() if v is not None})
-        return self._s.bake(material, overrides)
+        grids = self._s.bake(material, overrides)
+        if target is not None:
+            if material == "all":
+                ordered = [grids[2]] + list(grids[1]) + [grids[0]]
+            elif isinstance(grids, tuple):
+                ordered = [grids[1], grids[0]]
+            else:
+                ordered = [grids]
+            _rockvdb.write(target, ordered)
+        return grids
 
     def layers(self, i, j):
         """Stack (i, j)'s layers bottom up as (material name, thickness in m); stack (i, j)

@@ -93,8 +93,8 @@ def fractal(tmp_path_factory):
 def arches(tmp_path_factory):
     """vdb_arches: a small strata terrain with a band of overhangs (5 cm stacks and voxels)."""
     d = tmp_path_factory.mktemp("arches")
-    layers = [["bedrock", 0.3], ["sand", 0.05], ["bedrock", 0.1], ["air", 0.1], ["bedrock", 2.0]]
-    scene = {"terrain": {"type": "strata", "samples": [60, 40], "base": 0.6, "amplitude": 0.3,
+    layers = [["bedrock", 0.3], ["sand", 0.05], ["bedrock", 0.1], ["air", 0.2], ["bedrock", 2.0]]
+    scene = {"terrain": {"type": "strata", "samples": [60, 40], "base": 0.8, "amplitude": 0.3,
                          "frequency": 0.5, "warp": 0.05, "warp_frequency": 1.0,
                          "layers": [{"material": m, "thickness": t} for m, t in layers]},
              "cell-size": 0.05, "quantum": 0.001}
@@ -196,6 +196,73 @@ def test_blender_imports_and_meshes_surface(which, scene, blocks, amplified, det
     for a in range(3):
         assert abs(r["min"][a] - ours_lo[a]) <= 2 * dx + 1e-6, (a, r, ours_lo)
         assert abs(r["max"][a] - ours_hi[a]) <= 2 * dx + 1e-6, (a, r, ours_hi)
+
+
+def overhang_columns(grid, count=4):
+    """World (x, y) of columns where the level set crosses 0 exactly 4 times, each run of
+    inside or outside at least 3 voxels long (robust to meshing), spread over the grid."""
+    import numpy as np
+    lo, hi = grid.evalActiveVoxelBoundingBox()
+    a = np.zeros(tuple(h - l + 1 for l, h in zip(lo, hi)), np.float32)
+    grid.copyToArray(a, ijk=lo)
+    inside = a < 0
+    found = []
+    for i in range(1, a.shape[0] - 1, 2):
+        for j in range(1, a.shape[1] - 1, 2):
+            col = inside[i, j]
+            flips = np.flatnonzero(col[1:] != col[:-1])
+            if len(flips) == 4 and np.all(np.diff(flips) >= 3):
+                found.append((i, j))
+    assert len(found) >= count, "no overhang in the fixture"
+    dx = grid.transform.voxelSize()[0]
+    pick = [found[k * len(found) // count] for k in range(count)]
+    # Off the voxel centres (Blender's mesh vertices sit on them).
+    return [((lo[0] + i + 0.31) * dx, (lo[1] + j + 0.27) * dx) for i, j in pick]
+
+
+@pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
+def test_blender_meshes_the_arches_overhangs(arches, tmp_path):
+    """A vertical line through the overhang band crosses Blender's mesh of the ground 4 times
+    (bedrock top, the overhang's underside and top... as our level set does)."""
+    import pyopenvdb as vdb
+    columns = overhang_columns(vdb.read(str(arches), "surface"))
+    report = tmp_path / "blender.json"
+    p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
+                        os.path.join(HERE, "blender_mesh.py"), "--", str(arches), str(report)]
+                       + [f"{x},{y}" for x, y in columns],
+                       capture_output=True, text=True, timeout=600)
+    assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
+    r = json.loads(report.read_text())
+    assert r["crossings"] == [4] * len(columns), (r["crossings"], columns)
+
+
+@pytest.mark.skipif(not shutil.which("vdb_tool"), reason="libopenvdb-tools not installed")
+def test_vdb_tool_and_vdb_print_read_the_arches_terrain(arches, tmp_path):
+    """vdb_tool's default actions mesh the ground (written last); vdb_print lists every grid."""
+    obj = tmp_path / "a.obj"
+    p = subprocess.run(["vdb_tool", "-read", str(arches), "-ls2mesh", "-write", str(obj)],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0 and "Fatal" not in p.stderr, p.stderr
+    theirs = sum(1 for l in obj.read_text().splitlines() if l.startswith("v "))
+    ours = tmp_path / "ours.obj"
+    run([tool("vdb_mesh"), "-q", str(arches), "-o", str(ours)], check=True)
+    mine = sum(1 for l in ours.read_text().splitlines() if l.startswith("v "))
+    assert theirs > 1000 and abs(theirs - mine) <= 0.02 * mine, (theirs, mine)
+    p = subprocess.run(["vdb_print", "-l", str(arches)], capture_output=True, text=True, check=True)
+    for name in ("surface", "sand", "bedrock", "material"):
+        assert f"Name: {name}" in p.stdout
+    assert p.stdout.count("class: level set") >= 3
+
+
+@pytest.mark.skipif(not shutil.which("vdb_render"), reason="libopenvdb-tools not installed")
+def test_vdb_render_renders_the_arches_ground(arches, tmp_path):
+    out = tmp_path / "r.ppm"
+    subprocess.run(["vdb_render", str(arches), str(out), "-res", "160x120", "-name", "surface",
+                    "-lookat", "1.5,1,0.5", "-translate", "1.5,-3,3", "-up", "0,0,1", "-shader",
+                    "diffuse"], capture_output=True, text=True, check=True, timeout=300)
+    data = out.read_bytes()
+    body = data[data.index(b"255\n") + 4:]
+    assert data.startswith(b"P6") and len(set(body[i:i + 3] for i in range(0, len(body), 3))) > 20
 
 
 @pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")

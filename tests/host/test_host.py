@@ -47,6 +47,7 @@ def test_every_grid_call_works_with_openvdb_preloaded(tmp_path, plain):
     preloaded = run_calls(tmp_path, {"LD_PRELOAD": LIBOPENVDB})
     assert preloaded == plain
     assert plain["detail_voxels"] > 10000 and plain["pile_voxels"] > 1000
+    assert plain["stacks_equal"] and plain["stacks_layers"] > 100
 
 
 @pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")

@@ -61,7 +61,11 @@ def test_python_and_the_cli_give_the_same_grids_for_the_same_scene(tmp_path):
     run([AR, "-q", str(scene), "-o", str(tmp_path / "cli.vdb"), "--stacks", str(tmp_path / "cli.stacks")],
         check=True)
     s = rockvdb.Stacks.from_scene(scene)
-    same_grids(tmp_path / "cli.vdb", *s.bake())
+    same_grids(tmp_path / "cli.vdb", *s.bake(path=tmp_path / "py.vdb"))
+    # The file too: the same grids in the same order (ids first, the ground last).
+    assert [g.name for g in vdb.readAll(str(tmp_path / "py.vdb"))[0]] == \
+        [g.name for g in vdb.readAll(str(tmp_path / "cli.vdb"))[0]]
+    assert vdb.readAll(str(tmp_path / "cli.vdb"))[0][-1].name == "surface"
     # The terrain given as a dict with the same keywords: the same stacks.
     params = json.load(open(scene))
     terrain = params.pop("terrain")
