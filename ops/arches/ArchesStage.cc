@@ -8,6 +8,7 @@
 #include <rockvdb/core/Expression.h>
 #include <rockvdb/core/GridField.h>
 #include <rockvdb/core/Heightfield.h>
+#include <rockvdb/core/Image.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <algorithm>
@@ -55,6 +56,10 @@ Schema<ArchesParams> makeArchesSchema()
     row(s, param("sand-depth", ParamType::Real, "m", 0.0, Range::atLeast(0),
                  "Sand laid on a heightfield terrain"),
         &P::sandDepth);
+    row(s, param("sand-map", ParamType::Text, "", "", Range::any(),
+                 "Image (EXR / 16-bit PNG, one pixel per heightfield sample, pixel row = sample row) "
+                 "whose value 0..1 scales sand-depth per stack (\"\" = sand-depth everywhere)"),
+        &P::sandMap);
     row(s, param("sigma", ParamType::Real, "m", json(), Range::above(0),
                  "Half size σ of the convolution's cubic kernel (§3.3; unset: half the cell size)"),
         &P::sigma);
@@ -159,6 +164,9 @@ Stacks buildStacks(const ArchesParams& p, Task& task, openvdb::FloatGrid::ConstP
     const json node = jsonOrFile(p.terrain);
     if (!node.is_object()) fail<ValueError>("arches: terrain must be a JSON object (a terrain node)");
     const std::string type = node.value("type", std::string());
+    if (!p.sandMap.empty() && type != "heightfield" && type != "noise_terrain" && type != "sea_cliff") {
+        fail<ValueError>("arches: sand-map needs a heightfield terrain (heightfield, noise_terrain or sea_cliff)");
+    }
     if (type == "strata") return strataStacks(p, node, task);
     ExpressionContext ctx;
     ctx.baseDir = p.baseDir;
@@ -172,7 +180,25 @@ Stacks buildStacks(const ArchesParams& p, Task& task, openvdb::FloatGrid::ConstP
         double low = std::numeric_limits<double>::max();
         for (float z : hf->heightfield->z) low = std::min(low, double(z));
         const double z0 = p.floor.value_or(low - hf->baseDepth);
-        return stacksFromHeightfield(*hf->heightfield, p.quantum, z0, p.sandDepth, nullptr, task);
+        if (p.sandMap.empty()) return stacksFromHeightfield(*hf->heightfield, p.quantum, z0, p.sandDepth, nullptr, task);
+        std::string file = p.sandMap;
+        if (file[0] != '/') file = p.baseDir + "/" + file;
+        const GrayImage map = readGrayImage(file, "arches: sand-map");
+        const Heightfield& h = *hf->heightfield;
+        if (map.width != h.nx || map.height != h.ny) {
+            fail<ValueError>("arches: sand-map ", p.sandMap, " is ", map.width, " x ", map.height,
+                             " pixels; the heightfield has ", h.nx, " x ", h.ny, " samples");
+        }
+        std::vector<float> depth(map.pixels.size());
+        for (size_t k = 0; k < depth.size(); ++k) {
+            const float v = map.pixels[k];
+            if (!(v >= 0.0f && v <= 1.0f)) {
+                fail<ValueError>("arches: sand-map ", p.sandMap, " has a value outside 0..1 (", v, ") at pixel (",
+                                 k % size_t(map.width), ", ", k / size_t(map.width), ")");
+            }
+            depth[k] = float(double(v) * p.sandDepth);
+        }
+        return stacksFromHeightfield(h, p.quantum, z0, p.sandDepth, &depth, task);
     }
     // A solid: a level set file, or any expression.
     FieldPtr solid;

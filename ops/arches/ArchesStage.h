@@ -42,6 +42,7 @@ struct ArchesParams
     std::optional<double> floor;                ///< z0 (m); unset: the terrain's bottom
     double quantum;                             ///< q (m)
     double sandDepth;                           ///< sand on a heightfield terrain (m)
+    std::string sandMap;                        ///< image scaling sandDepth per sample ("" = none)
     std::optional<double> sigma;                ///< σ (m); unset: half the cell size
     std::optional<double> voxelSize;            ///< m; unset: the cell size
     double halfWidth;                           ///< voxels

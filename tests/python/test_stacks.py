@@ -230,3 +230,25 @@ def test_stacks_help_lists_the_tables_keywords():
             default = sig.parameters[r["python"]].default
             assert default == (tuple(r["default"]) if isinstance(r["default"], list) else r["default"])
             assert r["python"] in rockvdb.Stacks.__doc__
+
+
+def test_a_sand_map_sets_the_sand_per_stack_and_bad_maps_are_refused(tmp_path):
+    x = np.arange(24, dtype=np.float32)
+    rockvdb.write_heightfield(str(tmp_path / "h.exr"), np.tile(5 + 0.1 * x, (16, 1)))
+    ramp = np.tile(np.clip(x / 23, 0, 1), (16, 1)).astype(np.float32)
+    ramp[3, 5] = 0.5
+    rockvdb.write_heightfield(str(tmp_path / "sand.exr"), ramp)
+    s = rockvdb.Stacks(tmp_path / "h.exr", sand_depth=2.0, sand_map=str(tmp_path / "sand.exr"),
+                       quantum=0.001, stabilize=False)
+    assert s.shape == (16, 24)
+    assert np.allclose(s.thickness("sand"), 2.0 * ramp, atol=0.001)
+    assert s.thickness("sand")[3, 5] == pytest.approx(1.0, abs=0.001)  # pixel row = stack row j
+    assert np.allclose(s.top(), 5 + 0.1 * x[None, :], atol=0.001)  # the top stays the heightfield
+    rockvdb.write_heightfield(str(tmp_path / "small.exr"), ramp[:8])
+    with pytest.raises(ValueError, match="sand-map .* 24 x 8 pixels; the heightfield has 24 x 16"):
+        rockvdb.Stacks(tmp_path / "h.exr", sand_depth=2.0, sand_map=str(tmp_path / "small.exr"))
+    with pytest.raises(ValueError, match="sand-map needs a heightfield terrain"):
+        rockvdb.Stacks({"type": "strata", "samples": [4, 4], "layers": [{"material": "sand", "thickness": 1}]},
+                       sand_map=str(tmp_path / "sand.exr"))
+    with pytest.raises(IOError, match="nothing.exr"):
+        rockvdb.Stacks(tmp_path / "h.exr", sand_map=str(tmp_path / "nothing.exr"))
