@@ -1,6 +1,7 @@
 """vdb_arches: material-stack terrain from a scene file (arches §3, §6)."""
 import json
 import os
+import subprocess
 
 import numpy as np
 import pyopenvdb as vdb
@@ -86,3 +87,34 @@ def test_malformed_json_and_a_corrupt_stacks_file_are_refused(tmp_path):
     one_line_error(run([AR, "-q", "--from-stacks", str(tmp_path / "c.stacks"), "-o", str(tmp_path / "o.vdb")]), 1,
                    "c.stacks")
     assert not (tmp_path / "o.vdb").exists()
+
+
+def test_sample_08_overhangs_and_sand_that_slid_off_the_canyon_walls(tmp_path):
+    """samples/08_arches.sh: the strata scene has columns crossing the ground 4 times; the
+    canyon's sand is all still there (exactly) but no longer on the walls."""
+    import rockvdb
+    sample = os.path.join(ROOT, "samples", "08_arches.sh")
+    p = subprocess.run(["bash", sample, os.environ.get("ROCKVDB_BUILD", os.path.join(ROOT, "build")),
+                        str(tmp_path)], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+    for stem in ("arches_strata", "arches_canyon"):
+        assert (tmp_path / f"{stem}.png").stat().st_size > 10000
+        assert [g.name for g in vdb.readAll(str(tmp_path / f"{stem}.vdb"))[0]][-1] == "surface"
+    g = vdb.read(str(tmp_path / "arches_strata.vdb"), "surface")
+    lo, hi = g.evalActiveVoxelBoundingBox()
+    a = np.zeros(tuple(h - l + 1 for l, h in zip(lo, hi)), np.float32)
+    g.copyToArray(a, ijk=lo)
+    flips = (np.diff((a < 0).astype(np.int8), axis=2) != 0).sum(axis=2)
+    assert (flips >= 4).mean() > 0.05, "overhangs over at least 5% of the strata"
+    settled = rockvdb.Stacks.load(tmp_path / "arches_canyon.stacks")
+    fresh = rockvdb.Stacks.from_scene(os.path.join(ROOT, "samples", "data", "arches_canyon.json"),
+                                      stabilize=False)
+    assert settled.volume("sand") == fresh.volume("sand")
+    # The sand left the walls (the stacks whose ground drops > 2 m to a neighbour) for the floor.
+    top = fresh.top()
+    steep = np.zeros(top.shape, bool)
+    steep[:, :-1] |= np.abs(np.diff(top, axis=1)) > 2
+    steep[:-1, :] |= np.abs(np.diff(top, axis=0)) > 2
+    assert steep.sum() > 50
+    assert settled.thickness("sand")[steep].mean() < 0.5 * fresh.thickness("sand")[steep].mean()
+    assert settled.thickness("sand").max() > 2 * 1.2
