@@ -486,7 +486,7 @@ void archesGroup(bool quick)
         Task task;
         const double build = bestOf(1, [&] { st = stacksFromStrata(spec, task); });
         std::string vdb = "-";
-        if (sc.nx == 1000 && sc.ny == 750) {
+        if (!quick || (sc.nx == 1000 && sc.ny == 750)) {
             // The same ground as an OpenVDB level set (bytes in memory), at the cell size.
             SkeletonBake b;
             b.sigma = 0.5;
