@@ -238,8 +238,9 @@ private:
             CLI::ConfigItem item;
             item.parents = parents;
             item.name = it.key();
+            // A list of objects (edits), or an empty list (no edits), is one JSON option's text.
             const bool nested = it->is_array() &&
-                std::any_of(it->begin(), it->end(), [](const json& v) { return v.is_structured(); });
+                (it->empty() || std::any_of(it->begin(), it->end(), [](const json& v) { return v.is_structured(); }));
             if (it->is_object() || nested) item.inputs.push_back(it->dump()); // a JSON option
             else if (it->is_array()) for (const auto& v : *it) item.inputs.push_back(str(v));
             else item.inputs.push_back(str(*it));

@@ -1,7 +1,7 @@
 // vdb_arches — material-stack terrain with overhangs, arches and caves ("Arches: a Framework
 // for Modeling Complex Terrains", §3, §6). Options from the stage's table (ArchesStage.h): a
 // scene is that table's JSON, given as the first argument (or --params); its "terrain" is the
-// initial terrain. Work in buildStacks / runArches.
+// initial terrain, its "edits" the §4 edits. Work in buildStacks / runArches / bakeStacks.
 #include "Cli.h"
 
 #include <rockvdb/arches/ArchesStage.h>
@@ -10,6 +10,7 @@
 #include <rockvdb/core/VdbIO.h>
 
 #include <cstdio>
+#include <algorithm>
 #include <filesystem>
 
 using namespace rockvdb;
@@ -26,10 +27,11 @@ int main(int argc, char** argv)
     std::string scene, stacksOut, stacksIn;
     app.add_option("scene", scene, "Scene .json: the table's keys (command-line options win)");
     tool.addParams(app, archesSchema());
-    app.add_option("--stacks", stacksOut, "Also save the stacks (after stabilisation) to this .stacks file");
+    app.add_option("--stacks", stacksOut, "Also save the stacks (after stabilisation and the edits) to this .stacks file");
     app.add_option("--from-stacks", stacksIn,
-                   "Start from these saved stacks (their scene's parameters, command-line options win) "
-                   "instead of building the terrain");
+                   "Start from these saved stacks (their scene's parameters) instead of building the terrain: "
+                   "--edits adds edits after theirs; only the bake's --voxel-size, --half-width and --max-memory "
+                   "may change");
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
 
     return tool.run(argc, argv, [&] {
@@ -54,13 +56,40 @@ int main(int argc, char** argv)
             saved = std::move(f.stacks);
         }
         const nlohmann::json cli = tool.givenParams(archesSchema()); // (not a temporary in the loop)
-        for (auto it = cli.begin(); it != cli.end(); ++it) given[it.key()] = it.value();
+        // Saved stacks were made by their scene: only the bake's rows may differ, and edits
+        // given here come after the saved ones (the record lists both, so it replays).
+        nlohmann::json more = nlohmann::json::array();
+        for (auto it = cli.begin(); it != cli.end(); ++it) {
+            if (saved && it.key() == "edits") {
+                more = jsonOrFile(it.value());
+                if (!more.is_array()) fail<ValueError>("arches: --edits must be a list of edits");
+                nlohmann::json all = jsonOrFile(given.value("edits", nlohmann::json::array()));
+                for (const auto& e : more) all.push_back(e);
+                given["edits"] = all;
+                continue;
+            }
+            if (saved && std::find(bakeOnlyRows().begin(), bakeOnlyRows().end(), it.key()) == bakeOnlyRows().end()) {
+                fail<ValueError>("arches: --", it.key(), " made the saved stacks; with --from-stacks only --edits "
+                                 "(more edits), --voxel-size, --half-width and --max-memory may be given");
+            }
+            given[it.key()] = it.value();
+        }
         ArchesParams p = archesSchema().fromJson(given);
         p.baseDir = baseDir;
+        p.edits = jsonOrFile(p.edits); // recorded as content, not a path
         auto bar = tool.taskBar();
         Task task(bar.get());
-        Stacks stacks = saved ? std::move(*saved) : buildStacks(p, task);
-        const ArchesResult r = runArches(p, std::move(stacks), task);
+        ArchesResult r;
+        if (saved) {
+            // Continue: the new edits only, then the bake.
+            Stacks stacks = std::move(*saved);
+            std::vector<EditStats> edits = applyEdits(p, stacks, more, p.edits.size() - more.size(), task);
+            r = bakeStacks(p, stacks, ArchesOutput::All, nlohmann::json::object(), task);
+            r.stats.edits = std::move(edits);
+            r.stacks = std::move(stacks);
+        } else {
+            r = runArches(p, buildStacks(p, task), task);
+        }
         bar->clear();
         char line[240];
         std::snprintf(line, sizeof line, "%zu stacks, %zu layers in %.2f MB; stabilised in %.2f s (%zu moves); "
@@ -68,6 +97,16 @@ int main(int argc, char** argv)
                       r.stats.stacks, r.stats.layers, double(r.stats.bytes) / 1e6, r.stats.stabilize.seconds,
                       r.stats.stabilize.moves, r.stats.bakeSeconds, r.stats.activeVoxels);
         tool.info(line);
+        for (size_t k = 0; k < r.stats.edits.size(); ++k) {
+            const EditStats& e = r.stats.edits[k];
+            std::snprintf(line, sizeof line, "edit %zu (%s): %zu stacks changed, bedrock %+.3g m3, sand %+.3g m3, rocks %+.3g m3; "
+                          "%.3f s with its stabilisation (%zu moves)", k, e.tool.c_str(), e.stacks,
+                          double(e.bedrock) * r.stacks.geometry().quantum * r.stacks.geometry().cell * r.stacks.geometry().cell,
+                          double(e.sand) * r.stacks.geometry().quantum * r.stacks.geometry().cell * r.stacks.geometry().cell,
+                          double(e.rocks) * r.stacks.geometry().quantum * r.stacks.geometry().cell * r.stacks.geometry().cell,
+                          e.seconds, e.stabilize.moves);
+            tool.info(line);
+        }
         // The ids first and the ground last: vdb_tool acts on the last grid read.
         openvdb::GridCPtrVec out{r.material};
         for (const auto& g : r.materials) out.push_back(g);

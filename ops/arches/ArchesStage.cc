@@ -77,12 +77,19 @@ Schema<ArchesParams> makeArchesSchema()
     row(s, param("stabilize", ParamType::Bool, "", true, Range::any(),
                  "Merge, sort and slide the granular layers to rest before baking (§3.4)"),
         &P::stabilize);
+    row(s, param("edits", ParamType::Json, "", json::array(), Range::any(),
+                 "Edits applied in order after stabilisation (§4): a list of {\"tool\": sculpt | deposit | erode | "
+                 "stabilize, ...} (JSON, or the path of a JSON file); each is stabilised locally"),
+        &P::edits);
     row(s, param("seed", ParamType::Int, "", 0, Range::atLeast(0), "Seed of noise terrains and warps"), &P::seed);
     row(s, param("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0),
                  "Refuse work estimated above this (0 = 75% of RAM)"),
         &P::maxMemoryGB);
     s.rule([](const P& p) {
         if (p.terrain.is_null()) fail<ValueError>("arches: terrain is required (a heightfield, strata, level_set or solid node)");
+        const json edits = jsonOrFile(p.edits);
+        if (!edits.is_array()) fail<ValueError>("arches: edits must be a list of edits [{\"tool\": ...}, ...]");
+        for (size_t k = 0; k < edits.size(); ++k) validateEdit(edits[k], k);
     });
     return s;
 }
@@ -322,14 +329,44 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
     return r;
 }
 
+EditContext editContext(const ArchesParams& p, const StackGeometry& g)
+{
+    EditContext c;
+    c.sigma = p.sigma.value_or(0.5 * g.cell);
+    c.angles.sand = p.reposeSand;
+    c.angles.rocks = p.reposeRocks;
+    return c;
+}
+
+std::vector<EditStats> applyEdits(const ArchesParams& p, Stacks& stacks, const json& edits, size_t first, Task& task)
+{
+    const json list = jsonOrFile(edits);
+    if (!list.is_array()) fail<ValueError>("arches: edits must be a list of edits [{\"tool\": ...}, ...]");
+    std::vector<EditStats> out;
+    const EditContext ctx = editContext(p, stacks.geometry());
+    for (size_t k = 0; k < list.size(); ++k) {
+        task.phase("edit", 1.0 / double(list.size()));
+        out.push_back(applyEdit(stacks, list[k], first + k, ctx, task));
+    }
+    return out;
+}
+
 ArchesResult runArches(const ArchesParams& p, Stacks stacks, Task& task)
 {
     archesSchema().validate(p);
     const StabilizeStats st = stabilizeIfAsked(p, stacks, task);
+    std::vector<EditStats> edits = applyEdits(p, stacks, p.edits, 0, task);
     ArchesResult r = bakeStacks(p, stacks, ArchesOutput::All, json::object(), task);
     r.stats.stabilize = st;
+    r.stats.edits = std::move(edits);
     r.stacks = std::move(stacks);
     return r;
+}
+
+const std::vector<std::string>& bakeOnlyRows()
+{
+    static const std::vector<std::string> rows = {"voxel-size", "half-width", "max-memory"};
+    return rows;
 }
 
 } // namespace arches

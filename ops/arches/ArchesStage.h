@@ -12,6 +12,7 @@
 //     a solid, turned into bedrock stacks by the roots along each stack's axis over extent.
 #pragma once
 
+#include <rockvdb/arches/Edits.h>
 #include <rockvdb/arches/StackBake.h>
 #include <rockvdb/arches/Stabilize.h>
 #include <rockvdb/arches/Stacks.h>
@@ -48,6 +49,7 @@ struct ArchesParams
     double halfWidth;                           ///< voxels
     double reposeSand, reposeRocks;             ///< degrees
     bool stabilize;
+    nlohmann::json edits;                       ///< the edits (Edits.h), applied in order after stabilisation
     int seed;
     double maxMemoryGB;
     std::string baseDir = ".";                  ///< relative paths in terrain (not a row: the scene file's folder)
@@ -60,6 +62,7 @@ struct ArchesStats
 {
     size_t stacks = 0, layers = 0, bytes = 0;
     StabilizeStats stabilize;
+    std::vector<EditStats> edits;
     size_t activeVoxels = 0;
     double bakeSeconds = 0; ///< every level set and 'material' (stabilisation: stabilize.seconds)
 };
@@ -106,8 +109,20 @@ ArchesOutput archesOutputFromString(const std::string& name, const std::string& 
 ArchesResult bakeStacks(const ArchesParams& params, const Stacks& stacks, ArchesOutput output,
                         const nlohmann::json& inputs, Task& task);
 
-/// @brief stabilizeIfAsked, then bakeStacks(All): what `vdb_arches` writes.
+/// @brief The edits' context from the table: σ (unset: half the cell) and the repose angles.
+EditContext editContext(const ArchesParams& params, const StackGeometry& geometry);
+
+/// @brief Apply @a edits (a list; its first is edit number @a first of the scene) in order.
+std::vector<EditStats> applyEdits(const ArchesParams& params, Stacks& stacks, const nlohmann::json& edits,
+                                  size_t first, Task& task);
+
+/// @brief stabilizeIfAsked, the scene's edits, then bakeStacks(All): what `vdb_arches` writes
+/// from a scene's initial stacks.
 ArchesResult runArches(const ArchesParams& params, Stacks stacks, Task& task);
+
+/// @brief The rows a saved .stacks file may be baked with differently (the bake's own:
+/// voxel-size, half-width, max-memory) besides more edits; every other row made the stacks.
+const std::vector<std::string>& bakeOnlyRows();
 
 } // namespace arches
 } // namespace rockvdb

@@ -77,27 +77,32 @@ struct Segments
         return -1;
     }
 
+    // Stack s's layers from its segments (bedrock between them).
+    void layersOf(size_t s, std::vector<Layer>& layers) const
+    {
+        uint64_t z = 0;
+        for (uint32_t k = first[s]; k < first[s + 1]; ++k) {
+            const Segment& c = seg[k];
+            auto add = [&](Material m, uint64_t t) {
+                for (; t > 0;) { // Layer thickness is 32-bit
+                    const uint32_t part = uint32_t(std::min<uint64_t>(t, 0xffffffffu));
+                    layers.push_back(Layer{m, part});
+                    t -= part;
+                }
+            };
+            add(Material::Bedrock, c.floor - z);
+            add(Material::Sand, c.sand);
+            add(Material::Rocks, c.rocks);
+            add(Material::Water, c.water);
+            if (c.ceiling != kSky) add(Material::Air, c.ceiling - c.floor - c.filled());
+            z = c.ceiling;
+        }
+    }
+
     Stacks encode(Task& task) const
     {
         return Stacks::build(geometry, [&](int i, int j, std::vector<Layer>& layers) {
-            const size_t s = geometry.index(i, j);
-            uint64_t z = 0;
-            for (uint32_t k = first[s]; k < first[s + 1]; ++k) {
-                const Segment& c = seg[k];
-                auto add = [&](Material m, uint64_t t) {
-                    for (; t > 0;) { // Layer thickness is 32-bit
-                        const uint32_t part = uint32_t(std::min<uint64_t>(t, 0xffffffffu));
-                        layers.push_back(Layer{m, part});
-                        t -= part;
-                    }
-                };
-                add(Material::Bedrock, c.floor - z);
-                add(Material::Sand, c.sand);
-                add(Material::Rocks, c.rocks);
-                add(Material::Water, c.water);
-                if (c.ceiling != kSky) add(Material::Air, c.ceiling - c.floor - c.filled());
-                z = c.ceiling;
-            }
+            layersOf(geometry.index(i, j), layers);
         }, task);
     }
 };
@@ -105,8 +110,14 @@ struct Segments
 const int kDx[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
 const int kDy[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
 
-// One material's slide over all segments: a FIFO worklist, one thread.
-void slide(Segments& S, Material material, double angleDegrees, Task& task, StabilizeStats& stats)
+// One material's slide: a FIFO worklist, one thread. The worklist starts with every segment
+// holding the material, or with those of @a seeds' stacks (in that order). A local run
+// (@a rim given) returns false, having changed what it must then discard, as soon as it would
+// evaluate a segment of a rim stack (the window's edge where the grid goes on, whose
+// neighbours it cannot see). @a touched (optional) marks every stack whose segments changed.
+bool slide(Segments& S, Material material, double angleDegrees, Task& task, StabilizeStats& stats,
+           const std::vector<uint32_t>* seeds = nullptr, const std::vector<uint8_t>* rim = nullptr,
+           std::vector<uint8_t>* touched = nullptr)
 {
     const auto& g = S.geometry;
     const bool sand = material == Material::Sand;
@@ -122,11 +133,17 @@ void slide(Segments& S, Material material, double angleDegrees, Task& task, Stab
 
     std::vector<uint8_t> queued(S.seg.size(), 0);
     std::deque<uint32_t> work;
-    for (uint32_t k = 0; k < S.seg.size(); ++k) {
-        if (amount(S.seg[k]) > 0) {
+    auto seed = [&](uint32_t k) {
+        if (amount(S.seg[k]) > 0 && !queued[k]) {
             work.push_back(k);
             queued[k] = 1;
         }
+    };
+    if (seeds) {
+        for (const uint32_t st : *seeds)
+            for (uint32_t k = S.first[st]; k < S.first[st + 1]; ++k) seed(k);
+    } else {
+        for (uint32_t k = 0; k < S.seg.size(); ++k) seed(k);
     }
     // The stack of each segment, for neighbour lookups.
     std::vector<uint32_t> stackOf(S.seg.size());
@@ -162,6 +179,7 @@ void slide(Segments& S, Material material, double angleDegrees, Task& task, Stab
         if (have == 0) continue;
         const uint64_t h = top(cs);
         const size_t s = stackOf[c];
+        if (rim && (*rim)[s]) return false;
         const int i = int(s % size_t(g.nx)), j = int(s / size_t(g.nx));
         outs.clear();
         double maxExcess = 0, sum = 0;
@@ -205,19 +223,30 @@ void slide(Segments& S, Material material, double angleDegrees, Task& task, Stab
         if (given == 0) continue;
         amount(cs) -= given;
         for (const Out& o : outs) amount(S.seg[o.seg]) += o.take;
+        if (touched) {
+            (*touched)[s] = 1;
+            for (const Out& o : outs) (*touched)[stackOf[o.seg]] = 1;
+        }
         ++stats.moves;
         stats.movedQuanta += given;
         // Whatever stands next to a changed pile may now slide: the giver, the receivers and
-        // the neighbours' segments at the giver's old top.
+        // every neighbouring pile whose top lies in the giver's room (it slides into that
+        // room, now lower; a pile up a slope stands above the giver's old top, so looking up
+        // the neighbours' segments at that height alone missed it).
         push(c);
         for (const Out& o : outs) push(o.seg);
         for (int n = 0; n < 8; ++n) {
             const int ni = i + kDx[n], nj = j + kDy[n];
             if (ni < 0 || nj < 0 || ni >= g.nx || nj >= g.ny) continue;
-            const int64_t k = S.at(g.index(ni, nj), h);
-            if (k >= 0 && amount(S.seg[size_t(k)]) > 0) push(uint32_t(k));
+            const size_t ns = g.index(ni, nj);
+            for (uint32_t k = S.first[ns]; k < S.first[ns + 1]; ++k) {
+                const Segment& o = S.seg[k];
+                const uint64_t t = top(o);
+                if (amount(S.seg[k]) > 0 && t >= cs.floor && t < cs.ceiling) push(k);
+            }
         }
     }
+    return true;
 }
 
 } // namespace
@@ -250,6 +279,56 @@ Stacks stabilizeStacks(const Stacks& stacks, const ReposeAngles& angles, Task& t
     local.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (stats) *stats = local;
     return r;
+}
+
+StabilizeStats stabilizeLocal(Stacks& stacks, const ReposeAngles& angles, int i0, int j0, int i1, int j1,
+                              Task& task)
+{
+    angles.validate();
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto& g = stacks.geometry();
+    // The changed stacks and their 8 neighbours (a stack beside a carved one may now slide).
+    const int si0 = std::max(0, i0 - 1), sj0 = std::max(0, j0 - 1);
+    const int si1 = std::min(g.nx - 1, i1 + 1), sj1 = std::min(g.ny - 1, j1 + 1);
+    if (si0 > si1 || sj0 > sj1) return StabilizeStats{};
+    for (int margin = 8;; margin *= 2) {
+        task.check();
+        const int wi0 = std::max(0, si0 - margin), wj0 = std::max(0, sj0 - margin);
+        const int wi1 = std::min(g.nx - 1, si1 + margin), wj1 = std::min(g.ny - 1, sj1 + margin);
+        Segments S(stacks.window(wi0, wj0, wi1, wj1, task));
+        const int nx = wi1 - wi0 + 1, ny = wj1 - wj0 + 1;
+        std::vector<uint8_t> rim(size_t(nx) * size_t(ny), 0), touched(rim.size(), 0);
+        for (int j = 0; j < ny; ++j)
+            for (int i = 0; i < nx; ++i) {
+                rim[size_t(j) * size_t(nx) + size_t(i)] = uint8_t((i == 0 && wi0 > 0) || (j == 0 && wj0 > 0) ||
+                                                                  (i == nx - 1 && wi1 < g.nx - 1) ||
+                                                                  (j == ny - 1 && wj1 < g.ny - 1));
+            }
+        std::vector<uint32_t> seeds;
+        for (int j = sj0; j <= sj1; ++j)
+            for (int i = si0; i <= si1; ++i) {
+                const size_t s = size_t(j - wj0) * size_t(nx) + size_t(i - wi0);
+                seeds.push_back(uint32_t(s));
+                touched[s] = 1; // written back merged and sorted, moved or not
+            }
+        StabilizeStats local;
+        if (!slide(S, Material::Sand, angles.sand, task, local, &seeds, &rim, &touched)) continue;
+        // Rocks: from the seeds and every stack the sand changed (rocks lie on sand).
+        std::vector<uint32_t> rockSeeds;
+        for (uint32_t s = 0; s < touched.size(); ++s) {
+            if (touched[s]) rockSeeds.push_back(s);
+        }
+        if (!slide(S, Material::Rocks, angles.rocks, task, local, &rockSeeds, &rim, &touched)) continue;
+        stacks.edit(wi0, wj0, wi1, wj1, [&](int i, int j, std::vector<Layer>& layers) {
+            const size_t s = size_t(j - wj0) * size_t(nx) + size_t(i - wi0);
+            if (!touched[s]) return false;
+            layers.clear();
+            S.layersOf(s, layers);
+            return true;
+        });
+        local.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        return local;
+    }
 }
 
 double largestExcess(const Stacks& stacks, Material material, double angleDegrees)

@@ -55,6 +55,15 @@ Stacks stabilizeStacks(const Stacks& stacks, const ReposeAngles& angles, Task& t
 
 /// @brief The largest excess over the repose threshold left anywhere (quanta; <= 1 once
 /// stable), for @a material (sand or rocks): how tests and tools check a result.
+/// @brief Stabilise after a local change of the stacks in [i0, i1] × [j0, j1], in place, the
+/// rest taken as already stable: stabilizeStacks' slides from a worklist of those stacks and
+/// their 8 neighbours (in index order), run on a window of the stacks around them that
+/// doubles (the run starting over) until the slides stay inside it, so the result does not
+/// depend on the window and the cost follows the material moved, not the terrain. Only the
+/// stacks it changed (and the seeds, merged and sorted) are written back.
+StabilizeStats stabilizeLocal(Stacks& stacks, const ReposeAngles& angles, int i0, int j0, int i1, int j1,
+                              Task& task);
+
 double largestExcess(const Stacks& stacks, Material material, double angleDegrees);
 
 } // namespace arches

@@ -68,33 +68,7 @@ Stacks Stacks::build(const StackGeometry& geometry,
         for (int i = 0; i < geometry.nx; ++i) {
             layers.clear();
             column(i, int(j), layers);
-            const size_t before = codes.size();
-            Material last = Material::Air;
-            uint64_t pending = 0;
-            auto flush = [&] {
-                while (pending > 0) {
-                    const uint32_t t = uint32_t(std::min<uint64_t>(pending, kMaxCode));
-                    codes.push_back(code(last, t));
-                    pending -= t;
-                }
-            };
-            for (const Layer& l : layers) {
-                if (l.thickness == 0) continue;
-                if (unsigned(l.material) >= unsigned(kMaterialCount)) {
-                    fail<ValueError>("stacks: stack (", i, ", ", j, ") has an unknown material id ", unsigned(l.material));
-                }
-                if (pending > 0 && l.material != last) flush();
-                last = l.material;
-                pending += l.thickness;
-            }
-            flush();
-            // Air on top is implied: drop it.
-            while (codes.size() > before && codeMaterial(codes.back()) == Material::Air) codes.pop_back();
-            if (codes.size() - before > 255) {
-                fail<ValueError>("stacks: stack (", i, ", ", j, ") needs ", codes.size() - before,
-                                 " layer codes, more than the 255 a stack holds; use a larger thickness quantum");
-            }
-            count[size_t(i)] = uint8_t(codes.size() - before);
+            count[size_t(i)] = uint8_t(appendCodes(i, int(j), layers, codes));
         }
     });
     Stacks r;
@@ -133,6 +107,155 @@ Stacks Stacks::build(const StackGeometry& geometry,
         std::vector<uint8_t>().swap(c);
     }
     return r;
+}
+
+size_t Stacks::appendCodes(int i, int j, const std::vector<Layer>& layers, std::vector<uint16_t>& codes)
+{
+    const size_t before = codes.size();
+    Material last = Material::Air;
+    uint64_t pending = 0;
+    auto flush = [&] {
+        while (pending > 0) {
+            const uint32_t t = uint32_t(std::min<uint64_t>(pending, kMaxCode));
+            codes.push_back(code(last, t));
+            pending -= t;
+        }
+    };
+    for (const Layer& l : layers) {
+        if (l.thickness == 0) continue;
+        if (unsigned(l.material) >= unsigned(kMaterialCount)) {
+            fail<ValueError>("stacks: stack (", i, ", ", j, ") has an unknown material id ", unsigned(l.material));
+        }
+        if (pending > 0 && l.material != last) flush();
+        last = l.material;
+        pending += l.thickness;
+    }
+    flush();
+    // Air on top is implied: drop it.
+    while (codes.size() > before && codeMaterial(codes.back()) == Material::Air) codes.pop_back();
+    if (codes.size() - before > 255) {
+        const size_t n = codes.size() - before;
+        codes.resize(before);
+        fail<ValueError>("stacks: stack (", i, ", ", j, ") needs ", n,
+                         " layer codes, more than the 255 a stack holds; use a larger thickness quantum");
+    }
+    return codes.size() - before;
+}
+
+Stacks Stacks::window(int i0, int j0, int i1, int j1, Task& task) const
+{
+    const auto& g = mGeometry;
+    i0 = std::max(i0, 0);
+    j0 = std::max(j0, 0);
+    i1 = std::min(i1, g.nx - 1);
+    j1 = std::min(j1, g.ny - 1);
+    if (i0 > i1 || j0 > j1) fail<ValueError>("stacks: the window holds no stack");
+    StackGeometry w = g;
+    w.nx = i1 - i0 + 1;
+    w.ny = j1 - j0 + 1;
+    w.x0 = g.x0 + i0 * g.cell;
+    w.y0 = g.y0 + j0 * g.cell;
+    return build(w, [&](int i, int j, std::vector<Layer>& layers) { this->layers(i0 + i, j0 + j, layers); }, task);
+}
+
+size_t Stacks::edit(int i0, int j0, int i1, int j1,
+                    const std::function<bool(int i, int j, std::vector<Layer>& layers)>& change)
+{
+    const auto& g = mGeometry;
+    i0 = std::max(i0, 0);
+    j0 = std::max(j0, 0);
+    i1 = std::min(i1, g.nx - 1);
+    j1 = std::min(j1, g.ny - 1);
+    if (i0 > i1 || j0 > j1) return 0;
+    // The blocks the window meets, in order.
+    std::vector<size_t> blocks;
+    for (int j = j0; j <= j1; ++j) {
+        for (size_t b = g.index(i0, j) / kBlock; b <= g.index(i1, j) / kBlock; ++b) {
+            if (blocks.empty() || blocks.back() != b) blocks.push_back(b);
+        }
+    }
+    const size_t n = mCount.size();
+    struct Recoded
+    {
+        size_t block;
+        std::vector<uint8_t> bytes, counts;
+        int64_t codes; // change in the code total
+    };
+    std::vector<Recoded> out;
+    size_t changed = 0;
+    std::vector<uint16_t> prev, cur, codes;
+    std::vector<Layer> layers;
+    for (const size_t b : blocks) {
+        const size_t first = b * kBlock, last = std::min(n, first + kBlock);
+        // Decode the block, let change rewrite the window's stacks.
+        std::vector<std::vector<uint16_t>> stack(last - first);
+        size_t at = mBlock[b];
+        prev.clear();
+        bool any = false;
+        int64_t delta = 0;
+        for (size_t s = first; s < last; ++s) {
+            at = decodeStack(mStream, at, mCount[s], prev, cur);
+            prev = cur;
+            const int i = int(s % size_t(g.nx)), j = int(s / size_t(g.nx));
+            if (i >= i0 && i <= i1 && j >= j0 && j <= j1) {
+                layers.clear();
+                for (const uint16_t c : cur) {
+                    const Material m = codeMaterial(c);
+                    if (!layers.empty() && layers.back().material == m) layers.back().thickness += codeThickness(c);
+                    else layers.push_back(Layer{m, codeThickness(c)});
+                }
+                if (change(i, j, layers)) {
+                    codes.clear();
+                    appendCodes(i, j, layers, codes);
+                    if (codes != cur) {
+                        delta += int64_t(codes.size()) - int64_t(cur.size());
+                        cur = codes;
+                        any = true;
+                        ++changed;
+                    }
+                }
+            }
+            stack[s - first] = cur;
+        }
+        if (!any) continue;
+        Recoded r{b, {}, {}, delta};
+        prev.clear();
+        for (size_t s = first; s < last; ++s) {
+            encodeStack(prev, stack[s - first].data(), stack[s - first].size(), r.bytes);
+            r.counts.push_back(uint8_t(stack[s - first].size()));
+            prev = stack[s - first];
+        }
+        out.push_back(std::move(r));
+    }
+    if (out.empty()) return 0;
+    // Splice: the untouched blocks' bytes as they are, the re-encoded ones in their place.
+    std::vector<uint8_t> stream;
+    size_t total = mStream.size();
+    for (const auto& r : out) {
+        const size_t from = mBlock[r.block], to = r.block + 1 < mBlock.size() ? mBlock[r.block + 1] : mStream.size();
+        total = total - (to - from) + r.bytes.size();
+    }
+    if (total > std::numeric_limits<uint32_t>::max()) fail<ValueError>("stacks: the code stream exceeds 4 GB");
+    stream.reserve(total);
+    std::vector<uint32_t> block(mBlock.size());
+    size_t next = 0;
+    for (size_t b = 0; b < mBlock.size(); ++b) {
+        block[b] = uint32_t(stream.size());
+        if (next < out.size() && out[next].block == b) {
+            stream.insert(stream.end(), out[next].bytes.begin(), out[next].bytes.end());
+            ++next;
+        } else {
+            const size_t from = mBlock[b], to = b + 1 < mBlock.size() ? mBlock[b + 1] : mStream.size();
+            stream.insert(stream.end(), mStream.begin() + std::ptrdiff_t(from), mStream.begin() + std::ptrdiff_t(to));
+        }
+    }
+    for (const auto& r : out) {
+        std::copy(r.counts.begin(), r.counts.end(), mCount.begin() + std::ptrdiff_t(r.block * kBlock));
+        mCodes = size_t(int64_t(mCodes) + r.codes);
+    }
+    mStream.swap(stream);
+    mBlock.swap(block);
+    return changed;
 }
 
 void Stacks::encodeStack(const std::vector<uint16_t>& prev, const uint16_t* codes, size_t n,

@@ -87,6 +87,18 @@ public:
 
     const StackGeometry& geometry() const { return mGeometry; }
 
+    /// @brief The stacks in [i0, i1] × [j0, j1] (clipped to the grid; at least one stack) as
+    /// stacks of their own, their origin moved to the window's corner: what a local edit reads.
+    Stacks window(int i0, int j0, int i1, int j1, Task& task) const;
+    /// @brief Rewrite stacks in place: @a change gets every stack of [i0, i1] × [j0, j1]
+    /// (clipped) as layers (runs merged, bottom first) and returns true when it changed them.
+    /// Only the 64-stack blocks holding a changed stack are re-encoded and spliced into the
+    /// stream, so the cost follows the window (plus one copy of the stream when anything
+    /// changed). Returns the number of stacks changed. @throw ValueError as build does (the
+    /// stacks are then unchanged).
+    size_t edit(int i0, int j0, int i1, int j1,
+                const std::function<bool(int i, int j, std::vector<Layer>& layers)>& change);
+
     /// @brief The layers of stack (i, j), bottom first, runs merged (decodes its block up to it).
     void layers(int i, int j, std::vector<Layer>& out) const;
     /// Number of codes in stack (i, j) (its stored layers).
@@ -129,6 +141,10 @@ private:
                               const std::vector<uint16_t>& prev, std::vector<uint16_t>& out);
     static void encodeStack(const std::vector<uint16_t>& prev, const uint16_t* codes, size_t n,
                             std::vector<uint8_t>& out);
+    // Append stack (i, j)'s codes for @a layers (zero thicknesses dropped, neighbours of one
+    // material merged, runs split at kMaxCode, air on top dropped); returns how many.
+    // @throw ValueError for an unknown material or more than 255 codes.
+    static size_t appendCodes(int i, int j, const std::vector<Layer>& layers, std::vector<uint16_t>& codes);
     void decodeUpTo(size_t s, std::vector<uint16_t>& out) const;
 
     StackGeometry mGeometry;
@@ -147,6 +163,18 @@ public:
     Skeleton(const Stacks& stacks, MaterialMask mask);
 
     const StackGeometry& geometry() const { return mGeometry; }
+
+    /// @brief The stacks in [i0, i1] × [j0, j1] (clipped to the grid; at least one stack) as
+    /// stacks of their own, their origin moved to the window's corner: what a local edit reads.
+    Stacks window(int i0, int j0, int i1, int j1, Task& task) const;
+    /// @brief Rewrite stacks in place: @a change gets every stack of [i0, i1] × [j0, j1]
+    /// (clipped) as layers (runs merged, bottom first) and returns true when it changed them.
+    /// Only the 64-stack blocks holding a changed stack are re-encoded and spliced into the
+    /// stream, so the cost follows the window (plus one copy of the stream when anything
+    /// changed). Returns the number of stacks changed. @throw ValueError as build does (the
+    /// stacks are then unchanged).
+    size_t edit(int i0, int j0, int i1, int j1,
+                const std::function<bool(int i, int j, std::vector<Layer>& layers)>& change);
     MaterialMask mask() const { return mMask; }
 
     /// @brief Length of skeleton within [zlo, zhi] in stack s (zlo <= zhi).

@@ -905,16 +905,17 @@ class Stacks:
     stabilize=True (the default) the stacks are stabilised at once, as vdb_arches does.
     stabilize_stats holds that run's counts and time."""
 
-    __slots__ = ("_s", "stabilize_stats")
+    __slots__ = ("_s", "stabilize_stats", "edit_stats")
 
     def __init__(self, terrain, **params):
         _init_stacks(self, terrain, **params)
 
     @classmethod
-    def _wrap(cls, native, stats=None):
+    def _wrap(cls, native, stats=None, edits=None):
         s = object.__new__(cls)
         s._s = native
         s.stabilize_stats = stats
+        s.edit_stats = list(edits or [])
         return s
 
     @classmethod
@@ -923,8 +924,8 @@ class Stacks:
         options do); relative paths in its terrain resolve against its folder."""
         fn = "Stacks.from_scene"
         scene = _path(path, "path", fn)
-        native, stats = _rockvdb.arches_build(_stage_params(_ARCHES, fn, params), scene, None)
-        return cls._wrap(native, stats)
+        native, stats, edits = _rockvdb.arches_build(_stage_params(_ARCHES, fn, params), scene, None)
+        return cls._wrap(native, stats, edits)
 
     @classmethod
     def load(cls, path):
@@ -943,14 +944,28 @@ class Stacks:
         """Stabilise (§3.4) at the scene's repose angles: merge and sort the granular layers
         between bedrock, then slide sand and rocks down every slope steeper than their angle.
         Bedrock never moves; every material's volume is kept exactly. Returns the run's counts
-        and time (moves is 0 when the stacks were already at rest). Ctrl-C raises
-        KeyboardInterrupt and leaves the stacks as they were."""
+        and time (moves is 0 when the stacks were already at rest). Before any edit this sets
+        the scene's stabilize; after edits it is recorded as an edit {"tool": "stabilize"}.
+        Ctrl-C raises KeyboardInterrupt and leaves the stacks as they were."""
         stats = self._s.stabilize()
         self.stabilize_stats = stats
         return stats
 
-    def bake(self, material="all", *, voxel_size=None, half_width=None, sigma=None,
-             max_memory=None, path=None):
+    def edit(self, edit):
+        """Apply one edit (§4), a dict {"tool": "sculpt" | "deposit" | "erode" | "stabilize",
+        ...} as a scene's "edits" list holds them (the sculpt, deposit and erode methods make
+        them), and stabilise what it changed. It is recorded in params["edits"], so bakes
+        replay through vdb_arches. Returns what it changed (stacks, their window, the change
+        of each material in quanta) and its time. A bad edit raises ValueError naming its
+        index and key, and changes nothing; so does Ctrl-C (KeyboardInterrupt)."""
+        if not isinstance(edit, dict):
+            raise _type_error("Stacks.edit", "edit", "a dict {\"tool\": ...}", edit)
+        stats = self._s.edit(_json.dumps(edit))
+        self.edit_stats.append(stats)
+        return stats
+
+    def bake(self, material="all", *, voxel_size=None, half_width=None, max_memory=None,
+             path=None):
         """Bake the convolution surfaces (§3.3, §6) as narrow-band level sets.
 
         material: 'all' (default) -> (surface, [one level set per ground material present:
@@ -960,15 +975,15 @@ class Stacks:
         material ids: sand 2, bedrock 3, rocks 4). The same grid is the same bit for bit
         whichever call makes it.
 
-        voxel_size, half_width, sigma, max_memory: as the table's rows (default: the stacks'
-        scene); provenance records them, so the grids replay through vdb_arches --params.
+        voxel_size, half_width, max_memory: as the table's rows (default: the stacks' scene;
+        the other rows made the stacks); provenance records them, so the grids replay through
+        vdb_arches --params.
         path also writes the grids (atomically), ids first and the ground last as vdb_arches
         does (vdb_tool acts on the last grid)."""
         fn = "Stacks.bake"
         _str(material, "material", fn)
         target = _opt(path, _path, "path", fn)
-        given = {"voxel_size": voxel_size, "half_width": half_width, "sigma": sigma,
-                 "max_memory": max_memory}
+        given = {"voxel_size": voxel_size, "half_width": half_width, "max_memory": max_memory}
         overrides = _stage_params(_ARCHES, fn, {k: v for k, v in given.items() if v is not None})
         grids = self._s.bake(material, overrides)
         if target is not None:
@@ -1073,7 +1088,51 @@ _stacks_factory = _stage_function(
 
 
 def _init_stacks(self, *args, **kwargs):
-    self._s, self.stabilize_stats = _stacks_factory(*args, **kwargs)
+    self._s, self.stabilize_stats, edits = _stacks_factory(*args, **kwargs)
+    self.edit_stats = list(edits)
+
+
+# The edit tools' methods (Stacks.sculpt, .deposit, .erode): keywords, defaults and help from
+# the C++ tool table (ops/arches/Edits.cc), the one place they are defined.
+_EDIT_TOOLS = _json.loads(_rockvdb.arches_edit_tools())
+
+
+def _edit_method(tool):
+    import inspect
+    spec = _EDIT_TOOLS[tool]
+    P = inspect.Parameter
+    params = [P("self", P.POSITIONAL_OR_KEYWORD)]
+    lines = [spec["help"] + " (an edit; see Stacks.edit).", "", "Keys:"]
+    required = [k for k in spec["keys"] if k["default"] is None and k["name"] not in ("depth", "z")]
+    optional = [k for k in spec["keys"] if k not in required]
+    for k in required:
+        params.append(P(k["name"], P.POSITIONAL_OR_KEYWORD))
+        lines.append(f"  {k['name']} (required): {k['help']}.")
+    for k in optional:
+        params.append(P(k["name"], P.KEYWORD_ONLY, default=None))
+        shown = "" if k["default"] is None else f"; default {k['default']!r}"
+        lines.append(f"  {k['name']} (optional{shown}): {k['help']}.")
+    lines += ["", "Returns the edit's stats (Stacks.edit). Keys left out take their defaults."]
+    sig = inspect.Signature(params)
+
+    def method(*args, **kwargs):
+        bound = sig.bind(*args, **kwargs)
+        self = bound.arguments.pop("self")
+        edit = {"tool": tool}
+        for name, value in bound.arguments.items():
+            if value is not None:
+                edit[name] = value  # (tuples become JSON lists)
+        return self.edit(edit)
+
+    method.__signature__ = sig
+    method.__doc__ = "\n".join(lines)
+    method.__name__ = tool
+    method.__qualname__ = "Stacks." + tool
+    return method
+
+
+for _tool in ("sculpt", "deposit", "erode"):
+    setattr(Stacks, _tool, _edit_method(_tool))
 
 
 Stacks.__signature__ = _stacks_factory.__signature__

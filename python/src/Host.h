@@ -67,6 +67,7 @@ inline nlohmann::json gridSource(const openvdb::GridBase& g)
 /// rockvdb.Stacks' native half (arches.cc) and the arches table's description.
 void bindArches(pybind11::module_& m);
 std::string archesSchemaText();
+std::string archesEditTools();
 
 } // namespace pyhost
 } // namespace rockvdb

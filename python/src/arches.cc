@@ -47,6 +47,20 @@ py::dict stabilizeStats(const StabilizeStats& st)
     return d;
 }
 
+py::dict editStats(const EditStats& e)
+{
+    py::dict d;
+    d["tool"] = e.tool;
+    d["stacks"] = e.stacks;
+    d["window"] = py::make_tuple(e.i0, e.j0, e.i1, e.j1);
+    d["bedrock_quanta"] = e.bedrock;
+    d["sand_quanta"] = e.sand;
+    d["rocks_quanta"] = e.rocks;
+    d["stabilize"] = stabilizeStats(e.stabilize);
+    d["seconds"] = e.seconds;
+    return d;
+}
+
 /// Every stack's layers, runs merged, bottom first: the walk the numpy views share.
 template<typename Visit>
 void eachLayer(const Stacks& s, Visit&& visit)
@@ -76,7 +90,13 @@ py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::s
     const ArchesOutput output = archesOutputFromString(what, "Stacks.bake: material");
     json j = s.params;
     const json o = parseParams(overrides, "arches");
-    for (auto it = o.begin(); it != o.end(); ++it) j[it.key()] = it.value();
+    for (auto it = o.begin(); it != o.end(); ++it) {
+        const auto& rows = bakeOnlyRows();
+        if (std::find(rows.begin(), rows.end(), it.key()) == rows.end()) {
+            fail<ValueError>("Stacks.bake: ", it.key(), " made the stacks; a bake may change voxel-size, half-width and max-memory");
+        }
+        j[it.key()] = it.value();
+    }
     const ArchesParams p = paramsOf(j);
     ArchesResult r;
     {
@@ -101,6 +121,7 @@ py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::s
 } // namespace
 
 std::string archesSchemaText() { return archesSchema().describe().dump(); }
+std::string archesEditTools() { return editTools().dump(); }
 
 void bindArches(py::module_& m)
 {
@@ -187,6 +208,9 @@ void bindArches(py::module_& m)
             return out;
         }, py::arg("materials"))
         .def("stabilize", [](PyStacks& s) {
+            // Before any edit, stabilising is the scene's own row; after edits it is an edit
+            // of its own, so the record replays in order.
+            const bool asEdit = !s.params.at("edits").empty();
             ArchesParams p = paramsOf(s.params);
             p.stabilize = true;
             StabilizeStats st;
@@ -195,12 +219,32 @@ void bindArches(py::module_& m)
                 PyTaskHost host;
                 Task task(&host);
                 Stacks next = s.stacks;
-                st = stabilizeIfAsked(p, next, task);
+                if (asEdit) {
+                    st = applyEdit(next, json{{"tool", "stabilize"}}, s.params.at("edits").size(),
+                                   editContext(p, next.geometry()), task).stabilize;
+                } else {
+                    st = stabilizeIfAsked(p, next, task);
+                }
                 s.stacks = std::move(next); // only once finished: Ctrl-C leaves the stacks as they were
             }
-            s.params["stabilize"] = true;
+            if (asEdit) s.params["edits"].push_back({{"tool", "stabilize"}});
+            else s.params["stabilize"] = true;
             return stabilizeStats(st);
         })
+        .def("edit", [](PyStacks& s, const std::string& text) {
+            const json e = parseParams(text, "arches");
+            const size_t index = s.params.at("edits").size();
+            const ArchesParams p = paramsOf(s.params);
+            EditStats st;
+            {
+                py::gil_scoped_release release;
+                PyTaskHost host;
+                Task task(&host);
+                st = applyEdit(s.stacks, e, index, editContext(p, s.stacks.geometry()), task);
+            }
+            s.params["edits"].push_back(e);
+            return editStats(st);
+        }, py::arg("edit"))
         .def("bake", &bakeStacksPy, py::arg("material"), py::arg("overrides"))
         .def("save", [](const PyStacks& s, const std::string& path) {
             writeStackFile(path, s.stacks, s.params.dump());
@@ -223,17 +267,25 @@ void bindArches(py::module_& m)
             s.inputs["terrain"] = jsonOrFile(p.terrain);
             s.inputs["terrain"]["source"] = gridSource(**grid);
         }
+        p.edits = jsonOrFile(p.edits); // recorded as content, not a path
         StabilizeStats st;
+        std::vector<EditStats> edits;
         {
             py::gil_scoped_release release;
             PyTaskHost host;
             Task task(&host);
             s.stacks = buildStacks(p, task, grid ? *grid : nullptr);
             st = stabilizeIfAsked(p, s.stacks, task);
+            edits = applyEdits(p, s.stacks, p.edits, 0, task);
         }
         s.params = archesSchema().toJson(p);
-        return py::make_tuple(std::move(s), stabilizeStats(st));
+        py::list es;
+        for (const auto& e : edits) es.append(editStats(e));
+        return py::make_tuple(std::move(s), stabilizeStats(st), es);
     }, py::arg("params"), py::arg("scene") = std::nullopt, py::arg("grid") = std::nullopt);
+
+    m.def("arches_edit_tools", &archesEditTools);
+    m.def("arches_bake_rows", [] { return bakeOnlyRows(); });
 
     m.def("arches_load", [](const std::string& path) {
         StackFile f = readStackFile(path);

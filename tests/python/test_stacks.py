@@ -252,3 +252,57 @@ def test_a_sand_map_sets_the_sand_per_stack_and_bad_maps_are_refused(tmp_path):
                        sand_map=str(tmp_path / "sand.exr"))
     with pytest.raises(IOError, match="nothing.exr"):
         rockvdb.Stacks(tmp_path / "h.exr", sand_map=str(tmp_path / "nothing.exr"))
+
+
+EDITS = [{"tool": "sculpt", "mode": "carve", "points": [[6.0, 5.0, 12.0], [7.0, 5.5, 12.0]], "radius": 1.5},
+         {"tool": "deposit", "center": [4.0, 9.0], "radius": 2.5, "amount": 1.0},
+         {"tool": "erode", "mode": "collapse", "center": [14.0, 7.0, 12.0], "radius": 2.0, "rho": 0.6}]
+
+
+def test_edits_from_python_replay_through_the_cli_and_continue_from_stacks(tmp_path):
+    """Edits made one by one in Python = the same edits in a scene = saved stacks continued
+    with more edits in vdb_arches; each grid's provenance lists them and replays bit for bit."""
+    scene = small_scene(tmp_path)
+    s = rockvdb.Stacks.from_scene(scene)
+    stats = [s.sculpt(EDITS[0]["points"], 1.5, mode="carve"),
+             s.deposit((4.0, 9.0), 2.5, 1.0),
+             s.erode((14.0, 7.0, 12.0), 2.0, mode="collapse", rho=0.6)]
+    assert s.params["edits"] == EDITS and [e["tool"] for e in s.edit_stats] == ["sculpt", "deposit", "erode"]
+    assert stats[0]["bedrock_quanta"] < 0 and stats[1]["sand_quanta"] > 0
+    assert -stats[2]["bedrock_quanta"] == stats[2]["sand_quanta"] + stats[2]["rocks_quanta"] > 0
+    # The same edits given to the constructor.
+    assert rockvdb.Stacks.from_scene(scene, edits=EDITS) == s
+    grids = s.bake(path=tmp_path / "py.vdb")
+    prov = json.loads(grids[0].metadata["rockvdb:params"])
+    assert prov["edits"] == EDITS
+    (tmp_path / "p.json").write_text(json.dumps(prov))
+    run([AR, "-q", "--params", str(tmp_path / "p.json"), "-o", str(tmp_path / "cli.vdb")], check=True)
+    same_grids(tmp_path / "cli.vdb", *grids)
+    # Saved after the first edit, continued in the CLI with the other two.
+    first = rockvdb.Stacks.from_scene(scene, edits=EDITS[:1])
+    first.save(tmp_path / "first.stacks")
+    (tmp_path / "more.json").write_text(json.dumps(EDITS[1:]))
+    run([AR, "-q", "--from-stacks", str(tmp_path / "first.stacks"), "--edits", str(tmp_path / "more.json"),
+         "-o", str(tmp_path / "continued.vdb")], check=True)
+    same_grids(tmp_path / "continued.vdb", *grids)
+    # stabilize() after edits is an edit of its own, recorded in order.
+    s.stabilize()
+    assert s.params["edits"][-1] == {"tool": "stabilize"}
+
+
+def test_bad_edits_are_one_line_naming_the_edit_and_change_nothing(tmp_path):
+    s = rockvdb.Stacks.from_scene(small_scene(tmp_path))
+    before = s.arrays()
+    for call, needle in [(lambda: s.sculpt([(1, 1, 5)], 0), "edits[0] (sculpt): radius must be > 0"),
+                         (lambda: s.deposit((500, 1), 2, 1), "outside the terrain"),
+                         (lambda: s.erode((5, 5, 12), 2, rho=0.5), "rho applies to mode collapse"),
+                         (lambda: s.edit({"tool": "smash"}), "unknown tool 'smash'")]:
+        with pytest.raises(ValueError) as e:
+            call()
+        assert needle in str(e.value) and "\n" not in str(e.value)
+    assert all(np.array_equal(before[k], s.arrays()[k]) for k in before)
+    assert s.params["edits"] == []
+    with pytest.raises(TypeError, match="radius"):
+        s.sculpt([(1, 1, 5)])
+    with pytest.raises(ValueError, match="a bake may change voxel-size"):
+        s._s.bake("surface", json.dumps({"sigma": 1.0}))

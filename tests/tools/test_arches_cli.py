@@ -118,3 +118,19 @@ def test_sample_08_overhangs_and_sand_that_slid_off_the_canyon_walls(tmp_path):
     assert steep.sum() > 50
     assert settled.thickness("sand")[steep].mean() < 0.5 * fresh.thickness("sand")[steep].mean()
     assert settled.thickness("sand").max() > 2 * 1.2
+
+
+def test_from_stacks_refuses_rows_that_made_the_stacks_and_bad_edits_name_their_index(tmp_path):
+    scene = small_scene(tmp_path)
+    stacks, out = tmp_path / "t.stacks", tmp_path / "o.vdb"
+    run([AR, "-q", str(scene), "-o", str(tmp_path / "a.vdb"), "--stacks", str(stacks)], check=True)
+    p = run([AR, "-q", "--from-stacks", str(stacks), "--repose-sand", "30", "-o", str(out)])
+    one_line_error(p, 2, "--repose-sand made the saved stacks")
+    edits = tmp_path / "e.json"
+    edits.write_text(json.dumps([{"tool": "deposit", "center": [3, 3], "radius": 2, "amount": 1},
+                                 {"tool": "erode", "center": [3, 3, 12], "radius": -1}]))
+    p = run([AR, "-q", str(scene), "--edits", str(edits), "-o", str(out), "--stacks", str(tmp_path / "n.stacks")])
+    one_line_error(p, 2, "edits[1] (erode): radius must be > 0")
+    p = run([AR, "-q", "--from-stacks", str(stacks), "--edits", str(edits), "-o", str(out)])
+    one_line_error(p, 2, "edits[1] (erode)")
+    assert not out.exists() and not (tmp_path / "n.stacks").exists()

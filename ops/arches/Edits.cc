@@ -1,0 +1,590 @@
+// Editing material stacks (see Edits.h).
+#include "Edits.h"
+
+#include <rockvdb/core/Error.h>
+#include <rockvdb/core/Schema.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <vector>
+
+namespace rockvdb {
+namespace arches {
+
+using json = nlohmann::json;
+
+namespace {
+
+json key(const char* name, const char* type, json def, const char* help)
+{
+    return {{"name", name}, {"type", type}, {"default", std::move(def)}, {"help", help}};
+}
+
+json makeTools()
+{
+    json t;
+    t["sculpt"] = {
+        {"help", "Displace the bedrock along its normal with a point primitive (§4.1), at each point of a stroke"},
+        {"keys",
+         {key("points", "points", nullptr, "Targets [[x, y, z], ...] (m), projected on the bedrock surface in turn "
+                                           "(with at = center: the primitive's centres themselves)"),
+          key("radius", "number", nullptr, "R: the primitive's radius of influence (m, > 0)"),
+          key("mode", "string", "add", "add (bedrock grows out) or carve (bedrock is cut in)"),
+          key("depth", "number", nullptr, "delta: the centre lies this far inside (add) or outside (carve) the surface "
+                                          "(m, 0..R; default R/2)"),
+          key("strength", "number", 1.0, "k in f_e = f +- k g(r) (> 0; 1 as in the paper, larger cuts or adds deeper)"),
+          key("at", "string", "surface", "surface (points are targets on the bedrock) or center (points are centres)")}}};
+    t["deposit"] = {
+        {"help", "Drop sand or rocks over a disc, then stabilise (§4.3)"},
+        {"keys",
+         {key("center", "xy", nullptr, "[x, y] of the disc (m)"),
+          key("radius", "number", nullptr, "R: the disc's radius (m, > 0)"),
+          key("amount", "number", nullptr, "Thickness dropped at the centre (m, > 0)"),
+          key("material", "string", "sand", "sand or rocks"),
+          key("profile", "string", "smooth", "smooth: amount (1 - (r/R)^2)^2, or flat: amount over the disc"),
+          key("z", "number", nullptr, "Drop into the room (between bedrock) holding this height, e.g. a cave's "
+                                      "floor (m; default: on each stack's top)")}}};
+    t["erode"] = {
+        {"help", "Turn bedrock inside a sphere into granular material, then stabilise (§4.4)"},
+        {"keys",
+         {key("center", "xyz", nullptr, "[x, y, z] of the sphere (m)"),
+          key("radius", "number", nullptr, "R: the sphere's radius (m, > 0)"),
+          key("mode", "string", "surface", "surface: the bedrock within depth of an exposed face turns to sand; "
+                                           "collapse: all the bedrock in the sphere turns to rocks and sand"),
+          key("depth", "number", nullptr, "surface mode: thickness eroded below each exposed face (m, > 0; default one "
+                                          "cell)"),
+          key("rho", "number", 0.5, "collapse mode: the share of rocks (0..1; the rest is sand)")}}};
+    t["stabilize"] = {{"help", "Stabilise every stack (§3.4), as the scene's stabilize does before the edits"},
+                      {"keys", json::array()}};
+    return t;
+}
+
+[[noreturn]] void bad(size_t index, const std::string& tool, const std::string& what)
+{
+    fail<ValueError>("arches: edits[", index, "] (", tool, "): ", what);
+}
+
+double number(const json& e, const char* k, size_t index, const std::string& tool)
+{
+    const json& v = e.at(k);
+    if (!v.is_number()) bad(index, tool, std::string(k) + " must be a number");
+    const double d = v.get<double>();
+    if (!std::isfinite(d)) bad(index, tool, std::string(k) + " must be finite");
+    return d;
+}
+
+std::vector<double> vec(const json& v, size_t n, const std::string& what, size_t index, const std::string& tool)
+{
+    if (!v.is_array() || v.size() != n) bad(index, tool, what + " must be a list of " + std::to_string(n) + " numbers");
+    std::vector<double> out;
+    for (const auto& x : v) {
+        if (!x.is_number() || !std::isfinite(x.get<double>())) {
+            bad(index, tool, what + " must be a list of " + std::to_string(n) + " numbers");
+        }
+        out.push_back(x.get<double>());
+    }
+    return out;
+}
+
+// ---- stacks as intervals ---------------------------------------------------------------------
+
+uint64_t quantaAt(const StackGeometry& g, double z)
+{
+    const double q = (z - g.z0) / g.quantum;
+    if (q <= 0) return 0;
+    return uint64_t(std::llround(std::min(q, 4e18)));
+}
+
+// Rewrite [lo, hi) (quanta) of a stack: every piece of it (split at the layer boundaries and at
+// @a cuts) becomes material(original material, piece start, piece end). Above the stack's
+// top the original is air.
+void overwrite(std::vector<Layer>& layers, uint64_t lo, uint64_t hi, std::vector<uint64_t> cuts,
+               const std::function<Material(Material, uint64_t, uint64_t)>& material)
+{
+    if (lo >= hi) return;
+    uint64_t top = 0;
+    for (const Layer& l : layers) top += l.thickness;
+    if (hi > top) layers.push_back(Layer{Material::Air, uint32_t(0)}); // extended below
+    std::vector<Layer> out;
+    uint64_t z = 0;
+    auto emit = [&](Material m, uint64_t t) {
+        while (t > 0) {
+            const uint32_t part = uint32_t(std::min<uint64_t>(t, 0xffffffffu));
+            if (!out.empty() && out.back().material == m && uint64_t(out.back().thickness) + part <= 0xffffffffu) {
+                out.back().thickness += part;
+            } else {
+                out.push_back(Layer{m, part});
+            }
+            t -= part;
+        }
+    };
+    cuts.push_back(lo);
+    cuts.push_back(hi);
+    std::sort(cuts.begin(), cuts.end());
+    for (size_t k = 0; k < layers.size(); ++k) {
+        const Layer& l = layers[k];
+        const uint64_t a = z;
+        const uint64_t b = (k + 1 == layers.size() && hi > top) ? std::max<uint64_t>(hi, z + l.thickness) : z + l.thickness;
+        z = b;
+        if (b <= lo || a >= hi) {
+            emit(l.material, b - a);
+            continue;
+        }
+        // Pieces of [a, b): outside [lo, hi) as they are, inside split at the cuts.
+        uint64_t at = a;
+        if (at < lo) {
+            emit(l.material, lo - at);
+            at = lo;
+        }
+        const uint64_t end = std::min(b, hi);
+        for (const uint64_t c : cuts) {
+            if (c <= at || c >= end) continue;
+            emit(material(l.material, at, c), c - at);
+            at = c;
+        }
+        emit(material(l.material, at, end), end - at);
+        if (end < b) emit(l.material, b - end);
+    }
+    layers.swap(out);
+}
+
+int64_t quantaOf(const std::vector<Layer>& layers, Material m)
+{
+    int64_t n = 0;
+    for (const Layer& l : layers) {
+        if (l.material == m) n += int64_t(l.thickness);
+    }
+    return n;
+}
+
+// Stacks whose axis lies within r (horizontally) of (x, y): the index window holding them.
+void axisWindow(const StackGeometry& g, double x, double y, double r, int& i0, int& j0, int& i1, int& j1)
+{
+    i0 = int(std::ceil((x - r - g.x0) / g.cell - 0.5));
+    i1 = int(std::floor((x + r - g.x0) / g.cell - 0.5));
+    j0 = int(std::ceil((y - r - g.y0) / g.cell - 0.5));
+    j1 = int(std::floor((y + r - g.y0) / g.cell - 0.5));
+    i0 = std::max(i0, 0);
+    j0 = std::max(j0, 0);
+    i1 = std::min(i1, g.nx - 1);
+    j1 = std::min(j1, g.ny - 1);
+}
+
+void requireInside(const StackGeometry& g, double x, double y, size_t index, const std::string& tool, const char* what)
+{
+    const double x1 = g.x0 + g.nx * g.cell, y1 = g.y0 + g.ny * g.cell;
+    if (!(x >= g.x0 && x <= x1 && y >= g.y0 && y <= y1)) {
+        bad(index, tool, std::string(what) + " (" + std::to_string(x) + ", " + std::to_string(y) +
+                             ") is outside the terrain [" + std::to_string(g.x0) + ", " + std::to_string(x1) + "] x [" +
+                             std::to_string(g.y0) + ", " + std::to_string(y1) + "]");
+    }
+}
+
+struct Touched
+{
+    int i0 = std::numeric_limits<int>::max(), j0 = std::numeric_limits<int>::max(), i1 = -1, j1 = -1;
+    void add(int i, int j)
+    {
+        i0 = std::min(i0, i);
+        j0 = std::min(j0, j);
+        i1 = std::max(i1, i);
+        j1 = std::max(j1, j);
+    }
+    bool any() const { return i1 >= 0; }
+};
+
+// ---- sculpt (§4.1) ---------------------------------------------------------------------------
+
+// One point of a stroke: the bedrock field f of the stacks around it, the target projected on
+// its surface, the primitive's centre, and the stacks within R re-split by the roots of f_e.
+void sculptPoint(Stacks& stacks, const std::vector<double>& v, double R, bool add, double delta, double k,
+                 bool atCenter, const EditContext& ctx, size_t index, Touched& touched, EditStats& st, Task& task)
+{
+    const auto& g = stacks.geometry();
+    const double sigma = ctx.sigma;
+    // The field's window: every stack whose cell the σ-cubes can meet around the stacks within
+    // R of the centre, which lies up to δ <= R from the target.
+    const double reach = 2.0 * R + 2.0 * sigma + g.cell;
+    int wi0, wj0, wi1, wj1;
+    axisWindow(g, v[0], v[1], reach + 2.0 * g.cell, wi0, wj0, wi1, wj1);
+    const Stacks win = stacks.window(wi0, wj0, wi1, wj1, task);
+    const Skeleton bedrock(win, maskOf(Material::Bedrock));
+    auto f = [&](const Vec3d& p) { return bedrock.field(p, sigma); };
+    Vec3d c(v[0], v[1], v[2]);
+    if (!atCenter) {
+        // Project v on the bedrock surface: the bedrock boundary (a top or an underside) of
+        // v's stack nearest v, then the root of f near it along the vertical.
+        const int i = std::clamp(int(std::floor((v[0] - g.x0) / g.cell)), 0, g.nx - 1);
+        const int j = std::clamp(int(std::floor((v[1] - g.y0) / g.cell)), 0, g.ny - 1);
+        std::vector<Layer> layers;
+        stacks.layers(i, j, layers);
+        double best = std::numeric_limits<double>::infinity(), z = 0;
+        uint64_t at = 0;
+        bool prevBedrock = false;
+        for (size_t l = 0; l <= layers.size(); ++l) {
+            const bool isBedrock = l < layers.size() && layers[l].material == Material::Bedrock;
+            if (isBedrock != prevBedrock) {
+                const double zb = g.z0 + double(at) * g.quantum;
+                if (std::abs(zb - v[2]) < best) {
+                    best = std::abs(zb - v[2]);
+                    z = zb;
+                }
+            }
+            if (l < layers.size()) at += layers[l].thickness;
+            prevBedrock = isBedrock;
+        }
+        if (!std::isfinite(best)) bad(index, "sculpt", "no bedrock under the target (" + std::to_string(v[0]) + ", " +
+                                                           std::to_string(v[1]) + ")");
+        // Refine: f's sign change within ±σ of the boundary, by bisection.
+        double lo = z - sigma, hi = z + sigma;
+        double flo = f(Vec3d(v[0], v[1], lo)), fhi = f(Vec3d(v[0], v[1], hi));
+        if ((flo > 0) != (fhi > 0)) {
+            for (int it = 0; it < 40; ++it) {
+                const double mid = 0.5 * (lo + hi), fm = f(Vec3d(v[0], v[1], mid));
+                if ((fm > 0) == (flo > 0)) {
+                    lo = mid;
+                    flo = fm;
+                } else {
+                    hi = mid;
+                }
+            }
+            z = 0.5 * (lo + hi);
+        }
+        const Vec3d p(v[0], v[1], z);
+        // The outward normal: f falls outward (1 inside, −1 outside).
+        const double h = 0.5 * sigma;
+        Vec3d grad(f(p + Vec3d(h, 0, 0)) - f(p - Vec3d(h, 0, 0)), f(p + Vec3d(0, h, 0)) - f(p - Vec3d(0, h, 0)),
+                   f(p + Vec3d(0, 0, h)) - f(p - Vec3d(0, 0, h)));
+        Vec3d n = -grad;
+        const double len = n.length();
+        if (len > 1e-12) {
+            n /= len;
+        } else {
+            // Flat to the probe: up from a top, down from an underside.
+            n = Vec3d(0, 0, f(p - Vec3d(0, 0, h)) > 0 ? 1.0 : -1.0);
+        }
+        c = add ? p - delta * n : p + delta * n;
+    }
+    // f_e = f ± k·g(‖p − c‖); the stacks whose axis is within R of c.
+    auto fe = [&](const Vec3d& p) {
+        const double r2 = (p - c).lengthSqr() / (R * R);
+        const double gr = r2 < 1.0 ? (1.0 - r2) * (1.0 - r2) : 0.0;
+        return f(p) + (add ? k : -k) * gr;
+    };
+    int i0, j0, i1, j1;
+    axisWindow(g, c[0], c[1], R, i0, j0, i1, j1);
+    // f is piecewise linear along an axis (kinks where interval ends ± σ pass): samples every
+    // σ/2, roots by linear interpolation.
+    const double step = std::max(g.quantum, 0.5 * std::min(sigma, R));
+    task.check();
+    st.stacks += stacks.edit(i0, j0, i1, j1, [&](int i, int j, std::vector<Layer>& layers) {
+        const double x = g.x0 + (i + 0.5) * g.cell, y = g.y0 + (j + 0.5) * g.cell;
+        const double d2 = (x - c[0]) * (x - c[0]) + (y - c[1]) * (y - c[1]);
+        if (d2 >= R * R) return false;
+        const double half = std::sqrt(R * R - d2);
+        const double zlo = std::max(g.z0, c[2] - half), zhi = c[2] + half;
+        if (zhi <= zlo) return false;
+        const uint64_t qlo = quantaAt(g, zlo), qhi = quantaAt(g, zhi);
+        if (qhi <= qlo) return false;
+        // Roots of f_e along the axis, by sampling and linear interpolation.
+        const int n = std::max(2, int(std::ceil((zhi - zlo) / step)));
+        std::vector<uint64_t> cuts;
+        double pz = zlo, pf = fe(Vec3d(x, y, zlo));
+        for (int s = 1; s <= n; ++s) {
+            const double z = zlo + (zhi - zlo) * s / n, fz = fe(Vec3d(x, y, z));
+            if ((fz > 0) != (pf > 0)) cuts.push_back(quantaAt(g, pz + (z - pz) * pf / (pf - fz)));
+            pz = z;
+            pf = fz;
+        }
+        const int64_t before = quantaOf(layers, Material::Bedrock), sand0 = quantaOf(layers, Material::Sand),
+                      rocks0 = quantaOf(layers, Material::Rocks);
+        const std::vector<Layer> old = layers;
+        overwrite(layers, qlo, qhi, cuts, [&](Material m, uint64_t a, uint64_t b) {
+            const double zm = g.z0 + 0.5 * double(a + b) * g.quantum;
+            if (fe(Vec3d(x, y, zm)) > 0) return Material::Bedrock;
+            return m == Material::Bedrock ? Material::Air : m;
+        });
+        st.bedrock += quantaOf(layers, Material::Bedrock) - before;
+        st.sand += quantaOf(layers, Material::Sand) - sand0;
+        st.rocks += quantaOf(layers, Material::Rocks) - rocks0;
+        if (layers == old) return false;
+        touched.add(i, j);
+        return true;
+    });
+}
+
+// ---- deposit (§4.3) and erode (§4.4) ---------------------------------------------------------
+
+void deposit(Stacks& stacks, const json& e, size_t index, Touched& touched, EditStats& st)
+{
+    const auto& g = stacks.geometry();
+    const auto c = vec(e.at("center"), 2, "center", index, "deposit");
+    requireInside(g, c[0], c[1], index, "deposit", "center");
+    const double R = number(e, "radius", index, "deposit"), amount = number(e, "amount", index, "deposit");
+    const Material m = e.value("material", std::string("sand")) == "rocks" ? Material::Rocks : Material::Sand;
+    const bool smooth = e.value("profile", std::string("smooth")) == "smooth";
+    const bool intoRoom = e.contains("z");
+    const double zr = intoRoom ? number(e, "z", index, "deposit") : 0.0;
+    int i0, j0, i1, j1;
+    axisWindow(g, c[0], c[1], R, i0, j0, i1, j1);
+    st.stacks += stacks.edit(i0, j0, i1, j1, [&](int i, int j, std::vector<Layer>& layers) {
+        const double x = g.x0 + (i + 0.5) * g.cell, y = g.y0 + (j + 0.5) * g.cell;
+        const double r2 = ((x - c[0]) * (x - c[0]) + (y - c[1]) * (y - c[1])) / (R * R);
+        if (r2 >= 1.0) return false;
+        const double h = amount * (smooth ? (1.0 - r2) * (1.0 - r2) : 1.0);
+        const uint64_t t = uint64_t(std::llround(h / g.quantum));
+        if (t == 0) return false;
+        if (!intoRoom) {
+            layers.push_back(Layer{m, uint32_t(std::min<uint64_t>(t, 0xffffffffu))});
+        } else {
+            // Into the room holding zr: inserted at zr (stabilisation then lays it on the room's
+            // floor); a zr inside bedrock catches nothing.
+            const uint64_t q = quantaAt(g, zr);
+            uint64_t z = 0;
+            size_t at = layers.size();
+            for (size_t l = 0; l < layers.size(); ++l) {
+                if (q >= z && q < z + layers[l].thickness) {
+                    if (layers[l].material == Material::Bedrock) return false; // inside rock: nothing lands
+                    at = l;
+                    break;
+                }
+                z += layers[l].thickness;
+            }
+            if (at == layers.size()) {
+                layers.push_back(Layer{m, uint32_t(t)});
+            } else {
+                // Split the layer at zr and drop the material there; stabilisation sorts the room.
+                const Layer l = layers[at];
+                const uint32_t below = uint32_t(q - z);
+                std::vector<Layer> mid = {Layer{l.material, below}, Layer{m, uint32_t(t)},
+                                          Layer{l.material, l.thickness - below}};
+                layers.erase(layers.begin() + std::ptrdiff_t(at));
+                layers.insert(layers.begin() + std::ptrdiff_t(at), mid.begin(), mid.end());
+            }
+        }
+        (m == Material::Sand ? st.sand : st.rocks) += int64_t(t);
+        touched.add(i, j);
+        return true;
+    });
+}
+
+void erode(Stacks& stacks, const json& e, size_t index, Touched& touched, EditStats& st)
+{
+    const auto& g = stacks.geometry();
+    const auto c = vec(e.at("center"), 3, "center", index, "erode");
+    requireInside(g, c[0], c[1], index, "erode", "center");
+    const double R = number(e, "radius", index, "erode");
+    const bool collapse = e.value("mode", std::string("surface")) == "collapse";
+    const double rho = e.contains("rho") ? number(e, "rho", index, "erode") : 0.5;
+    const double depth = e.contains("depth") ? number(e, "depth", index, "erode") : g.cell;
+    const uint64_t dq = std::max<uint64_t>(1, uint64_t(std::llround(depth / g.quantum)));
+    int i0, j0, i1, j1;
+    axisWindow(g, c[0], c[1], R, i0, j0, i1, j1);
+    st.stacks += stacks.edit(i0, j0, i1, j1, [&](int i, int j, std::vector<Layer>& layers) {
+        const double x = g.x0 + (i + 0.5) * g.cell, y = g.y0 + (j + 0.5) * g.cell;
+        const double d2 = (x - c[0]) * (x - c[0]) + (y - c[1]) * (y - c[1]);
+        if (d2 >= R * R) return false;
+        const double half = std::sqrt(R * R - d2);
+        const uint64_t lo = quantaAt(g, c[2] - half), hi = quantaAt(g, c[2] + half);
+        if (hi <= lo) return false;
+        // The bedrock within the sphere (collapse), or within depth of an exposed face (surface).
+        std::vector<std::pair<uint64_t, uint64_t>> eroded; // [a, b) quanta
+        uint64_t z = 0;
+        for (size_t l = 0; l < layers.size(); ++l) {
+            const uint64_t a = z, b = z + layers[l].thickness;
+            z = b;
+            if (layers[l].material != Material::Bedrock) continue;
+            if (collapse) {
+                eroded.emplace_back(a, b);
+                continue;
+            }
+            const bool openAbove = l + 1 == layers.size() || layers[l + 1].material != Material::Bedrock;
+            const bool openBelow = l > 0 && layers[l - 1].material != Material::Bedrock;
+            if (openAbove) eroded.emplace_back(b > dq ? std::max(a, b - dq) : a, b);
+            if (openBelow) eroded.emplace_back(a, std::min(b, a + dq));
+        }
+        std::vector<uint64_t> cuts;
+        for (auto& [a, b] : eroded) {
+            a = std::max(a, lo);
+            b = std::min(b, hi);
+            if (a < b) {
+                cuts.push_back(a);
+                cuts.push_back(b);
+            }
+        }
+        if (cuts.empty()) return false;
+        auto inEroded = [&](uint64_t a, uint64_t b) {
+            for (const auto& [x0, x1] : eroded) {
+                if (a >= x0 && b <= x1 && x0 < x1) return true;
+            }
+            return false;
+        };
+        // Eroded bedrock becomes sand, and in collapse mode rocks (share rho) above it: the
+        // split is per stack, in whole quanta, so bedrock lost = granular gained exactly.
+        uint64_t total = 0;
+        overwrite(layers, lo, hi, cuts, [&](Material m, uint64_t a, uint64_t b) {
+            if (m != Material::Bedrock || !inEroded(a, b)) return m;
+            total += b - a;
+            return Material::Sand;
+        });
+        if (total == 0) return false;
+        uint64_t rocks = 0;
+        if (collapse) {
+            rocks = uint64_t(std::llround(rho * double(total)));
+            // The top 'rocks' quanta of the new sand become rocks.
+            uint64_t left = rocks;
+            for (size_t l = layers.size(); l-- > 0 && left > 0;) {
+                if (layers[l].material != Material::Sand) continue;
+                const uint32_t take = uint32_t(std::min<uint64_t>(left, layers[l].thickness));
+                if (take == layers[l].thickness) {
+                    layers[l].material = Material::Rocks;
+                } else {
+                    layers[l].thickness -= take;
+                    layers.insert(layers.begin() + std::ptrdiff_t(l) + 1, Layer{Material::Rocks, take});
+                }
+                left -= take;
+            }
+        }
+        st.bedrock -= int64_t(total);
+        st.sand += int64_t(total - rocks);
+        st.rocks += int64_t(rocks);
+        touched.add(i, j);
+        return true;
+    });
+}
+
+} // namespace
+
+const json& editTools()
+{
+    static const json t = makeTools();
+    return t;
+}
+
+void validateEdit(const json& e, size_t index)
+{
+    if (!e.is_object()) fail<ValueError>("arches: edits[", index, "] must be an object {\"tool\": ..., ...}");
+    if (!e.contains("tool") || !e.at("tool").is_string()) {
+        fail<ValueError>("arches: edits[", index, "] needs \"tool\": sculpt, deposit, erode or stabilize");
+    }
+    const std::string tool = e.at("tool").get<std::string>();
+    const json& tools = editTools();
+    if (!tools.contains(tool)) {
+        fail<ValueError>("arches: edits[", index, "]: unknown tool '", tool, "' (sculpt, deposit, erode, stabilize)");
+    }
+    std::vector<std::string> names = {"tool"};
+    for (const auto& k : tools.at(tool).at("keys")) names.push_back(k.at("name").get<std::string>());
+    for (auto it = e.begin(); it != e.end(); ++it) {
+        if (std::find(names.begin(), names.end(), it.key()) == names.end()) {
+            const std::string close = closestName(it.key(), names);
+            bad(index, tool, "'" + it.key() + "' is not a key of " + tool + (close.empty() ? "" : " (did you mean '" + close + "'?)"));
+        }
+    }
+    for (const auto& k : tools.at(tool).at("keys")) {
+        const std::string name = k.at("name").get<std::string>();
+        if (k.at("default").is_null() && !e.contains(name) && name != "depth" && name != "z") {
+            bad(index, tool, name + " is required");
+        }
+        if (!e.contains(name)) continue;
+        const std::string type = k.at("type").get<std::string>();
+        if (type == "number") number(e, name.c_str(), index, tool);
+        if (type == "string" && !e.at(name).is_string()) bad(index, tool, name + " must be a string");
+        if (type == "xy") vec(e.at(name), 2, name, index, tool);
+        if (type == "xyz") vec(e.at(name), 3, name, index, tool);
+        if (type == "points") {
+            const json& p = e.at(name);
+            if (!p.is_array() || p.empty()) bad(index, tool, name + " must be a non-empty list of [x, y, z]");
+            for (size_t q = 0; q < p.size(); ++q) vec(p[q], 3, name + "[" + std::to_string(q) + "]", index, tool);
+        }
+    }
+    auto positive = [&](const char* name) {
+        if (e.contains(name) && !(e.at(name).get<double>() > 0)) {
+            bad(index, tool, std::string(name) + " must be > 0 (got " + e.at(name).dump() + ")");
+        }
+    };
+    auto oneOf = [&](const char* name, std::initializer_list<const char*> values) {
+        if (!e.contains(name)) return;
+        const std::string v = e.at(name).get<std::string>();
+        std::string list;
+        for (const char* x : values) {
+            if (v == x) return;
+            list += (list.empty() ? "" : ", ") + std::string(x);
+        }
+        bad(index, tool, std::string(name) + " must be one of " + list + " (got '" + v + "')");
+    };
+    positive("radius");
+    if (tool == "sculpt") {
+        oneOf("mode", {"add", "carve"});
+        oneOf("at", {"surface", "center"});
+        positive("strength");
+        if (e.contains("depth")) {
+            const double d = e.at("depth").get<double>(), R = e.at("radius").get<double>();
+            if (!(d >= 0 && d <= R)) bad(index, tool, "depth must be in [0, radius] (got " + e.at("depth").dump() + ")");
+            if (e.value("at", std::string("surface")) == "center") bad(index, tool, "depth applies to at = surface");
+        }
+    } else if (tool == "deposit") {
+        oneOf("material", {"sand", "rocks"});
+        oneOf("profile", {"smooth", "flat"});
+        positive("amount");
+    } else if (tool == "erode") {
+        oneOf("mode", {"surface", "collapse"});
+        const bool collapse = e.value("mode", std::string("surface")) == "collapse";
+        if (e.contains("rho")) {
+            if (!collapse) bad(index, tool, "rho applies to mode collapse");
+            const double r = e.at("rho").get<double>();
+            if (!(r >= 0 && r <= 1)) bad(index, tool, "rho must be in [0, 1] (got " + e.at("rho").dump() + ")");
+        }
+        if (e.contains("depth")) {
+            if (collapse) bad(index, tool, "depth applies to mode surface");
+            positive("depth");
+        }
+    }
+}
+
+EditStats applyEdit(Stacks& stacks, const json& e, size_t index, const EditContext& ctx, Task& task)
+{
+    validateEdit(e, index);
+    const auto t0 = std::chrono::steady_clock::now();
+    EditStats st;
+    st.tool = e.at("tool").get<std::string>();
+    Stacks work = stacks; // the caller's stacks change only when the edit succeeds
+    const auto& g = work.geometry();
+    if (st.tool == "stabilize") {
+        work = stabilizeStacks(work, ctx.angles, task, &st.stabilize);
+    } else {
+        Touched touched;
+        if (st.tool == "sculpt") {
+            const double R = e.at("radius").get<double>();
+            const bool add = e.value("mode", std::string("add")) == "add";
+            const double delta = e.contains("depth") ? e.at("depth").get<double>() : 0.5 * R;
+            const double k = e.value("strength", 1.0);
+            const bool atCenter = e.value("at", std::string("surface")) == "center";
+            const json& points = e.at("points");
+            for (size_t q = 0; q < points.size(); ++q) {
+                const auto v = vec(points[q], 3, "points", index, "sculpt");
+                requireInside(g, v[0], v[1], index, "sculpt", ("points[" + std::to_string(q) + "]").c_str());
+                sculptPoint(work, v, R, add, delta, k, atCenter, ctx, index, touched, st, task);
+            }
+        } else if (st.tool == "deposit") {
+            deposit(work, e, index, touched, st);
+        } else {
+            erode(work, e, index, touched, st);
+        }
+        if (touched.any()) {
+            st.i0 = touched.i0;
+            st.j0 = touched.j0;
+            st.i1 = touched.i1;
+            st.j1 = touched.j1;
+            st.stabilize = stabilizeLocal(work, ctx.angles, st.i0, st.j0, st.i1, st.j1, task);
+        }
+    }
+    stacks = std::move(work);
+    st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return st;
+}
+
+} // namespace arches
+} // namespace rockvdb
