@@ -148,8 +148,10 @@ def _stage_params(table, fn, params):
         elif kind == "json":
             if isinstance(value, _os.PathLike):
                 value = _os.fspath(value)
+            if isinstance(value, tuple):
+                value = list(value)
             if not isinstance(value, (str, dict, list)):
-                raise _type_error(fn, key, "a dict or a JSON file path", value)
+                raise _type_error(fn, key, "a dict, a list or a JSON file path", value)
         elif kind == "ints":
             value = _ints(value, row["count"], key, fn)
         else:
@@ -894,7 +896,8 @@ class Stacks:
     between bedrock is an overhang, arch or cave. Thicknesses are whole quanta, so volumes are
     exact.
 
-        s = rockvdb.Stacks("samples/data/arches_strata.json" or a terrain, **table keywords)
+        s = rockvdb.Stacks.from_scene("samples/data/arches_strata.json")  # or Stacks(terrain, ...)
+        s.sculpt([(12, 12, 20)], radius=3, mode="carve")   # edits (§4): sculpt, deposit, erode
         surface, materials, material = s.bake()   # what vdb_arches writes, bit for bit
         s.save("terrain.stacks"); s = rockvdb.Stacks.load("terrain.stacks")
 
@@ -902,8 +905,9 @@ class Stacks:
     heightfield, noise_terrain, sea_cliff, level_set or any solid expression), a .json file of
     one, a heightfield image (.exr / 16-bit .png, 1 m spacing), a level set .vdb, or a
     pyopenvdb.FloatGrid level set; Stacks.from_scene(path) reads a vdb_arches scene file. With
-    stabilize=True (the default) the stacks are stabilised at once, as vdb_arches does.
-    stabilize_stats holds that run's counts and time."""
+    stabilize=True (the default) the stacks are stabilised at once, as vdb_arches does, then
+    the scene's edits are applied. stabilize_stats holds that run's counts and time,
+    edit_stats one entry per edit made so far."""
 
     __slots__ = ("_s", "stabilize_stats", "edit_stats")
 
