@@ -20,7 +20,8 @@ int main(int argc, char** argv)
 {
     cli::Tool tool(kToolName, archesSchema().summary() +
         " Writes 'surface' (the ground: sand, bedrock and rocks), one level set per ground material "
-        "present ('sand', 'bedrock', 'rocks') and 'material' (ids: sand 2, bedrock 3, rocks 4). "
+        "present ('sand', 'bedrock', 'rocks'), 'material' (ids: sand 2, bedrock 3, rocks 4) and "
+        "weight_<material> fog grids (visible share of each material, §6; --weights false: none). "
         "--stacks saves the stacks to continue later with --from-stacks. The output's "
         "rockvdb:params replays it: vdb_arches --params FILE -o OUT.");
     CLI::App& app = tool.app();
@@ -30,8 +31,8 @@ int main(int argc, char** argv)
     app.add_option("--stacks", stacksOut, "Also save the stacks (after stabilisation and the edits) to this .stacks file");
     app.add_option("--from-stacks", stacksIn,
                    "Start from these saved stacks (their scene's parameters) instead of building the terrain: "
-                   "--edits adds edits after theirs; only the bake's --voxel-size, --half-width and --max-memory "
-                   "may change");
+                   "--edits adds edits after theirs; only the bake's --voxel-size, --half-width, --max-memory and "
+                   "--weights may change");
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
 
     return tool.run(argc, argv, [&] {
@@ -70,7 +71,7 @@ int main(int argc, char** argv)
             }
             if (saved && std::find(bakeOnlyRows().begin(), bakeOnlyRows().end(), it.key()) == bakeOnlyRows().end()) {
                 fail<ValueError>("arches: --", it.key(), " made the saved stacks; with --from-stacks only --edits "
-                                 "(more edits), --voxel-size, --half-width and --max-memory may be given");
+                                 "(more edits), --voxel-size, --half-width, --max-memory and --weights may be given");
             }
             given[it.key()] = it.value();
         }
@@ -109,6 +110,7 @@ int main(int argc, char** argv)
         }
         // The ids first and the ground last: vdb_tool acts on the last grid read.
         openvdb::GridCPtrVec out{r.material};
+        for (const auto& g : r.weights) out.push_back(g);
         for (const auto& g : r.materials) out.push_back(g);
         out.push_back(r.surface);
         // The stacks first: if the .vdb fails after, the run is repeatable from them; the

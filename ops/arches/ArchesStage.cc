@@ -2,6 +2,7 @@
 #include "ArchesStage.h"
 
 #include <rockvdb/arches/StackBuild.h>
+#include <rockvdb/arches/Weights.h>
 
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
@@ -77,6 +78,10 @@ Schema<ArchesParams> makeArchesSchema()
     row(s, param("stabilize", ParamType::Bool, "", true, Range::any(),
                  "Merge, sort and slide the granular layers to rest before baking (§3.4)"),
         &P::stabilize);
+    row(s, param("weights", ParamType::Bool, "", true, Range::any(),
+                 "Also write weight_<material> fog grids: the share of each ground material's visible faces "
+                 "around every band voxel (§6), for shaders to blend textures by"),
+        &P::weights);
     row(s, param("edits", ParamType::Json, "", json::array(), Range::any(),
                  "Edits applied in order after stabilisation (§4): a list of {\"tool\": sculpt | deposit | erode | "
                  "stabilize, ...} (JSON, or the path of a JSON file); each is stabilised locally"),
@@ -269,7 +274,8 @@ ArchesOutput archesOutputFromString(const std::string& name, const std::string& 
     if (name == "rocks") return ArchesOutput::Rocks;
     if (name == "water") return ArchesOutput::Water;
     if (name == "material") return ArchesOutput::Ids;
-    fail<ValueError>(what, " must be all, surface, ground, sand, bedrock, rocks, water or material (got '", name, "')");
+    if (name == "weights") return ArchesOutput::Weights;
+    fail<ValueError>(what, " must be all, surface, ground, sand, bedrock, rocks, water, material or weights (got '", name, "')");
 }
 
 ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutput output,
@@ -286,7 +292,7 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
     const auto t1 = std::chrono::steady_clock::now();
     const bool all = output == ArchesOutput::All;
     // §6: the ground is one convolution over the union of sand, bedrock and rocks.
-    if (all || output == ArchesOutput::Surface || output == ArchesOutput::Ids) {
+    if (all || output == ArchesOutput::Surface || output == ArchesOutput::Ids || output == ArchesOutput::Weights) {
         r.surface = bakeSkeleton(Skeleton(stacks, kGroundMask), b, task);
         r.surface->setName("surface");
     }
@@ -314,6 +320,13 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
         if (ground) parts.emplace_back(m, &skeletons.back());
     }
     if (all || output == ArchesOutput::Ids) r.material = materialGrid(parts, b.sigma, *r.surface, task);
+    if ((all && p.weights) || output == ArchesOutput::Weights) {
+        std::vector<Material> present;
+        for (Material m : {Material::Sand, Material::Bedrock, Material::Rocks}) {
+            if (stacks.volumeQuanta(m) > 0) present.push_back(m);
+        }
+        r.weights = visibleWeights(stacks, present, b.sigma, *r.surface, task);
+    }
     r.stats.bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     json prov = archesSchema().toJson(p);
     for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
@@ -322,6 +335,7 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
         if (*grid) stampProvenance(**grid, kToolName, text);
     }
     for (auto& m : r.materials) stampProvenance(*m, kToolName, text);
+    for (auto& w : r.weights) stampProvenance(*w, kToolName, text);
     r.stats.stacks = g.count();
     r.stats.layers = stacks.layerCount();
     r.stats.bytes = stacks.bytes();
@@ -365,7 +379,7 @@ ArchesResult runArches(const ArchesParams& p, Stacks stacks, Task& task)
 
 const std::vector<std::string>& bakeOnlyRows()
 {
-    static const std::vector<std::string> rows = {"voxel-size", "half-width", "max-memory"};
+    static const std::vector<std::string> rows = {"voxel-size", "half-width", "max-memory", "weights"};
     return rows;
 }
 

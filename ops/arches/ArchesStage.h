@@ -49,6 +49,7 @@ struct ArchesParams
     double halfWidth;                           ///< voxels
     double reposeSand, reposeRocks;             ///< degrees
     bool stabilize;
+    bool weights;                               ///< also the weight_<material> grids (§6)
     nlohmann::json edits;                       ///< the edits (Edits.h), applied in order after stabilisation
     int seed;
     double maxMemoryGB;
@@ -73,6 +74,7 @@ struct ArchesResult
     openvdb::FloatGrid::Ptr surface;               ///< the ground (sand ∪ bedrock ∪ rocks), 'surface'
     std::vector<openvdb::FloatGrid::Ptr> materials; ///< one level set per ground material present, named by it
     openvdb::FloatGrid::Ptr material;              ///< 'material' ids over the ground's band
+    std::vector<openvdb::FloatGrid::Ptr> weights;   ///< weight_<material> fog grids (§6) of the ground materials present
     ArchesStats stats;
 };
 
@@ -94,12 +96,14 @@ StabilizeStats stabilizeIfAsked(const ArchesParams& params, Stacks& stacks, Task
 /// What bakeStacks makes.
 enum class ArchesOutput
 {
-    All,      ///< surface, one level set per ground material present, material
+    All,      ///< surface, one level set per ground material present, material, weights (if asked)
     Surface,  ///< the ground only
     Sand, Bedrock, Rocks, Water, ///< that material's level set only (empty grid if absent)
-    Ids       ///< surface and 'material'
+    Ids,      ///< surface and 'material'
+    Weights   ///< surface and the weight_<material> grids
 };
-/// @brief "all", "surface" (or "ground"), "sand", "bedrock", "rocks", "water", "material".
+/// @brief "all", "surface" (or "ground"), "sand", "bedrock", "rocks", "water", "material",
+/// "weights".
 /// @throw ValueError naming @a what.
 ArchesOutput archesOutputFromString(const std::string& name, const std::string& what);
 
@@ -121,7 +125,8 @@ std::vector<EditStats> applyEdits(const ArchesParams& params, Stacks& stacks, co
 ArchesResult runArches(const ArchesParams& params, Stacks stacks, Task& task);
 
 /// @brief The rows a saved .stacks file may be baked with differently (the bake's own:
-/// voxel-size, half-width, max-memory) besides more edits; every other row made the stacks.
+/// voxel-size, half-width, max-memory, weights) besides more edits; every other row made the
+/// stacks.
 const std::vector<std::string>& bakeOnlyRows();
 
 } // namespace arches

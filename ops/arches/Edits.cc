@@ -1,5 +1,6 @@
 // Editing material stacks (see Edits.h).
 #include "Edits.h"
+#include "Sweep.h"
 
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Schema.h>
@@ -9,6 +10,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <map>
 #include <vector>
 
 namespace rockvdb {
@@ -18,9 +20,11 @@ using json = nlohmann::json;
 
 namespace {
 
-json key(const char* name, const char* type, json def, const char* help)
+// A key of a tool: its JSON type, default (null: none, or computed as its help says), help,
+// and whether an edit must give it.
+json key(const char* name, const char* type, json def, const char* help, bool required = false)
 {
-    return {{"name", name}, {"type", type}, {"default", std::move(def)}, {"help", help}};
+    return {{"name", name}, {"type", type}, {"default", std::move(def)}, {"help", help}, {"required", required}};
 }
 
 json makeTools()
@@ -30,8 +34,8 @@ json makeTools()
         {"help", "Displace the bedrock along its normal with a point primitive (§4.1), at each point of a stroke"},
         {"keys",
          {key("points", "points", nullptr, "Targets [[x, y, z], ...] (m), projected on the bedrock surface in turn "
-                                           "(with at = center: the primitive's centres themselves)"),
-          key("radius", "number", nullptr, "R: the primitive's radius of influence (m, > 0)"),
+                                           "(with at = center: the primitive's centres themselves)", true),
+          key("radius", "number", nullptr, "R: the primitive's radius of influence (m, > 0)", true),
           key("mode", "string", "add", "add (bedrock grows out) or carve (bedrock is cut in)"),
           key("depth", "number", nullptr, "delta: the centre lies this far inside (add) or outside (carve) the surface "
                                           "(m, 0..R; default R/2)"),
@@ -40,9 +44,9 @@ json makeTools()
     t["deposit"] = {
         {"help", "Drop sand or rocks over a disc, then stabilise (§4.3)"},
         {"keys",
-         {key("center", "xy", nullptr, "[x, y] of the disc (m)"),
-          key("radius", "number", nullptr, "R: the disc's radius (m, > 0)"),
-          key("amount", "number", nullptr, "Thickness dropped at the centre (m, > 0)"),
+         {key("center", "xy", nullptr, "[x, y] of the disc (m)", true),
+          key("radius", "number", nullptr, "R: the disc's radius (m, > 0)", true),
+          key("amount", "number", nullptr, "Thickness dropped at the centre (m, > 0)", true),
           key("material", "string", "sand", "sand or rocks"),
           key("profile", "string", "smooth", "smooth: amount (1 - (r/R)^2)^2, or flat: amount over the disc"),
           key("z", "number", nullptr, "Drop into the room (between bedrock) holding this height, e.g. a cave's "
@@ -50,13 +54,36 @@ json makeTools()
     t["erode"] = {
         {"help", "Turn bedrock inside a sphere into granular material, then stabilise (§4.4)"},
         {"keys",
-         {key("center", "xyz", nullptr, "[x, y, z] of the sphere (m)"),
-          key("radius", "number", nullptr, "R: the sphere's radius (m, > 0)"),
+         {key("center", "xyz", nullptr, "[x, y, z] of the sphere (m)", true),
+          key("radius", "number", nullptr, "R: the sphere's radius (m, > 0)", true),
           key("mode", "string", "surface", "surface: the bedrock within depth of an exposed face turns to sand; "
                                            "collapse: all the bedrock in the sphere turns to rocks and sand"),
           key("depth", "number", nullptr, "surface mode: thickness eroded below each exposed face (m, > 0; default one "
                                           "cell)"),
           key("rho", "number", 0.5, "collapse mode: the share of rocks (0..1; the rest is sand)")}}};
+    const char* graphHelp = "Arcs between nodes [[a, b], ...] (indices; default: a path through the nodes in order)";
+    const char* profileHelp = "The cross-section: closed curve through [[u, v], ...] (m; u across, v along the normal, "
+                              ">= 3 points, non-convex allowed), at every node";
+    t["crack"] = {
+        {"help", "Carve a crack or ravine: a graph projected on the terrain, a profile swept along it (§4.2)"},
+        {"keys",
+         {key("nodes", "points2", nullptr, "Nodes [[x, y], ...] (m), projected on the ground's bedrock top", true),
+          key("arcs", "arcs", nullptr, graphHelp),
+          key("profile", "profile", nullptr, std::string(profileHelp).append("; v > 0 is above the surface").c_str()),
+          key("profiles", "profiles", nullptr, "Several profiles [[[u, v], ...], ...], chosen per node by node_profiles"),
+          key("node_profiles", "ints", nullptr, "Per node: the index of its profile in profiles (interpolated along arcs)"),
+          key("spline", "bool", true, "Profiles as closed cubic splines through their points (false: polygons)"),
+          key("step", "number", nullptr, "Spacing of cross-sections along arcs (m, > 0; default one cell)")}}};
+    t["tunnel"] = {
+        {"help", "Carve tunnels and caves: a graph in 3D, a profile swept along it (§4.2)"},
+        {"keys",
+         {key("nodes", "points", nullptr, "Nodes [[x, y, z], ...] (m)", true),
+          key("arcs", "arcs", nullptr, graphHelp),
+          key("profile", "profile", nullptr, std::string(profileHelp).append("; v is up").c_str()),
+          key("profiles", "profiles", nullptr, "Several profiles [[[u, v], ...], ...], chosen per node by node_profiles"),
+          key("node_profiles", "ints", nullptr, "Per node: the index of its profile in profiles (interpolated along arcs)"),
+          key("spline", "bool", true, "Profiles as closed cubic splines through their points (false: polygons)"),
+          key("step", "number", nullptr, "Spacing of cross-sections along arcs (m, > 0; default one cell)")}}};
     t["stabilize"] = {{"help", "Stabilise every stack (§3.4), as the scene's stabilize does before the edits"},
                       {"keys", json::array()}};
     return t;
@@ -85,6 +112,19 @@ std::vector<double> vec(const json& v, size_t n, const std::string& what, size_t
             bad(index, tool, what + " must be a list of " + std::to_string(n) + " numbers");
         }
         out.push_back(x.get<double>());
+    }
+    return out;
+}
+
+std::vector<Vec2d> profileOf(const json& v, const std::string& what, size_t index, const std::string& tool)
+{
+    if (!v.is_array() || v.size() < 3) {
+        bad(index, tool, what + " needs at least 3 points [[u, v], ...] (got " + std::to_string(v.is_array() ? v.size() : 0) + ")");
+    }
+    std::vector<Vec2d> out;
+    for (size_t q = 0; q < v.size(); ++q) {
+        const auto uv = vec(v[q], 2, what + "[" + std::to_string(q) + "]", index, tool);
+        out.emplace_back(uv[0], uv[1]);
     }
     return out;
 }
@@ -316,6 +356,143 @@ void sculptPoint(Stacks& stacks, const std::vector<double>& v, double R, bool ad
     });
 }
 
+// ---- cracks and tunnels (§4.2) ---------------------------------------------------------------
+
+// The ground's bedrock top under (x, y): the highest bedrock boundary of the four stacks around
+// it, bilinearly (a stack's value at its axis).
+class BedrockTop
+{
+public:
+    explicit BedrockTop(const Stacks& s) : mStacks(s) {}
+
+    double operator()(double x, double y)
+    {
+        const auto& g = mStacks.geometry();
+        const double fx = (x - g.x0) / g.cell - 0.5, fy = (y - g.y0) / g.cell - 0.5;
+        const int i = int(std::floor(fx)), j = int(std::floor(fy));
+        const double tx = fx - i, ty = fy - j;
+        auto at = [&](int a, int b) { return top(std::clamp(a, 0, g.nx - 1), std::clamp(b, 0, g.ny - 1)); };
+        return (at(i, j) * (1 - tx) + at(i + 1, j) * tx) * (1 - ty) + (at(i, j + 1) * (1 - tx) + at(i + 1, j + 1) * tx) * ty;
+    }
+
+private:
+    double top(int i, int j)
+    {
+        const size_t key = mStacks.geometry().index(i, j);
+        const auto it = mCache.find(key);
+        if (it != mCache.end()) return it->second;
+        std::vector<Layer> layers;
+        mStacks.layers(i, j, layers);
+        uint64_t z = 0, t = 0;
+        for (const Layer& l : layers) {
+            z += l.thickness;
+            if (l.material == Material::Bedrock) t = z;
+        }
+        const double h = mStacks.geometry().z0 + double(t) * mStacks.geometry().quantum;
+        mCache.emplace(key, h);
+        return h;
+    }
+
+    const Stacks& mStacks;
+    std::map<size_t, double> mCache;
+};
+
+void sweep(Stacks& stacks, const json& e, size_t index, const std::string& tool, Touched& touched, EditStats& st,
+           Task& task)
+{
+    const auto& g = stacks.geometry();
+    const bool crack = tool == "crack";
+    SweepSpec spec;
+    const json& nodes = e.at("nodes");
+    for (size_t q = 0; q < nodes.size(); ++q) {
+        const auto v = vec(nodes[q], crack ? 2 : 3, "nodes", index, tool);
+        requireInside(g, v[0], v[1], index, tool, ("nodes[" + std::to_string(q) + "]").c_str());
+        spec.nodes.emplace_back(v[0], v[1], crack ? 0.0 : v[2]);
+    }
+    if (e.contains("arcs")) {
+        for (const auto& a : e.at("arcs")) spec.arcs.emplace_back(a[0].get<int>(), a[1].get<int>());
+    } else {
+        for (size_t q = 0; q + 1 < nodes.size(); ++q) spec.arcs.emplace_back(int(q), int(q + 1));
+    }
+    const bool spline = e.value("spline", true);
+    constexpr int kProfilePoints = 48;
+    if (e.contains("profiles")) {
+        for (const auto& p : e.at("profiles")) spec.profiles.push_back(sampleProfile(profileOf(p, "profiles", index, tool), spline, kProfilePoints));
+        for (const auto& k : e.at("node_profiles")) spec.nodeProfile.push_back(k.get<int>());
+    } else {
+        spec.profiles.push_back(sampleProfile(profileOf(e.at("profile"), "profile", index, tool), spline, kProfilePoints));
+        spec.nodeProfile.assign(nodes.size(), 0);
+    }
+    spec.step = e.contains("step") ? e.at("step").get<double>() : g.cell;
+    BedrockTop top(stacks);
+    if (crack) {
+        // Project G on the ground: each cross-section's centre on the bedrock top, its v axis
+        // the top's normal.
+        spec.place = [&](const Vec3d& p) { return Vec3d(p[0], p[1], top(p[0], p[1])); };
+        spec.normal = [&](const Vec3d& p) {
+            const double h = g.cell;
+            const double dx = (top(p[0] + h, p[1]) - top(p[0] - h, p[1])) / (2 * h);
+            const double dy = (top(p[0], p[1] + h) - top(p[0], p[1] - h)) / (2 * h);
+            return Vec3d(-dx, -dy, 1.0).unitSafe();
+        };
+    }
+    const SweepVolume volume(spec);
+    task.check();
+    // The stacks under the volume: bedrock inside it becomes air (granular material stays, for
+    // the stabilisation to drop into the new room), the rest as it is: the CSG difference
+    // min(f, −f*) of §4.2 taken on the layers themselves.
+    const BBoxd b = volume.bounds();
+    const int i0 = std::max(0, int(std::floor((b.min()[0] - g.x0) / g.cell)));
+    const int i1 = std::min(g.nx - 1, int(std::floor((b.max()[0] - g.x0) / g.cell)));
+    const int j0 = std::max(0, int(std::floor((b.min()[1] - g.y0) / g.cell)));
+    const int j1 = std::min(g.ny - 1, int(std::floor((b.max()[1] - g.y0) / g.cell)));
+    const double step = std::max(g.quantum, 0.25 * g.cell);
+    st.stacks += stacks.edit(i0, j0, i1, j1, [&](int i, int j, std::vector<Layer>& layers) {
+        const double x = g.x0 + (i + 0.5) * g.cell, y = g.y0 + (j + 0.5) * g.cell;
+        const std::vector<uint32_t> prisms = volume.candidates(x, y);
+        if (prisms.empty()) return false;
+        const auto [zlo, zhi] = volume.zRange(prisms);
+        const double lo = std::max(g.z0, zlo);
+        if (zhi <= lo) return false;
+        const int n = std::max(2, int(std::ceil((zhi - lo) / step)));
+        std::vector<uint64_t> cuts;
+        bool any = false;
+        double pz = lo, pf = volume.inside(Vec3d(x, y, lo), prisms);
+        any = pf > 0;
+        for (int k = 1; k <= n; ++k) {
+            const double z = lo + (zhi - lo) * k / n, fz = volume.inside(Vec3d(x, y, z), prisms);
+            if ((fz > 0) != (pf > 0)) {
+                // The boundary by bisection: inside() bends at a profile's corners (a V's
+                // apex), where interpolating it would miss by up to a step.
+                double a = pz, c = z;
+                const bool inA = pf > 0;
+                for (int it = 0; it < 12; ++it) {
+                    const double mid = 0.5 * (a + c);
+                    if ((volume.inside(Vec3d(x, y, mid), prisms) > 0) == inA) a = mid;
+                    else c = mid;
+                }
+                cuts.push_back(quantaAt(g, 0.5 * (a + c)));
+            }
+            any = any || fz > 0;
+            pz = z;
+            pf = fz;
+        }
+        if (!any) return false;
+        const uint64_t qlo = quantaAt(g, lo), qhi = quantaAt(g, zhi);
+        const int64_t before = quantaOf(layers, Material::Bedrock);
+        overwrite(layers, qlo, qhi, cuts, [&](Material m, uint64_t a, uint64_t c) {
+            if (m != Material::Bedrock) return m;
+            const double zm = g.z0 + 0.5 * double(a + c) * g.quantum;
+            return volume.inside(Vec3d(x, y, zm), prisms) > 0 ? Material::Air : m;
+        });
+        const int64_t removed = before - quantaOf(layers, Material::Bedrock);
+        if (removed == 0) return false;
+        st.bedrock -= removed;
+        touched.add(i, j);
+        return true;
+    });
+}
+
 // ---- deposit (§4.3) and erode (§4.4) ---------------------------------------------------------
 
 void deposit(Stacks& stacks, const json& e, size_t index, Touched& touched, EditStats& st)
@@ -468,12 +645,12 @@ void validateEdit(const json& e, size_t index)
 {
     if (!e.is_object()) fail<ValueError>("arches: edits[", index, "] must be an object {\"tool\": ..., ...}");
     if (!e.contains("tool") || !e.at("tool").is_string()) {
-        fail<ValueError>("arches: edits[", index, "] needs \"tool\": sculpt, deposit, erode or stabilize");
+        fail<ValueError>("arches: edits[", index, "] needs \"tool\": sculpt, crack, tunnel, deposit, erode or stabilize");
     }
     const std::string tool = e.at("tool").get<std::string>();
     const json& tools = editTools();
     if (!tools.contains(tool)) {
-        fail<ValueError>("arches: edits[", index, "]: unknown tool '", tool, "' (sculpt, deposit, erode, stabilize)");
+        fail<ValueError>("arches: edits[", index, "]: unknown tool '", tool, "' (sculpt, crack, tunnel, deposit, erode, stabilize)");
     }
     std::vector<std::string> names = {"tool"};
     for (const auto& k : tools.at(tool).at("keys")) names.push_back(k.at("name").get<std::string>());
@@ -485,7 +662,7 @@ void validateEdit(const json& e, size_t index)
     }
     for (const auto& k : tools.at(tool).at("keys")) {
         const std::string name = k.at("name").get<std::string>();
-        if (k.at("default").is_null() && !e.contains(name) && name != "depth" && name != "z") {
+        if (k.at("required").get<bool>() && !e.contains(name)) {
             bad(index, tool, name + " is required");
         }
         if (!e.contains(name)) continue;
@@ -494,10 +671,31 @@ void validateEdit(const json& e, size_t index)
         if (type == "string" && !e.at(name).is_string()) bad(index, tool, name + " must be a string");
         if (type == "xy") vec(e.at(name), 2, name, index, tool);
         if (type == "xyz") vec(e.at(name), 3, name, index, tool);
-        if (type == "points") {
+        if (type == "points" || type == "points2") {
+            const size_t dim = type == "points" ? 3 : 2;
             const json& p = e.at(name);
-            if (!p.is_array() || p.empty()) bad(index, tool, name + " must be a non-empty list of [x, y, z]");
-            for (size_t q = 0; q < p.size(); ++q) vec(p[q], 3, name + "[" + std::to_string(q) + "]", index, tool);
+            if (!p.is_array() || p.empty()) {
+                bad(index, tool, name + " must be a non-empty list of " + (dim == 3 ? "[x, y, z]" : "[x, y]"));
+            }
+            for (size_t q = 0; q < p.size(); ++q) vec(p[q], dim, name + "[" + std::to_string(q) + "]", index, tool);
+        }
+        if (type == "bool" && !e.at(name).is_boolean()) bad(index, tool, name + " must be true or false");
+        if (type == "arcs" || type == "ints") {
+            const json& a = e.at(name);
+            if (!a.is_array()) bad(index, tool, name + " must be a list");
+            for (size_t q = 0; q < a.size(); ++q) {
+                const json& x = a[q];
+                const bool ok = type == "ints" ? x.is_number_integer()
+                                               : x.is_array() && x.size() == 2 && x[0].is_number_integer() &&
+                                                     x[1].is_number_integer();
+                if (!ok) bad(index, tool, name + "[" + std::to_string(q) + "] must be " + (type == "ints" ? "an integer" : "[a, b], two node indices"));
+            }
+        }
+        if (type == "profile") profileOf(e.at(name), name, index, tool);
+        if (type == "profiles") {
+            const json& ps = e.at(name);
+            if (!ps.is_array() || ps.empty()) bad(index, tool, name + " must be a non-empty list of profiles");
+            for (size_t q = 0; q < ps.size(); ++q) profileOf(ps[q], name + "[" + std::to_string(q) + "]", index, tool);
         }
     }
     auto positive = [&](const char* name) {
@@ -529,6 +727,43 @@ void validateEdit(const json& e, size_t index)
         oneOf("material", {"sand", "rocks"});
         oneOf("profile", {"smooth", "flat"});
         positive("amount");
+    } else if (tool == "crack" || tool == "tunnel") {
+        const size_t nodes = e.at("nodes").size();
+        if (nodes < 2) bad(index, tool, "nodes needs at least 2 nodes");
+        if (!e.contains("profile") && !e.contains("profiles")) bad(index, tool, "profile (or profiles) is required");
+        if (e.contains("profile") && e.contains("profiles")) bad(index, tool, "give profile or profiles, not both");
+        std::vector<int> degree(nodes, 0);
+        if (e.contains("arcs")) {
+            const json& arcs = e.at("arcs");
+            if (arcs.empty()) bad(index, tool, "arcs must hold at least one arc");
+            for (size_t q = 0; q < arcs.size(); ++q) {
+                const int a = arcs[q][0].get<int>(), b = arcs[q][1].get<int>();
+                if (a < 0 || b < 0 || size_t(a) >= nodes || size_t(b) >= nodes) {
+                    bad(index, tool, "arcs[" + std::to_string(q) + "] names a node that does not exist (" +
+                                         std::to_string(nodes) + " nodes)");
+                }
+                if (a == b) bad(index, tool, "arcs[" + std::to_string(q) + "] joins a node to itself");
+                ++degree[size_t(a)];
+                ++degree[size_t(b)];
+            }
+            for (size_t q = 0; q < nodes; ++q) {
+                if (degree[q] == 0) bad(index, tool, "nodes[" + std::to_string(q) + "] is on no arc (a dangling node)");
+            }
+        }
+        if (e.contains("profiles")) {
+            if (!e.contains("node_profiles")) bad(index, tool, "profiles needs node_profiles (one profile index per node)");
+            const json& np = e.at("node_profiles");
+            if (np.size() != nodes) bad(index, tool, "node_profiles needs one index per node (" + std::to_string(nodes) + ")");
+            for (size_t q = 0; q < np.size(); ++q) {
+                const int k = np[q].get<int>();
+                if (k < 0 || size_t(k) >= e.at("profiles").size()) {
+                    bad(index, tool, "node_profiles[" + std::to_string(q) + "] names no profile");
+                }
+            }
+        } else if (e.contains("node_profiles")) {
+            bad(index, tool, "node_profiles applies to profiles");
+        }
+        positive("step");
     } else if (tool == "erode") {
         oneOf("mode", {"surface", "collapse"});
         const bool collapse = e.value("mode", std::string("surface")) == "collapse";
@@ -568,6 +803,8 @@ EditStats applyEdit(Stacks& stacks, const json& e, size_t index, const EditConte
                 requireInside(g, v[0], v[1], index, "sculpt", ("points[" + std::to_string(q) + "]").c_str());
                 sculptPoint(work, v, R, add, delta, k, atCenter, ctx, index, touched, st, task);
             }
+        } else if (st.tool == "crack" || st.tool == "tunnel") {
+            sweep(work, e, index, st.tool, touched, st, task);
         } else if (st.tool == "deposit") {
             deposit(work, e, index, touched, st);
         } else {

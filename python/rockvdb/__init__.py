@@ -898,7 +898,7 @@ class Stacks:
 
         s = rockvdb.Stacks.from_scene("samples/data/arches_strata.json")  # or Stacks(terrain, ...)
         s.sculpt([(12, 12, 20)], radius=3, mode="carve")   # edits (§4): sculpt, deposit, erode
-        surface, materials, material = s.bake()   # what vdb_arches writes, bit for bit
+        surface, materials, material, weights = s.bake()   # vdb_arches' grids, bit for bit
         s.save("terrain.stacks"); s = rockvdb.Stacks.load("terrain.stacks")
 
     Stacks(terrain, ...) builds the stacks of a terrain: a terrain node (dict: strata,
@@ -956,9 +956,9 @@ class Stacks:
         return stats
 
     def edit(self, edit):
-        """Apply one edit (§4), a dict {"tool": "sculpt" | "deposit" | "erode" | "stabilize",
-        ...} as a scene's "edits" list holds them (the sculpt, deposit and erode methods make
-        them), and stabilise what it changed. It is recorded in params["edits"], so bakes
+        """Apply one edit (§4), a dict {"tool": "sculpt" | "crack" | "tunnel" | "deposit" |
+        "erode" | "stabilize", ...} as a scene's "edits" list holds them (the methods of those
+        names make them), and stabilise what it changed. It is recorded in params["edits"], so bakes
         replay through vdb_arches. Returns what it changed (stacks, their window, the change
         of each material in quanta) and its time. A bad edit raises ValueError naming its
         index and key, and changes nothing; so does Ctrl-C (KeyboardInterrupt)."""
@@ -969,30 +969,35 @@ class Stacks:
         return stats
 
     def bake(self, material="all", *, voxel_size=None, half_width=None, max_memory=None,
-             path=None):
+             weights=None, path=None):
         """Bake the convolution surfaces (§3.3, §6) as narrow-band level sets.
 
         material: 'all' (default) -> (surface, [one level set per ground material present:
-        sand, bedrock, rocks], material ids), what vdb_arches writes; 'surface' (or 'ground') ->
-        the ground (sand, bedrock and rocks under one convolution); 'sand', 'bedrock', 'rocks'
-        or 'water' -> that material's level set (empty when absent); 'material' -> (surface,
-        material ids: sand 2, bedrock 3, rocks 4). The same grid is the same bit for bit
-        whichever call makes it.
+        sand, bedrock, rocks], material ids, [weight_<material> fog grids]), what vdb_arches
+        writes; 'surface' (or 'ground') -> the ground (sand, bedrock and rocks under one
+        convolution); 'sand', 'bedrock', 'rocks' or 'water' -> that material's level set (empty
+        when absent); 'material' -> (surface, material ids: sand 2, bedrock 3, rocks 4);
+        'weights' -> [weight_<material>]: per band voxel, the share of each ground material's
+        visible faces around it (§6, 0..1), for shaders to blend textures by. The same grid is
+        the same bit for bit whichever call makes it.
 
-        voxel_size, half_width, max_memory: as the table's rows (default: the stacks' scene;
-        the other rows made the stacks); provenance records them, so the grids replay through
-        vdb_arches --params.
-        path also writes the grids (atomically), ids first and the ground last as vdb_arches
-        does (vdb_tool acts on the last grid)."""
+        voxel_size, half_width, max_memory, weights (False: 'all' without the weight grids): as
+        the table's rows (default: the stacks' scene; the other rows made the stacks);
+        provenance records them, so the grids replay through vdb_arches --params. path also
+        writes the grids (atomically) in vdb_arches' order: ids, weights and material level
+        sets, the ground last (vdb_tool acts on the last grid)."""
         fn = "Stacks.bake"
         _str(material, "material", fn)
         target = _opt(path, _path, "path", fn)
-        given = {"voxel_size": voxel_size, "half_width": half_width, "max_memory": max_memory}
+        given = {"voxel_size": voxel_size, "half_width": half_width, "max_memory": max_memory,
+                 "weights": weights}
         overrides = _stage_params(_ARCHES, fn, {k: v for k, v in given.items() if v is not None})
         grids = self._s.bake(material, overrides)
         if target is not None:
             if material == "all":
-                ordered = [grids[2]] + list(grids[1]) + [grids[0]]
+                ordered = [grids[2]] + list(grids[3]) + list(grids[1]) + [grids[0]]
+            elif material == "weights":
+                ordered = list(grids)
             elif isinstance(grids, tuple):
                 ordered = [grids[1], grids[0]]
             else:
@@ -1107,7 +1112,7 @@ def _edit_method(tool):
     P = inspect.Parameter
     params = [P("self", P.POSITIONAL_OR_KEYWORD)]
     lines = [spec["help"] + " (an edit; see Stacks.edit).", "", "Keys:"]
-    required = [k for k in spec["keys"] if k["default"] is None and k["name"] not in ("depth", "z")]
+    required = [k for k in spec["keys"] if k["required"]]
     optional = [k for k in spec["keys"] if k not in required]
     for k in required:
         params.append(P(k["name"], P.POSITIONAL_OR_KEYWORD))
@@ -1135,7 +1140,7 @@ def _edit_method(tool):
     return method
 
 
-for _tool in ("sculpt", "deposit", "erode"):
+for _tool in ("sculpt", "crack", "tunnel", "deposit", "erode"):
     setattr(Stacks, _tool, _edit_method(_tool))
 
 

@@ -93,7 +93,8 @@ py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::s
     for (auto it = o.begin(); it != o.end(); ++it) {
         const auto& rows = bakeOnlyRows();
         if (std::find(rows.begin(), rows.end(), it.key()) == rows.end()) {
-            fail<ValueError>("Stacks.bake: ", it.key(), " made the stacks; a bake may change voxel-size, half-width and max-memory");
+            fail<ValueError>("Stacks.bake: ", it.key(), " made the stacks; a bake may change voxel-size, half-width, "
+                             "max-memory and weights");
         }
         j[it.key()] = it.value();
     }
@@ -108,9 +109,15 @@ py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::s
     using G = openvdb::FloatGrid::Ptr;
     switch (output) {
     case ArchesOutput::All: {
-        py::list mats;
+        py::list mats, weights;
         for (const auto& g : r.materials) mats.append(py::cast(G(g)));
-        return py::make_tuple(py::cast(G(r.surface)), mats, py::cast(G(r.material)));
+        for (const auto& g : r.weights) weights.append(py::cast(G(g)));
+        return py::make_tuple(py::cast(G(r.surface)), mats, py::cast(G(r.material)), weights);
+    }
+    case ArchesOutput::Weights: {
+        py::list weights;
+        for (const auto& g : r.weights) weights.append(py::cast(G(g)));
+        return std::move(weights);
     }
     case ArchesOutput::Surface: return py::cast(G(r.surface));
     case ArchesOutput::Ids: return py::make_tuple(py::cast(G(r.surface)), py::cast(G(r.material)));

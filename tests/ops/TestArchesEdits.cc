@@ -3,15 +3,19 @@
 #include <rockvdb/arches/ArchesStage.h>
 #include <rockvdb/arches/Edits.h>
 #include <rockvdb/arches/Stabilize.h>
+#include <rockvdb/arches/StackBake.h>
 #include <rockvdb/arches/Stacks.h>
+#include <rockvdb/arches/Weights.h>
 
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Random.h>
 
 #include <gtest/gtest.h>
+#include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <set>
 
 using namespace rockvdb;
 using namespace rockvdb::arches;
@@ -311,4 +315,197 @@ TEST(Edits, TheSameAtAnyThreadCountAndThroughTheScene)
     // Provenance lists the edits: the scene replays.
     const json prov = json::parse(a.surface->metaValue<std::string>("rockvdb:params"));
     EXPECT_EQ(prov.at("edits"), edits);
+}
+
+namespace {
+
+// A ridge along y: bedrock up to 5 m, rising to 11 m along x = 15 (60 x 40 stacks of 0.5 m).
+Stacks ridge()
+{
+    Task task;
+    return Stacks::build(geometry(60, 40, 0.5), [&](int i, int, std::vector<Layer>& layers) {
+        const double x = (i + 0.5) * 0.5;
+        const double h = 5.0 + 6.0 * std::max(0.0, 1.0 - std::abs(x - 15.0) / 6.0);
+        layers.push_back(Layer{Material::Bedrock, uint32_t(std::lround(h / 0.01))});
+    }, task);
+}
+
+json circle(double r)
+{
+    json p = json::array();
+    for (int k = 0; k < 8; ++k) p.push_back({r * std::cos(k * M_PI / 4), r * std::sin(k * M_PI / 4)});
+    return p;
+}
+
+// V - E + F of the zero isosurface of a level set (volumeToMesh, quads and triangles).
+long eulerCharacteristic(const openvdb::FloatGrid& grid)
+{
+    std::vector<openvdb::Vec3s> points;
+    std::vector<openvdb::Vec3I> tris;
+    std::vector<openvdb::Vec4I> quads;
+    openvdb::tools::volumeToMesh(grid, points, tris, quads, 0.0);
+    std::set<std::pair<unsigned, unsigned>> edges;
+    auto edge = [&](unsigned a, unsigned b) { edges.insert({std::min(a, b), std::max(a, b)}); };
+    for (const auto& t : tris) {
+        edge(t[0], t[1]);
+        edge(t[1], t[2]);
+        edge(t[2], t[0]);
+    }
+    for (const auto& q : quads) {
+        edge(q[0], q[1]);
+        edge(q[1], q[2]);
+        edge(q[2], q[3]);
+        edge(q[3], q[0]);
+    }
+    return long(points.size()) - long(edges.size()) + long(tris.size() + quads.size());
+}
+
+} // namespace
+
+TEST(Tunnel, ThroughARidgeLeavesAnAirAxisFourCrossingsAndGenusOne)
+{
+    Task task;
+    const Stacks s0 = ridge();
+    Stacks s = s0;
+    const json tunnel = {{"tool", "tunnel"}, {"nodes", {{6.0, 10.0, 7.0}, {15.0, 10.5, 7.2}, {24.0, 10.0, 7.0}}},
+                         {"profile", circle(1.2)}};
+    const EditStats st = applyEdit(s, tunnel, 0, context(), task);
+    EXPECT_LT(st.bedrock, 0);
+    // Along the axis, inside the ridge (x in 11..19), the stacks hold air at the axis height.
+    std::vector<Layer> layers;
+    for (int i = 22; i <= 38; ++i) {
+        const double x = (i + 0.5) * 0.5;
+        const double y = 10.0 + 0.5 * (1.0 - std::abs(x - 15.0) / 9.0); // the path's y there
+        const int j = int(y / 0.5);
+        s.layers(i, j, layers);
+        uint64_t z = 0;
+        Material at = Material::Air;
+        for (const Layer& l : layers) {
+            if (700 >= z && 700 < z + l.thickness) at = l.material;
+            z += l.thickness;
+        }
+        EXPECT_EQ(at, Material::Air) << "x = " << x;
+    }
+    // A vertical ray through the ridge's top crosses the ground 4 times (floor, tunnel floor,
+    // tunnel roof, top), twice before.
+    SkeletonBake b;
+    b.sigma = 0.25;
+    b.voxelSize = 0.25;
+    auto crossings = [&](const Stacks& st2) {
+        auto grid = bakeSkeleton(Skeleton(st2, kGroundMask), b, task);
+        auto acc = grid->getConstAccessor();
+        int n = 0;
+        bool prev = false;
+        for (int k = -10; k < 60; ++k) {
+            const bool in = acc.getValue(openvdb::Coord(60, 41, k)) < 0;
+            if (in != prev && k > -10) ++n;
+            prev = in;
+        }
+        return std::make_pair(n, eulerCharacteristic(*grid));
+    };
+    const auto [before, chiBefore] = crossings(s0);
+    const auto [after, chiAfter] = crossings(s);
+    EXPECT_EQ(before, 2);
+    EXPECT_EQ(after, 4);
+    EXPECT_EQ(chiBefore, 2) << "the ridge is a sphere";
+    EXPECT_EQ(chiAfter, 0) << "with the tunnel through it, a torus";
+}
+
+TEST(Crack, AStraightVCrackHasItsProfilesWidthAndDepth)
+{
+    Task task;
+    Stacks s = hill(80); // the plateau at 5 m away from the hill at (20, 20)
+    // Along y = 4.25 (a row of stack axes) from x = 2 to 38: a V 3 m wide one metre above the
+    // surface, 4 m deep.
+    const json crack = {{"tool", "crack"}, {"nodes", {{2.0, 4.25}, {38.0, 4.25}}}, {"spline", false},
+                        {"profile", {{-1.5, 1.0}, {1.5, 1.0}, {0.0, -4.0}}}};
+    applyEdit(s, crack, 0, context(), task);
+    // Across it at x = 6 (away from the hill): at the surface (v = 0) the V is 2 * 1.5 * 4/5 =
+    // 2.4 m wide; its bottom is 4 m down.
+    double deepest = 5.0, widthLo = 1e9, widthHi = -1e9;
+    const int i = 12;
+    for (int j = 0; j < 16; ++j) {
+        const double y = (j + 0.5) * 0.5, t = topOf(s, i, j, Material::Bedrock);
+        deepest = std::min(deepest, t);
+        if (t < 5.0 - 0.05) {
+            widthLo = std::min(widthLo, y);
+            widthHi = std::max(widthHi, y);
+        }
+        // The V's walls: on each stack's axis the top is 5 - 4 (1 - |y - 4.25| / 1.2).
+        const double d = std::abs(y - 4.25);
+        const double expected = d < 1.2 ? 5.0 - 4.0 * (1.0 - d / 1.2) : 5.0;
+        EXPECT_NEAR(t, expected, 0.1) << "y = " << y;
+    }
+    EXPECT_NEAR(deepest, 1.0, 0.1);                        // 4 m deep
+    EXPECT_NEAR(widthHi - widthLo + 0.5, 2.4, 0.5 + 1e-9); // 2.4 m wide, to a stack (0.5 m)
+}
+
+TEST(Crack, BadGraphsAndProfilesNameTheEditAndKey)
+{
+    Task task;
+    const Stacks s0 = hill(20);
+    auto fails = [&](const json& e, const std::string& needle) {
+        Stacks s = s0;
+        try {
+            applyEdit(s, e, 2, context(), task);
+            ADD_FAILURE() << "accepted " << e.dump();
+        } catch (const ValueError& x) {
+            EXPECT_NE(std::string(x.what()).find("edits[2]"), std::string::npos) << x.what();
+            EXPECT_NE(std::string(x.what()).find(needle), std::string::npos) << x.what();
+        }
+        EXPECT_TRUE(s == s0);
+    };
+    const json v = {{-1, 1}, {1, 1}, {0, -2}};
+    fails({{"tool", "crack"}, {"nodes", {{1, 1}, {5, 5}, {8, 2}}}, {"arcs", {{0, 1}}}, {"profile", v}},
+          "nodes[2] is on no arc");
+    fails({{"tool", "crack"}, {"nodes", {{1, 1}, {5, 5}}}, {"profile", {{0, 0}, {1, 1}}}}, "at least 3 points");
+    fails({{"tool", "crack"}, {"nodes", {{1, 1}, {5, 5}}}, {"arcs", {{0, 4}}}, {"profile", v}}, "does not exist");
+    fails({{"tool", "tunnel"}, {"nodes", {{1, 1}, {5, 5}}}, {"profile", v}}, "nodes[0] must be a list of 3 numbers");
+    fails({{"tool", "tunnel"}, {"nodes", {{1, 1, 5}, {5, 5, 5}}}}, "profile (or profiles) is required");
+    fails({{"tool", "crack"}, {"nodes", {{1, 1}, {50, 5}}}, {"profile", v}}, "outside the terrain");
+}
+
+TEST(Weights, TheVisibleFacesOfEachMaterialInTheCube)
+{
+    // Bedrock up to 5 m everywhere, 0.5 m of sand on the half x < 10 (40 x 20 stacks of 0.5 m).
+    Task task;
+    const Stacks s = Stacks::build(geometry(40, 20, 0.5), [&](int i, int, std::vector<Layer>& layers) {
+        layers.push_back(Layer{Material::Bedrock, 500});
+        if (i < 20) layers.push_back(Layer{Material::Sand, 50});
+    }, task);
+    const ExposedFaces faces(s);
+    double a[kMaterialCount];
+    faces.areas(Vec3d(3.0, 5.0, 5.4), 0.5, a); // over the sand: its top, 1 m x 1 m
+    EXPECT_NEAR(a[int(Material::Sand)], 1.0, 1e-9);
+    EXPECT_NEAR(a[int(Material::Bedrock)], 0.0, 1e-9);
+    faces.areas(Vec3d(15.0, 5.0, 5.1), 0.5, a); // over the bare bedrock
+    EXPECT_NEAR(a[int(Material::Bedrock)], 1.0, 1e-9);
+    EXPECT_NEAR(a[int(Material::Sand)], 0.0, 1e-9);
+    // At the sand's edge (x = 10): half a square metre of each top, and the sand's 0.5 m high
+    // side over the 1 m of edge in the cube.
+    faces.areas(Vec3d(10.0, 5.0, 5.25), 0.5, a);
+    EXPECT_NEAR(a[int(Material::Sand)], 0.5 + 0.5, 1e-9);
+    EXPECT_NEAR(a[int(Material::Bedrock)], 0.5, 1e-9);
+    // The grids: 1 on each side, 2/3 : 1/3 at the edge, summing to 1 on every band voxel.
+    SkeletonBake b;
+    b.sigma = 0.25;
+    b.voxelSize = 0.25;
+    auto surface = bakeSkeleton(Skeleton(s, kGroundMask), b, task);
+    const auto w = visibleWeights(s, {Material::Sand, Material::Bedrock}, 0.25, *surface, task);
+    ASSERT_EQ(w.size(), 2u);
+    EXPECT_EQ(w[0]->getName(), "weight_sand");
+    EXPECT_EQ(w[0]->activeVoxelCount(), surface->activeVoxelCount());
+    auto sand = w[0]->getConstAccessor(), bed = w[1]->getConstAccessor();
+    EXPECT_NEAR(sand.getValue(openvdb::Coord(12, 20, 22)), 1.0f, 1e-6); // x = 3, z = 5.5: the sand top
+    EXPECT_NEAR(bed.getValue(openvdb::Coord(60, 20, 20)), 1.0f, 1e-6);  // x = 15, z = 5: bare bedrock
+    size_t checked = 0;
+    for (auto it = surface->cbeginValueOn(); it; ++it) {
+        const openvdb::Coord c = it.getCoord();
+        const double sum = double(sand.getValue(c)) + double(bed.getValue(c));
+        if (sum > 0) {
+            EXPECT_NEAR(sum, 1.0, 1e-5);
+            ++checked;
+        }
+    }
+    EXPECT_GT(checked, 1000u);
 }

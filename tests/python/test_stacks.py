@@ -30,9 +30,10 @@ def by_name(path):
     return {g.name: g for g in vdb.readAll(str(path))[0]}
 
 
-def same_grids(cli_path, surface, materials, material):
+def same_grids(cli_path, surface, materials, material, weights):
     cli = by_name(cli_path)
-    py = {"surface": surface, "material": material, **{g.name: g for g in materials}}
+    py = {"surface": surface, "material": material, **{g.name: g for g in materials},
+          **{g.name: g for g in weights}}
     assert sorted(cli) == sorted(py)
     for name, g in py.items():
         if g.activeVoxelCount() == 0:  # a material too thin for σ (the small scene's rocks)
@@ -137,7 +138,10 @@ def test_numpy_views_agree_with_the_stacks(tmp_path):
 
 def test_each_grid_is_the_same_whichever_bake_asks_for_it(tmp_path):
     s = rockvdb.Stacks.from_scene(small_scene(tmp_path))
-    surface, materials, material = s.bake()
+    surface, materials, material, weights = s.bake()
+    assert [w.name for w in weights] == ["weight_sand", "weight_bedrock", "weight_rocks"]
+    for w, again in zip(weights, s.bake("weights")):
+        assert_bitwise_equal(w, again)
     assert_bitwise_equal(surface, s.bake("surface"))
     assert_bitwise_equal(surface, s.bake("ground"))
     for g in materials:
@@ -256,7 +260,11 @@ def test_a_sand_map_sets_the_sand_per_stack_and_bad_maps_are_refused(tmp_path):
 
 EDITS = [{"tool": "sculpt", "mode": "carve", "points": [[6.0, 5.0, 12.0], [7.0, 5.5, 12.0]], "radius": 1.5},
          {"tool": "deposit", "center": [4.0, 9.0], "radius": 2.5, "amount": 1.0},
-         {"tool": "erode", "mode": "collapse", "center": [14.0, 7.0, 12.0], "radius": 2.0, "rho": 0.6}]
+         {"tool": "erode", "mode": "collapse", "center": [14.0, 7.0, 12.0], "radius": 2.0, "rho": 0.6},
+         {"tool": "crack", "nodes": [[3.0, 3.0], [10.0, 6.0], [16.0, 4.0]],
+          "profile": [[-1.0, 1.0], [1.0, 1.0], [0.0, -3.0]]},
+         {"tool": "tunnel", "nodes": [[2.0, 11.0, 9.0], [18.0, 11.0, 9.5]],
+          "profile": [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]]}]
 
 
 def test_edits_from_python_replay_through_the_cli_and_continue_from_stacks(tmp_path):
@@ -266,8 +274,12 @@ def test_edits_from_python_replay_through_the_cli_and_continue_from_stacks(tmp_p
     s = rockvdb.Stacks.from_scene(scene)
     stats = [s.sculpt(EDITS[0]["points"], 1.5, mode="carve"),
              s.deposit((4.0, 9.0), 2.5, 1.0),
-             s.erode((14.0, 7.0, 12.0), 2.0, mode="collapse", rho=0.6)]
-    assert s.params["edits"] == EDITS and [e["tool"] for e in s.edit_stats] == ["sculpt", "deposit", "erode"]
+             s.erode((14.0, 7.0, 12.0), 2.0, mode="collapse", rho=0.6),
+             s.crack(EDITS[3]["nodes"], profile=EDITS[3]["profile"]),
+             s.tunnel(EDITS[4]["nodes"], profile=EDITS[4]["profile"])]
+    assert s.params["edits"] == EDITS
+    assert [e["tool"] for e in s.edit_stats] == ["sculpt", "deposit", "erode", "crack", "tunnel"]
+    assert stats[3]["bedrock_quanta"] < 0 and stats[4]["bedrock_quanta"] < 0
     assert stats[0]["bedrock_quanta"] < 0 and stats[1]["sand_quanta"] > 0
     assert -stats[2]["bedrock_quanta"] == stats[2]["sand_quanta"] + stats[2]["rocks_quanta"] > 0
     # The same edits given to the constructor.

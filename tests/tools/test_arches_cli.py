@@ -28,7 +28,14 @@ def test_a_scene_gives_the_ground_one_level_set_per_material_and_ids(tmp_path):
     run([AR, "-q", str(small_scene(tmp_path)), "-o", str(out)], check=True)
     grids, meta = vdb.readAll(str(out))
     names = [g.name for g in grids]
-    assert sorted(names) == sorted(["surface", "sand", "bedrock", "rocks", "material"])
+    assert sorted(names) == sorted(["surface", "sand", "bedrock", "rocks", "material", "weight_sand",
+                                    "weight_bedrock", "weight_rocks"])
+    assert names[0] == "material" and names[-1] == "surface"
+    for w in ("weight_sand", "weight_bedrock", "weight_rocks"):
+        g = [x for x in grids if x.name == w][0]
+        assert g.gridClass == vdb.GridClass.FOG_VOLUME
+        vals = [v.value for v in g.citerOnValues()]
+        assert min(vals) >= 0 and max(vals) <= 1
     by = {g.name: g for g in grids}
     for n in ["surface", "sand", "bedrock", "rocks"]:
         assert by[n].gridClass == vdb.GridClass.LEVEL_SET
