@@ -4,6 +4,7 @@
 #include <rockvdb/arches/Edits.h>
 #include <rockvdb/arches/StackBake.h>
 #include <rockvdb/arches/StackBuild.h>
+#include <rockvdb/arches/Weights.h>
 #include <rockvdb/arches/Stabilize.h>
 #include <rockvdb/blocks/BlockTile.h>
 #include <rockvdb/core/Bake.h>
@@ -525,6 +526,12 @@ void archesGroup(bool quick)
     const double bk = bestOf(1, [&] { ground = bakeSkeleton(Skeleton(stable, kGroundMask), b, task, &bs); });
     std::printf("| bake the ground at 1 m (sigma 0.5 m) | %.2f s | <= 20 s | %zu active voxels | %zu evaluations | |\n", bk,
                 size_t(ground->activeVoxelCount()), bs.fieldEvaluations);
+    // Issue 18: the weight_<material> grids (§6) on that ground's band.
+    const double wt = bestOf(1, [&] {
+        visibleWeights(stable, {Material::Sand, Material::Bedrock, Material::Rocks}, 0.5, *ground, task);
+    });
+    std::printf("| weight_sand / _bedrock / _rocks on its band (§6) | %.2f s | | %.0f ns per voxel | | |\n", wt,
+                wt * 1e9 / double(ground->activeVoxelCount()) * 2.0);
     // Evaluations per second: the convolution vs the baker's analytic sphere, same run.
     auto conv = convolutionField(std::make_shared<Skeleton>(stable, kGroundMask), 0.5);
     auto ball = sphere(Vec3d(500, 375, 40), 30.0);
@@ -561,7 +568,12 @@ void archesGroup(bool quick)
             {{"tool", "sculpt"}, {"mode", "add"}, {"radius", 20.0}, {"strength", 3.0}, {"points", {{300.0, 200.0, top}}}},
             {{"tool", "deposit"}, {"center", {600.0, 400.0}}, {"radius", 20.0}, {"amount", 3.0}},
             {{"tool", "erode"}, {"mode", "collapse"}, {"center", {700.0, 300.0, top}}, {"radius", 20.0}, {"rho", 0.6}},
-            {{"tool", "erode"}, {"mode", "surface"}, {"center", {200.0, 500.0, top}}, {"radius", 20.0}}};
+            {{"tool", "erode"}, {"mode", "surface"}, {"center", {200.0, 500.0, top}}, {"radius", 20.0}},
+            // A 40 m crack, V 6 m wide and 8 m deep, and a 40 m tunnel 4 m across.
+            {{"tool", "crack"}, {"nodes", {{400.0, 600.0}, {430.0, 625.0}}},
+             {"profile", {{-3.0, 2.0}, {3.0, 2.0}, {0.0, -8.0}}}, {"spline", false}},
+            {{"tool", "tunnel"}, {"nodes", {{800.0, 100.0, top - 12.0}, {840.0, 110.0, top - 12.0}}},
+             {"profile", {{-2.0, -2.0}, {2.0, -2.0}, {2.0, 2.0}, {-2.0, 2.0}}}}};
         Stacks global;
         const double whole = bestOf(1, [&] { global = stabilizeStacks(stable, ReposeAngles(), task); });
         std::printf("\n| edit of the 1000 x 750 scene (R = 20 cells), with its stabilisation | time | target | stacks changed | moves | vs a global stabilisation (%.0f ms) |\n|---|---|---|---|---|---|\n",

@@ -150,14 +150,24 @@ std::vector<openvdb::FloatGrid::Ptr> visibleWeights(const Stacks& stacks, const 
     for (auto& g : out) managers.push_back(std::make_unique<openvdb::tree::LeafManager<openvdb::FloatTree>>(g->tree()));
     const size_t leaves = managers[0]->leafCount();
     const auto& xf = surface.transform();
+    const double dx = surface.voxelSize()[0];
     parallelFor(task, leaves, 8, [&](size_t l) {
         openvdb::tree::ValueAccessor<const openvdb::FloatTree> acc(surface.tree());
         double a[kMaterialCount];
         auto& first = managers[0]->leaf(l);
         for (auto it = first.beginValueOn(); it; ++it) {
             const openvdb::Coord c = it.getCoord();
+            // At the voxel's closest surface point p − φ∇φ (a cube of half size max(σ, dx)):
+            // the same few stacks for every voxel of the band, where a cube grown to reach the
+            // surface (σ + |φ|) held ~10x more at the band's edge.
+            const double phi = acc.getValue(c);
+            const Vec3d grad(acc.getValue(c.offsetBy(1, 0, 0)) - acc.getValue(c.offsetBy(-1, 0, 0)),
+                             acc.getValue(c.offsetBy(0, 1, 0)) - acc.getValue(c.offsetBy(0, -1, 0)),
+                             acc.getValue(c.offsetBy(0, 0, 1)) - acc.getValue(c.offsetBy(0, 0, -1)));
+            const double len = grad.length();
             const Vec3d p = xf.indexToWorld(c);
-            faces.areas(p, sigma + std::abs(double(acc.getValue(c))), a);
+            if (len > 1e-12) faces.areas(p - grad * (phi / len), std::max(sigma, dx), a);
+            else faces.areas(p, sigma + std::abs(phi), a);
             double total = 0;
             for (int m = 0; m < kMaterialCount; ++m) {
                 if (maskOf(Material(m)) & kGroundMask) total += a[m];

@@ -38,8 +38,8 @@ private:
 };
 
 /// @brief weight_<material> fog grids (background 0) on the active voxels of @a surface, one
-/// per material of @a materials, from the cube of half size σ + |φ| around each voxel (the cube
-/// reaches the surface).
+/// per material of @a materials, from the cube of half size max(σ, voxel) around each voxel's
+/// closest surface point p − φ∇φ.
 std::vector<openvdb::FloatGrid::Ptr> visibleWeights(const Stacks& stacks, const std::vector<Material>& materials,
                                                     double sigma, const openvdb::FloatGrid& surface, Task& task);
 
