@@ -583,48 +583,49 @@ void erode(Stacks& stacks, const json& e, size_t index, Touched& touched, EditSt
             if (openAbove) eroded.emplace_back(b > dq ? std::max(a, b - dq) : a, b);
             if (openBelow) eroded.emplace_back(a, std::min(b, a + dq));
         }
-        std::vector<uint64_t> cuts;
-        for (auto& [a, b] : eroded) {
+        // Clip to the sphere, sort and merge (a thin layer's top and underside skins overlap).
+        std::vector<std::pair<uint64_t, uint64_t>> merged;
+        for (auto [a, b] : eroded) {
             a = std::max(a, lo);
             b = std::min(b, hi);
-            if (a < b) {
-                cuts.push_back(a);
-                cuts.push_back(b);
-            }
+            if (a < b) merged.emplace_back(a, b);
         }
-        if (cuts.empty()) return false;
-        auto inEroded = [&](uint64_t a, uint64_t b) {
-            for (const auto& [x0, x1] : eroded) {
-                if (a >= x0 && b <= x1 && x0 < x1) return true;
+        if (merged.empty()) return false;
+        std::sort(merged.begin(), merged.end());
+        std::vector<std::pair<uint64_t, uint64_t>> parts;
+        for (const auto& r : merged) {
+            if (!parts.empty() && r.first <= parts.back().second) parts.back().second = std::max(parts.back().second, r.second);
+            else parts.push_back(r);
+        }
+        uint64_t total = 0;
+        for (const auto& [a, b] : parts) total += b - a;
+        // Eroded bedrock becomes sand, and in collapse mode its top share rho becomes rocks
+        // (the fragments above, the fines below; stabilisation sorts the room anyway): whole
+        // quanta per stack, so bedrock lost = granular gained exactly.
+        const uint64_t rocks = collapse ? uint64_t(std::llround(rho * double(total))) : 0;
+        std::vector<uint64_t> cuts;
+        std::vector<std::pair<uint64_t, uint64_t>> rockParts;
+        uint64_t left = rocks;
+        for (size_t k = parts.size(); k-- > 0 && left > 0;) {
+            const uint64_t take = std::min(left, parts[k].second - parts[k].first);
+            rockParts.emplace_back(parts[k].second - take, parts[k].second);
+            left -= take;
+        }
+        for (const auto& [a, b] : parts) {
+            cuts.push_back(a);
+            cuts.push_back(b);
+        }
+        for (const auto& [a, b] : rockParts) cuts.push_back(a);
+        auto within = [](const std::vector<std::pair<uint64_t, uint64_t>>& list, uint64_t a, uint64_t b) {
+            for (const auto& [x0, x1] : list) {
+                if (a >= x0 && b <= x1) return true;
             }
             return false;
         };
-        // Eroded bedrock becomes sand, and in collapse mode rocks (share rho) above it: the
-        // split is per stack, in whole quanta, so bedrock lost = granular gained exactly.
-        uint64_t total = 0;
         overwrite(layers, lo, hi, cuts, [&](Material m, uint64_t a, uint64_t b) {
-            if (m != Material::Bedrock || !inEroded(a, b)) return m;
-            total += b - a;
-            return Material::Sand;
+            if (m != Material::Bedrock || !within(parts, a, b)) return m;
+            return within(rockParts, a, b) ? Material::Rocks : Material::Sand;
         });
-        if (total == 0) return false;
-        uint64_t rocks = 0;
-        if (collapse) {
-            rocks = uint64_t(std::llround(rho * double(total)));
-            // The top 'rocks' quanta of the new sand become rocks.
-            uint64_t left = rocks;
-            for (size_t l = layers.size(); l-- > 0 && left > 0;) {
-                if (layers[l].material != Material::Sand) continue;
-                const uint32_t take = uint32_t(std::min<uint64_t>(left, layers[l].thickness));
-                if (take == layers[l].thickness) {
-                    layers[l].material = Material::Rocks;
-                } else {
-                    layers[l].thickness -= take;
-                    layers.insert(layers.begin() + std::ptrdiff_t(l) + 1, Layer{Material::Rocks, take});
-                }
-                left -= take;
-            }
-        }
         st.bedrock -= int64_t(total);
         st.sand += int64_t(total - rocks);
         st.rocks += int64_t(rocks);

@@ -509,3 +509,21 @@ TEST(Weights, TheVisibleFacesOfEachMaterialInTheCube)
     }
     EXPECT_GT(checked, 1000u);
 }
+
+TEST(Erode, ACollapseInsideTheRockMakesRubbleThereAndLeavesTheSandCoverAlone)
+{
+    Task task;
+    Stacks s = hill(40, 0.3); // a plateau at 5 m under 0.3 m of sand around (10, 10)
+    const EditStats e = applyEdit(s, {{"tool", "erode"}, {"mode", "collapse"}, {"center", {10.0, 10.0, 3.0}},
+                                      {"radius", 1.5}, {"rho", 0.5}}, 0, context(), task);
+    EXPECT_EQ(-e.bedrock, e.sand + e.rocks);
+    std::vector<Layer> layers;
+    s.layers(19, 19, layers); // the axis 0.25 m from the sphere's centre
+    ASSERT_GE(layers.size(), 4u);
+    EXPECT_EQ(layers.back().material, Material::Sand);
+    EXPECT_EQ(layers.back().thickness, 30u) << "the cover is untouched";
+    // Inside: a room between bedrock floor and roof, rubble on its floor, air above it.
+    EXPECT_EQ(layers[0].material, Material::Bedrock);
+    EXPECT_EQ(layers[1].material, Material::Sand);
+    EXPECT_EQ(layers[2].material, Material::Rocks);
+}

@@ -141,3 +141,32 @@ def test_from_stacks_refuses_rows_that_made_the_stacks_and_bad_edits_name_their_
     p = run([AR, "-q", "--from-stacks", str(stacks), "--edits", str(edits), "-o", str(out)])
     one_line_error(p, 2, "edits[1] (erode)")
     assert not out.exists() and not (tmp_path / "n.stacks").exists()
+
+
+def column_crossings(grid, x, y):
+    """Sign changes of a level set along the vertical line through world (x, y)."""
+    dx = grid.transform.voxelSize()[0]
+    lo, hi = grid.evalActiveVoxelBoundingBox()
+    acc = grid.getConstAccessor()
+    i, j = int(round(x / dx)), int(round(y / dx))
+    col = [acc.getValue((i, j, k)) < 0 for k in range(lo[2] - 1, hi[2] + 2)]
+    return sum(a != b for a, b in zip(col, col[1:]))
+
+
+def test_sample_09_sea_arches_and_a_cave_network(tmp_path):
+    """samples/09_arches_coast.sh at 0.5 m: the coastal tunnel leaves arches (4 crossings at
+    some points of its axis, 2 where a bay opened it), the junction cave holds rubble."""
+    sample = os.path.join(ROOT, "samples", "09_arches_coast.sh")
+    p = subprocess.run(["bash", sample, os.environ.get("ROCKVDB_BUILD", os.path.join(ROOT, "build")),
+                        str(tmp_path), "0.5"], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "arches_coast.png").stat().st_size > 10000
+    g = vdb.read(str(tmp_path / "arches_coast.vdb"), "surface")
+    along = [column_crossings(g, 39.0, y) for y in range(6, 75, 2)]
+    assert along.count(4) >= 5, along   # roof over the tunnel: arches and caves
+    assert along.count(2) >= 3, along   # opened by a bay
+    assert column_crossings(g, 26.0, 40.0) >= 4  # the junction cave under the plateau
+    params = json.loads(g.metadata["rockvdb:params"])
+    assert [e["tool"] for e in params["edits"]] == ["tunnel", "tunnel", "erode", "deposit"]
+    rocks = vdb.read(str(tmp_path / "arches_coast.vdb"), "material")
+    assert any(v.value == 4.0 for v in rocks.citerOnValues())  # the collapse's rubble shows
