@@ -169,7 +169,7 @@ SweepVolume::SweepVolume(const SweepSpec& spec) : mProfiles(spec.profiles)
             q.wb = wb;
             q.box = BBoxd();
             bool empty = true;
-            for (const double s : {q.lo, q.hi}) {
+            for (const double s : {q.lo, 0.0, 1.0, q.hi}) {
                 const double w = wa + (wb - wa) * std::clamp(s, 0.0, 1.0);
                 const Vec3d o = q.a.origin + (q.b.origin - q.a.origin) * s;
                 const Vec3d nn = s < 0.5 ? q.a.n : q.b.n, bb = s < 0.5 ? q.a.b : q.b.b;
@@ -197,10 +197,17 @@ SweepVolume::SweepVolume(const SweepSpec& spec) : mProfiles(spec.profiles)
 
 double SweepVolume::prismInside(const Prism& q, const Vec3d& p) const
 {
+    // Where p lies between the two cross-section planes: s = d_a / (d_a − d_b), the signed
+    // distances to each plane along its own tangent. At a bend the planes tilt towards each
+    // other; measuring s along the axis instead left a wedge uncovered on the outer side (a
+    // fin across a ravine at each bend). Where the planes cross (d_a − d_b <= 0, far on the
+    // inner side of a bend) this prism covers nothing: its neighbours do.
     const Vec3d axis = q.b.origin - q.a.origin;
-    const double L2 = axis.lengthSqr();
-    const double L = std::sqrt(L2);
-    const double s = L2 > 0 ? (p - q.a.origin).dot(axis) / L2 : 0.0;
+    const double L = axis.length();
+    const double da = (p - q.a.origin).dot(q.a.t), db = (p - q.b.origin).dot(q.b.t);
+    const double den = da - db;
+    if (!(den > 1e-12)) return -std::numeric_limits<double>::infinity();
+    const double s = da / den;
     if (s < q.lo) return -(q.lo - s) * L;
     if (s > q.hi) return -(s - q.hi) * L;
     const double sc = std::clamp(s, 0.0, 1.0);

@@ -7,6 +7,8 @@ import numpy as np
 import pyopenvdb as vdb
 import pytest
 
+import rockvdb
+
 from conftest import assert_bitwise_equal, one_line_error, run, tool
 
 AR = tool("vdb_arches")
@@ -170,3 +172,51 @@ def test_sample_09_sea_arches_and_a_cave_network(tmp_path):
     assert [e["tool"] for e in params["edits"]] == ["tunnel", "tunnel", "erode", "deposit"]
     rocks = vdb.read(str(tmp_path / "arches_coast.vdb"), "material")
     assert any(v.value == 4.0 for v in rocks.citerOnValues())  # the collapse's rubble shows
+
+
+def run_sample(name, out, voxel):
+    sample = os.path.join(ROOT, "samples", name)
+    p = subprocess.run(["bash", sample, os.environ.get("ROCKVDB_BUILD", os.path.join(ROOT, "build")),
+                        str(out), voxel], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+
+
+def test_sample_10_ravine_with_undercut_walls_and_rocks_at_its_bottom(tmp_path):
+    """samples/10_arches_ravine.sh at 0.5 m: across the ravine a vertical line meets its
+    undercut walls (more than 2 crossings somewhere along it), and rocks lie in it."""
+    run_sample("10_arches_ravine.sh", tmp_path, "0.5")
+    stacks = rockvdb.Stacks.load(tmp_path / "arches_ravine.stacks")
+    scene = json.load(open(os.path.join(ROOT, "samples", "data", "arches_ravine.json")))
+    fresh = rockvdb.Stacks(scene["terrain"], cell_size=0.5, quantum=0.01)
+    # The crack removed bedrock; the collapses turned bedrock into granular material, exactly.
+    edits = [e for e in stacks.params["edits"]]
+    assert [e["tool"] for e in edits] == ["crack", "erode", "erode", "erode"]
+    assert stacks.volume("bedrock") < fresh.volume("bedrock")
+    assert stacks.volume("rocks") > fresh.volume("rocks")
+    g = vdb.read(str(tmp_path / "arches_ravine.vdb"), "surface")
+    # Beside the first arc's axis (4.5 m across it: the profile's ledge over its undercut), a
+    # vertical line meets floor, undercut floor, ledge underside and ledge top: 4 crossings.
+    t = np.array([24.0, -6.0]) / np.hypot(24.0, -6.0)
+    n = np.array([-t[1], t[0]])
+    counts = []
+    for x in np.arange(8.0, 24.0, 1.0):
+        c = np.array([x, 30.0 - 6.0 * (x - 4.0) / 24.0])
+        for side in (-1, 1):
+            q = c + side * 4.5 * n
+            counts.append(column_crossings(g, q[0], q[1]))
+    assert counts.count(4) >= len(counts) // 2, counts
+    assert (tmp_path / "arches_ravine.png").stat().st_size > 10000
+
+
+def test_sample_11_canyon_cliffs_shed_rock_piles(tmp_path):
+    """samples/11_arches_canyon_collapse.sh at 0.5 m: the collapses' bedrock became rocks and
+    sand (exactly), the rocks lie lower than where they broke off, every slope at rest."""
+    run_sample("11_arches_canyon_collapse.sh", tmp_path, "0.5")
+    s = rockvdb.Stacks.load(tmp_path / "arches_canyon_collapse.stacks")
+    assert s.volume("rocks") > 100
+    a = s.arrays()
+    rock_tops = (a["bottom_m"] + a["thickness_m"])[a["material"] == 4]
+    assert np.median(rock_tops) < 9.0  # piled at the cliffs' feet, below the bites (z 7-11)
+    again = rockvdb.Stacks.load(tmp_path / "arches_canyon_collapse.stacks")
+    assert again.stabilize()["moves"] == 0  # already at rest
+    assert (tmp_path / "arches_canyon_collapse.png").stat().st_size > 10000
