@@ -83,7 +83,7 @@ Schema<ArchesParams> makeArchesSchema()
                  "around every band voxel (§6), for shaders to blend textures by"),
         &P::weights);
     row(s, param("edits", ParamType::Json, "", json::array(), Range::any(),
-                 "Edits applied in order after stabilisation (§4): a list of {\"tool\": sculpt | deposit | erode | "
+                 "Edits applied in order after stabilisation (§4): a list of {\"tool\": sculpt | crack | tunnel | deposit | erode | "
                  "stabilize, ...} (JSON, or the path of a JSON file); each is stabilised locally"),
         &P::edits);
     row(s, param("seed", ParamType::Int, "", 0, Range::atLeast(0), "Seed of noise terrains and warps"), &P::seed);

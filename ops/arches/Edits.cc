@@ -320,7 +320,9 @@ void sculptPoint(Stacks& stacks, const std::vector<double>& v, double R, bool ad
     // σ/2, roots by linear interpolation.
     const double step = std::max(g.quantum, 0.5 * std::min(sigma, R));
     task.check();
+    size_t visited = 0;
     st.stacks += stacks.edit(i0, j0, i1, j1, [&](int i, int j, std::vector<Layer>& layers) {
+        if ((++visited & 63) == 0) task.check(); // a big stroke or sweep stays interruptible
         const double x = g.x0 + (i + 0.5) * g.cell, y = g.y0 + (j + 0.5) * g.cell;
         const double d2 = (x - c[0]) * (x - c[0]) + (y - c[1]) * (y - c[1]);
         if (d2 >= R * R) return false;
@@ -447,7 +449,9 @@ void sweep(Stacks& stacks, const json& e, size_t index, const std::string& tool,
     const int j0 = std::max(0, int(std::floor((b.min()[1] - g.y0) / g.cell)));
     const int j1 = std::min(g.ny - 1, int(std::floor((b.max()[1] - g.y0) / g.cell)));
     const double step = std::max(g.quantum, 0.25 * g.cell);
+    size_t visited = 0;
     st.stacks += stacks.edit(i0, j0, i1, j1, [&](int i, int j, std::vector<Layer>& layers) {
+        if ((++visited & 63) == 0) task.check(); // a big stroke or sweep stays interruptible
         const double x = g.x0 + (i + 0.5) * g.cell, y = g.y0 + (j + 0.5) * g.cell;
         const std::vector<uint32_t> prisms = volume.candidates(x, y);
         if (prisms.empty()) return false;
