@@ -444,6 +444,9 @@ print("finished", time.monotonic() - t0)
     "rockvdb.fractal_rock(levels=4, voxel_size=0.004)",
     "rockvdb.fractal_scatter(count=600, levels=2, area=(-10, -10, 10, 10), voxel_size=0.02)",
     "rockvdb.Stacks.from_scene(sys.argv[3]).bake()",
+    # A long stroke (592 points, ~2 s): the edit itself is interrupted.
+    "rockvdb.Stacks.from_scene(sys.argv[3]).sculpt([[x / 2, 120, 14] for x in range(4, 596)], "
+    "radius=12, mode='carve')",
 ])
 def test_python_calls_raise_keyboard_interrupt(tmp_path, tile_file, call):
     script = tmp_path / "s.py"
