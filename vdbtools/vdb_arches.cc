@@ -98,6 +98,10 @@ int main(int argc, char** argv)
                       r.stats.stacks, r.stats.layers, double(r.stats.bytes) / 1e6, r.stats.stabilize.seconds,
                       r.stats.stabilize.moves, r.stats.bakeSeconds, r.stats.activeVoxels);
         tool.info(line);
+        if (r.rockId) {
+            std::snprintf(line, sizeof line, "%zu rocks instanced in the rock layers in %.2f s", r.rocksPlaced, r.rockSeconds);
+            tool.info(line);
+        }
         for (size_t k = 0; k < r.stats.edits.size(); ++k) {
             const EditStats& e = r.stats.edits[k];
             std::snprintf(line, sizeof line, "edit %zu (%s): %zu stacks changed, bedrock %+.3g m3, sand %+.3g m3, rocks %+.3g m3; "
@@ -110,6 +114,7 @@ int main(int argc, char** argv)
         }
         // The ids first and the ground last: vdb_tool acts on the last grid read.
         openvdb::GridCPtrVec out{r.material};
+        if (r.rockId) out.push_back(r.rockId);
         for (const auto& g : r.weights) out.push_back(g);
         for (const auto& g : r.materials) out.push_back(g);
         out.push_back(r.surface);

@@ -3,10 +3,12 @@
 
 #include <rockvdb/arches/StackBuild.h>
 #include <rockvdb/arches/Weights.h>
+#include <rockvdb/rockpile/RockPileStage.h>
 
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
+#include <rockvdb/core/GridCsg.h>
 #include <rockvdb/core/GridField.h>
 #include <rockvdb/core/Heightfield.h>
 #include <rockvdb/core/Image.h>
@@ -17,6 +19,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <optional>
 
 namespace rockvdb {
 namespace arches {
@@ -82,6 +85,13 @@ Schema<ArchesParams> makeArchesSchema()
                  "Also write weight_<material> fog grids: the share of each ground material's visible faces "
                  "around every band voxel (§6), for shaders to blend textures by"),
         &P::weights);
+    row(s, param("rock-tiles", ParamType::Text, "", "", Range::any(),
+                 "A rock tile set (.vdb of vdb_rockpile tiles): its rocks are instanced where their seeds fall "
+                 "in rock layers and united with the ground (§5; \"\" = rock layers stay a material surface)"),
+        &P::rockTiles);
+    row(s, param("rock-threshold", ParamType::Real, "", 0.5, Range::openClosed(0, 1),
+                 "Share of a rock's anchors that must lie in rock layers for it to be instanced"),
+        &P::rockThreshold);
     row(s, param("edits", ParamType::Json, "", json::array(), Range::any(),
                  "Edits applied in order after stabilisation (§4): a list of {\"tool\": sculpt | crack | tunnel | deposit | erode | "
                  "stabilize, ...} (JSON, or the path of a JSON file); each is stabilised locally"),
@@ -284,16 +294,26 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
     archesSchema().validate(p);
     ArchesResult r;
     const auto& g = stacks.geometry();
+    // §5: a tile set's rocks in the rock layers (at its voxel size unless one is given).
+    std::optional<rockpile::TileSet> tiles;
+    if (!p.rockTiles.empty() && stacks.volumeQuanta(Material::Rocks) > 0) {
+        std::string file = p.rockTiles;
+        if (file[0] != '/') file = p.baseDir + "/" + file;
+        tiles = rockpile::readTileSet(file);
+    }
     SkeletonBake b;
     b.sigma = p.sigma.value_or(0.5 * g.cell);
-    b.voxelSize = p.voxelSize.value_or(g.cell);
+    b.voxelSize = p.voxelSize.value_or(tiles ? tiles->params.voxelSize() : g.cell);
+    const MaterialMask groundMask = tiles ? MaterialMask(maskOf(Material::Sand) | maskOf(Material::Bedrock)) : kGroundMask;
     b.halfWidth = p.halfWidth;
     b.maxMemoryBytes = p.maxMemoryGB * 1e9;
     const auto t1 = std::chrono::steady_clock::now();
     const bool all = output == ArchesOutput::All;
     // §6: the ground is one convolution over the union of sand, bedrock and rocks.
-    if (all || output == ArchesOutput::Surface || output == ArchesOutput::Ids || output == ArchesOutput::Weights) {
-        r.surface = bakeSkeleton(Skeleton(stacks, kGroundMask), b, task);
+    const bool needGround = all || output == ArchesOutput::Surface || output == ArchesOutput::Ids ||
+                            output == ArchesOutput::Weights;
+    if (needGround) {
+        r.surface = bakeSkeleton(Skeleton(stacks, groundMask), b, task);
         r.surface->setName("surface");
     }
     // One skeleton per material present (in id order): its level set, and all of them the ids.
@@ -304,8 +324,9 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
     std::vector<Skeleton> skeletons;
     skeletons.reserve(4);
     std::vector<std::pair<Material, const Skeleton*>> parts;
+    openvdb::FloatGrid::Ptr rockLayers; // the rocks' convolution level set, when §5 needs it
     for (const auto& [m, o] : kinds) {
-        const bool ground = (maskOf(m) & kGroundMask) != 0;
+        const bool ground = (maskOf(m) & groundMask) != 0;
         const bool wanted = output == o || (all && ground);
         if (output == ArchesOutput::Ids && ground && stacks.volumeQuanta(m) > 0) {
             skeletons.emplace_back(stacks, maskOf(m));
@@ -318,8 +339,46 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
         grid->setName(materialName(m));
         r.materials.push_back(grid);
         if (ground) parts.emplace_back(m, &skeletons.back());
+        if (m == Material::Rocks) rockLayers = grid;
+    }
+    // (With rock tiles the rocks are not in the ground's skeleton; the loop above baked their
+    // level set only when asked for it.)
+    const bool instance = tiles && (needGround || output == ArchesOutput::Rocks);
+    if (instance && !rockLayers) {
+        // (Baked as in the loop: the same bits as the rock layers' own level set.)
+        rockLayers = bakeSkeleton(Skeleton(stacks, maskOf(Material::Rocks)), b, task);
     }
     if (all || output == ArchesOutput::Ids) r.material = materialGrid(parts, b.sigma, *r.surface, task);
+    if (instance) {
+        const auto t0 = std::chrono::steady_clock::now();
+        rockpile::PileParams pp;
+        pp.threshold = p.rockThreshold;
+        pp.seed = uint64_t(p.seed);
+        pp.material = int(Material::Rocks);
+        pp.halfWidth = p.halfWidth;
+        const FieldPtr support = rockpile::levelSetSupport(rockLayers, *tiles);
+        rockpile::PileResult pile = rockpile::runPile(*tiles, *support, pp, json::object(), false, false, task);
+        r.rocksPlaced = pile.pile.instances.size();
+        openvdb::FloatGrid::Ptr rocks = pile.pile.surface;
+        rocks->setName("rocks");
+        // 'rocks' is now the instanced rocks' level set (the loop left the rock layers out of
+        // "all": they are not ground here).
+        r.materials.erase(std::remove_if(r.materials.begin(), r.materials.end(),
+                                         [](const openvdb::FloatGrid::Ptr& x) { return x->getName() == "rocks"; }),
+                          r.materials.end());
+        if (all || output == ArchesOutput::Rocks) r.materials.push_back(rocks); // last: sand, bedrock, rocks
+        if (needGround) {
+            const std::vector<openvdb::FloatGrid::ConstPtr> both = {r.surface, rocks};
+            auto united = csgGrids(CsgOp::Union, both);
+            united->setName("surface");
+            if (r.material) {
+                r.material = csgAttribute(CsgOp::Union, both, {r.material, pile.pile.material}, *united, "material");
+            }
+            r.rockId = csgAttribute(CsgOp::Union, both, {nullptr, pile.pile.rockId}, *united, "rock_id");
+            r.surface = united;
+        }
+        r.rockSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
     if ((all && p.weights) || output == ArchesOutput::Weights) {
         std::vector<Material> present;
         for (Material m : {Material::Sand, Material::Bedrock, Material::Rocks}) {
@@ -336,6 +395,7 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
     }
     for (auto& m : r.materials) stampProvenance(*m, kToolName, text);
     for (auto& w : r.weights) stampProvenance(*w, kToolName, text);
+    if (r.rockId) stampProvenance(*r.rockId, kToolName, text);
     r.stats.stacks = g.count();
     r.stats.layers = stacks.layerCount();
     r.stats.bytes = stacks.bytes();

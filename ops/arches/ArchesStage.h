@@ -50,6 +50,8 @@ struct ArchesParams
     double reposeSand, reposeRocks;             ///< degrees
     bool stabilize;
     bool weights;                               ///< also the weight_<material> grids (§6)
+    std::string rockTiles;                      ///< a tile set file: rocks instanced in rock layers (§5); "" = none
+    double rockThreshold;                       ///< share of a rock's anchors inside the rock layers
     nlohmann::json edits;                       ///< the edits (Edits.h), applied in order after stabilisation
     int seed;
     double maxMemoryGB;
@@ -75,6 +77,9 @@ struct ArchesResult
     std::vector<openvdb::FloatGrid::Ptr> materials; ///< one level set per ground material present, named by it
     openvdb::FloatGrid::Ptr material;              ///< 'material' ids over the ground's band
     std::vector<openvdb::FloatGrid::Ptr> weights;   ///< weight_<material> fog grids (§6) of the ground materials present
+    openvdb::FloatGrid::Ptr rockId;                ///< with rock-tiles: the instanced rock per voxel (bg −1), else null
+    size_t rocksPlaced = 0;                        ///< with rock-tiles: rocks instanced
+    double rockSeconds = 0;                        ///< with rock-tiles: instancing time
     ArchesStats stats;
 };
 
@@ -108,6 +113,12 @@ enum class ArchesOutput
 ArchesOutput archesOutputFromString(const std::string& name, const std::string& what);
 
 /// @brief Bake @a stacks as they are (no stabilisation): the grids of @a output, stamped with
+/// provenance. With rock-tiles (§5), the rock layers are filled with the tile set's rocks
+/// (vdb_rockpile's pile, supported by the rocks' own level set): the ground is then sand ∪
+/// bedrock united with those rocks, 'rocks' is the rocks' level set, and 'rock_id' names the
+/// rock at each voxel.
+///
+/// (Bake @a stacks as they are:
 /// provenance (the table's JSON, with @a inputs' keys on top, e.g. how a grid terrain was
 /// made). Each grid is the same bit for bit whichever @a output asked for it.
 ArchesResult bakeStacks(const ArchesParams& params, const Stacks& stacks, ArchesOutput output,

@@ -898,7 +898,7 @@ class Stacks:
 
         s = rockvdb.Stacks.from_scene("samples/data/arches_strata.json")  # or Stacks(terrain, ...)
         s.sculpt([(12, 12, 20)], radius=3, mode="carve")   # edits (§4): sculpt, deposit, erode
-        surface, materials, material, weights = s.bake()   # vdb_arches' grids, bit for bit
+        grids = s.bake()   # {name: grid}: vdb_arches' grids, bit for bit
         s.save("terrain.stacks"); s = rockvdb.Stacks.load("terrain.stacks")
 
     Stacks(terrain, ...) builds the stacks of a terrain: a terrain node (dict: strata,
@@ -972,9 +972,10 @@ class Stacks:
              weights=None, path=None):
         """Bake the convolution surfaces (§3.3, §6) as narrow-band level sets.
 
-        material: 'all' (default) -> (surface, [one level set per ground material present:
-        sand, bedrock, rocks], material ids, [weight_<material> fog grids]), what vdb_arches
-        writes; 'surface' (or 'ground') -> the ground (sand, bedrock and rocks under one
+        material: 'all' (default) -> {name: grid} of what vdb_arches writes, in its file order:
+        'material' (ids), 'rock_id' (with rock_tiles), the 'weight_<material>' fog grids, one
+        level set per ground material present ('sand', 'bedrock', 'rocks') and 'surface' last;
+        'surface' (or 'ground') -> the ground (sand, bedrock and rocks under one
         convolution); 'sand', 'bedrock', 'rocks' or 'water' -> that material's level set (empty
         when absent); 'material' -> (surface, material ids: sand 2, bedrock 3, rocks 4);
         'weights' -> [weight_<material>]: per band voxel, the share of each ground material's
@@ -995,7 +996,7 @@ class Stacks:
         grids = self._s.bake(material, overrides)
         if target is not None:
             if material == "all":
-                ordered = [grids[2]] + list(grids[3]) + list(grids[1]) + [grids[0]]
+                ordered = list(grids.values())
             elif material == "weights":
                 ordered = list(grids)
             elif isinstance(grids, tuple):

@@ -109,10 +109,15 @@ py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::s
     using G = openvdb::FloatGrid::Ptr;
     switch (output) {
     case ArchesOutput::All: {
-        py::list mats, weights;
-        for (const auto& g : r.materials) mats.append(py::cast(G(g)));
-        for (const auto& g : r.weights) weights.append(py::cast(G(g)));
-        return py::make_tuple(py::cast(G(r.surface)), mats, py::cast(G(r.material)), weights);
+        // Every grid by name, in vdb_arches' file order: ids, weights, material level sets, the
+        // ground last.
+        py::dict d;
+        d["material"] = py::cast(G(r.material));
+        if (r.rockId) d["rock_id"] = py::cast(G(r.rockId));
+        for (const auto& g : r.weights) d[py::str(g->getName())] = py::cast(G(g));
+        for (const auto& g : r.materials) d[py::str(g->getName())] = py::cast(G(g));
+        d["surface"] = py::cast(G(r.surface));
+        return std::move(d);
     }
     case ArchesOutput::Weights: {
         py::list weights;

@@ -62,11 +62,12 @@ def run(out):
     stacks = rockvdb.Stacks(u, cell_size=0.1, quantum=0.005, floor=-0.5)
     stacks.save(os.path.join(out, "host.stacks"))
     again = rockvdb.Stacks.load(os.path.join(out, "host.stacks"))
-    ground, materials, ids, weights = again.bake()
+    grids = again.bake()
+    ground = grids["surface"]
     report["stacks_equal"] = again == stacks
     report["stacks_layers"] = stacks.layer_count
     report["stacks_digest"] = digest(ground)
-    report["stacks_grids"] = [ids.name] + [g.name for g in weights + materials] + [ground.name]
+    report["stacks_grids"] = [g.name for g in grids.values()]
     report["read_back"] = rockvdb.read(os.path.join(out, "host.vdb")).activeVoxelCount()
     report["pyopenvdb_read_back"] = vdb.read(os.path.join(out, "host_pyopenvdb.vdb"),
                                              "surface").activeVoxelCount()

@@ -30,10 +30,9 @@ def by_name(path):
     return {g.name: g for g in vdb.readAll(str(path))[0]}
 
 
-def same_grids(cli_path, surface, materials, material, weights):
+def same_grids(cli_path, py):
     cli = by_name(cli_path)
-    py = {"surface": surface, "material": material, **{g.name: g for g in materials},
-          **{g.name: g for g in weights}}
+    assert list(py) == [g.name for g in vdb.readAll(str(cli_path))[0]]  # the file's order
     assert sorted(cli) == sorted(py)
     for name, g in py.items():
         if g.activeVoxelCount() == 0:  # a material too thin for σ (the small scene's rocks)
@@ -62,7 +61,7 @@ def test_python_and_the_cli_give_the_same_grids_for_the_same_scene(tmp_path):
     run([AR, "-q", str(scene), "-o", str(tmp_path / "cli.vdb"), "--stacks", str(tmp_path / "cli.stacks")],
         check=True)
     s = rockvdb.Stacks.from_scene(scene)
-    same_grids(tmp_path / "cli.vdb", *s.bake(path=tmp_path / "py.vdb"))
+    same_grids(tmp_path / "cli.vdb", s.bake(path=tmp_path / "py.vdb"))
     # The file too: the same grids in the same order (ids first, the ground last).
     assert [g.name for g in vdb.readAll(str(tmp_path / "py.vdb"))[0]] == \
         [g.name for g in vdb.readAll(str(tmp_path / "cli.vdb"))[0]]
@@ -108,7 +107,7 @@ def test_stabilize_conserves_every_material_leaves_bedrock_and_is_the_clis(tmp_p
     # Built stabilised (the default), the stacks are the same; so are vdb_arches' grids.
     assert rockvdb.Stacks.from_scene(cliff_scene) == raw and raw.params["stabilize"] is True
     run([AR, "-q", str(cliff_scene), "-o", str(tmp_path / "cli.vdb")], check=True)
-    same_grids(tmp_path / "cli.vdb", *raw.bake())
+    same_grids(tmp_path / "cli.vdb", raw.bake())
 
 
 def test_numpy_views_agree_with_the_stacks(tmp_path):
@@ -138,8 +137,12 @@ def test_numpy_views_agree_with_the_stacks(tmp_path):
 
 def test_each_grid_is_the_same_whichever_bake_asks_for_it(tmp_path):
     s = rockvdb.Stacks.from_scene(small_scene(tmp_path))
-    surface, materials, material, weights = s.bake()
-    assert [w.name for w in weights] == ["weight_sand", "weight_bedrock", "weight_rocks"]
+    grids = s.bake()
+    surface, material = grids["surface"], grids["material"]
+    materials = [grids[m] for m in ("sand", "bedrock", "rocks")]
+    weights = [grids[w] for w in ("weight_sand", "weight_bedrock", "weight_rocks")]
+    assert list(grids) == ["material", "weight_sand", "weight_bedrock", "weight_rocks", "sand", "bedrock",
+                           "rocks", "surface"]
     for w, again in zip(weights, s.bake("weights")):
         assert_bitwise_equal(w, again)
     assert_bitwise_equal(surface, s.bake("surface"))
@@ -187,7 +190,7 @@ def test_save_and_load_round_trip_and_continue_in_the_cli(tmp_path, cliff_scene)
     back = rockvdb.Stacks.load(tmp_path / "t.stacks")
     assert back == s and back.params == s.params and back.params["stabilize"] is True
     run([AR, "-q", "--from-stacks", str(tmp_path / "t.stacks"), "-o", str(tmp_path / "c.vdb")], check=True)
-    same_grids(tmp_path / "c.vdb", *back.bake())
+    same_grids(tmp_path / "c.vdb", back.bake())
 
 
 @pytest.mark.parametrize("call,error,needles", [
@@ -285,18 +288,18 @@ def test_edits_from_python_replay_through_the_cli_and_continue_from_stacks(tmp_p
     # The same edits given to the constructor.
     assert rockvdb.Stacks.from_scene(scene, edits=EDITS) == s
     grids = s.bake(path=tmp_path / "py.vdb")
-    prov = json.loads(grids[0].metadata["rockvdb:params"])
+    prov = json.loads(grids["surface"].metadata["rockvdb:params"])
     assert prov["edits"] == EDITS
     (tmp_path / "p.json").write_text(json.dumps(prov))
     run([AR, "-q", "--params", str(tmp_path / "p.json"), "-o", str(tmp_path / "cli.vdb")], check=True)
-    same_grids(tmp_path / "cli.vdb", *grids)
+    same_grids(tmp_path / "cli.vdb", grids)
     # Saved after the first edit, continued in the CLI with the other two.
     first = rockvdb.Stacks.from_scene(scene, edits=EDITS[:1])
     first.save(tmp_path / "first.stacks")
     (tmp_path / "more.json").write_text(json.dumps(EDITS[1:]))
     run([AR, "-q", "--from-stacks", str(tmp_path / "first.stacks"), "--edits", str(tmp_path / "more.json"),
          "-o", str(tmp_path / "continued.vdb")], check=True)
-    same_grids(tmp_path / "continued.vdb", *grids)
+    same_grids(tmp_path / "continued.vdb", grids)
     # stabilize() after edits is an edit of its own, recorded in order.
     s.stabilize()
     assert s.params["edits"][-1] == {"tool": "stabilize"}
@@ -318,3 +321,50 @@ def test_bad_edits_are_one_line_naming_the_edit_and_change_nothing(tmp_path):
         s.sculpt([(1, 1, 5)])
     with pytest.raises(ValueError, match="a bake may change voxel-size"):
         s._s.bake("surface", json.dumps({"sigma": 1.0}))
+
+
+def test_rocks_are_instanced_in_the_rock_layers_and_cli_and_python_agree(tmp_path):
+    """§5: a tile set's rocks where their seeds fall in rock layers: most of every rock lies in
+    the rock layers, the ground (sand and bedrock) is united with them, rock_id names them."""
+    tiles = tmp_path / "tiles.vdb"
+    rockvdb.rock_tiles(n=4, voxels_per_cell=5, seed=3, path=tiles)
+    terrain = {"type": "strata", "samples": [24, 24], "base": 4, "amplitude": 0.6, "frequency": 0.2,
+               "warp": 0.3, "warp_frequency": 0.3,
+               "layers": [{"material": "bedrock", "thickness": 3}, {"material": "rocks", "thickness": 40}]}
+    scene = {"terrain": terrain, "cell-size": 0.25, "quantum": 0.005, "rock-tiles": str(tiles)}
+    (tmp_path / "scene.json").write_text(json.dumps(scene))
+    s = rockvdb.Stacks.from_scene(tmp_path / "scene.json")
+    grids = s.bake(path=tmp_path / "py.vdb")
+    assert list(grids) == ["material", "rock_id", "weight_bedrock", "weight_rocks", "bedrock", "rocks", "surface"]
+    run([AR, "-q", str(tmp_path / "scene.json"), "-o", str(tmp_path / "cli.vdb")], check=True)
+    same_grids(tmp_path / "cli.vdb", grids)
+    rocks, ids = grids["rocks"], grids["rock_id"]
+    dx = rocks.transform.voxelSize()[0]
+    assert dx == pytest.approx(0.05)  # the tile set's voxel size (voxel-size unset)
+    # Inside voxels of the instanced rocks: in the rock layers (stack material at their height).
+    a = s.arrays()
+    q, z0 = s.quantum, s.origin[2]
+    inside = total = 0
+    per_rock = {}
+    acc = ids.getConstAccessor()
+    for it in rocks.citerOnValues():
+        if it.value >= 0 or not it.active:
+            continue
+        x, y, z = (c * dx for c in it.min)
+        i, j = int(x / s.cell_size), int(y / s.cell_size)
+        if not (0 <= i < s.shape[1] and 0 <= j < s.shape[0]):
+            continue
+        k = j * s.shape[1] + i
+        lo, hi = a["offsets"][k], a["offsets"][k + 1]
+        mats = a["material"][lo:hi]
+        bottoms = a["bottom_m"][lo:hi]
+        tops = bottoms + a["thickness_m"][lo:hi]
+        here = [m for m, b, t in zip(mats, bottoms, tops) if b <= z < t]
+        total += 1
+        inside += bool(here) and here[0] == 4
+        rid = acc.getValue(it.min)
+        per_rock[rid] = per_rock.get(rid, 0) + 1
+    assert total > 1000 and len(per_rock) > 50
+    assert inside / total > 0.9, inside / total
+    # The ground is bedrock and the rocks: material ids 3 and 4 only.
+    assert set(np.unique([v.value for v in grids["material"].citerOnValues()])) <= {3.0, 4.0}
