@@ -56,7 +56,8 @@ int main(int argc, char** argv)
             if (!given.is_object()) fail<IoError>("arches: ", stacksIn, " holds no scene parameters");
             saved = std::move(f.stacks);
         }
-        const nlohmann::json cli = tool.givenParams(archesSchema()); // (not a temporary in the loop)
+        nlohmann::json cli = tool.givenParams(archesSchema()); // (not a temporary in the loop)
+        anchorGivenPaths(cli); // options name files from here, the scene's own keys from its folder
         // Saved stacks were made by their scene: only the bake's rows may differ, and edits
         // given here come after the saved ones (the record lists both, so it replays).
         nlohmann::json more = nlohmann::json::array();

@@ -179,6 +179,15 @@ json readScene(const std::string& path, std::string& baseDir)
     return scene;
 }
 
+void anchorGivenPaths(json& given)
+{
+    for (const char* key : {"rock-tiles", "sand-map"}) {
+        if (!given.contains(key) || !given.at(key).is_string()) continue;
+        const std::string v = given.at(key).get<std::string>();
+        if (!v.empty() && v[0] != '/') given[key] = std::filesystem::absolute(v).string();
+    }
+}
+
 Stacks buildStacks(const ArchesParams& p, Task& task, openvdb::FloatGrid::ConstPtr grid)
 {
     archesSchema().validate(p);

@@ -87,6 +87,10 @@ struct ArchesResult
 /// relative paths in its terrain resolve against). @throw ValueError / IoError naming @a path.
 nlohmann::json readScene(const std::string& path, std::string& baseDir);
 
+/// @brief Path rows given beside a scene (command-line options, Python keywords) name files
+/// from the working folder, not the scene's: made absolute in @a given (rock-tiles, sand-map).
+void anchorGivenPaths(nlohmann::json& given);
+
 /// @brief The initial stacks of @a params' terrain (phase "stacks"). @a solid, when given,
 /// is the level set of a {"type": "level_set"} terrain already in memory (Python passes
 /// grids; the node's file is then not read).

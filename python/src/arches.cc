@@ -271,7 +271,8 @@ void bindArches(py::module_& m)
         PyStacks s;
         std::string baseDir = ".";
         json j = scene ? readScene(*scene, baseDir) : json::object();
-        const json given = parseParams(params, "arches");
+        json given = parseParams(params, "arches");
+        if (scene) anchorGivenPaths(given); // keywords name files from here, the scene's keys from its folder
         for (auto it = given.begin(); it != given.end(); ++it) j[it.key()] = it.value();
         ArchesParams p = paramsOf(j);
         p.baseDir = baseDir;
