@@ -22,6 +22,19 @@ def run(args, stdin=None, check=False):
     return p
 
 
+def arches_small_scene(tmp_path, **extra):
+    """samples/data/arches_strata.json cut to 40 x 30 stacks (extra keys on top), as
+    tmp_path/scene.json: the material-stack tests' quick scene."""
+    import json
+    sample = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "samples", "data", "arches_strata.json")
+    scene = json.load(open(sample))
+    scene["terrain"]["samples"] = [40, 30]
+    scene.update(extra)
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(scene))
+    return path
+
+
 def dense(grid):
     """(active bounding box, dense float32 array over it) of a pyopenvdb grid."""
     import numpy as np

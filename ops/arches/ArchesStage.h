@@ -120,11 +120,8 @@ ArchesOutput archesOutputFromString(const std::string& name, const std::string& 
 /// provenance. With rock-tiles (§5), the rock layers are filled with the tile set's rocks
 /// (vdb_rockpile's pile, supported by the rocks' own level set): the ground is then sand ∪
 /// bedrock united with those rocks, 'rocks' is the rocks' level set, and 'rock_id' names the
-/// rock at each voxel.
-///
-/// (Bake @a stacks as they are:
-/// provenance (the table's JSON, with @a inputs' keys on top, e.g. how a grid terrain was
-/// made). Each grid is the same bit for bit whichever @a output asked for it.
+/// rock at each voxel. Provenance is the table's JSON with @a inputs' keys on top (e.g. how a
+/// grid terrain was made). Each grid is the same bit for bit whichever @a output asked for it.
 ArchesResult bakeStacks(const ArchesParams& params, const Stacks& stacks, ArchesOutput output,
                         const nlohmann::json& inputs, Task& task);
 

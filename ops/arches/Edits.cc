@@ -438,7 +438,15 @@ void sweep(Stacks& stacks, const json& e, size_t index, const std::string& tool,
             return Vec3d(-dx, -dy, 1.0).unitSafe();
         };
     }
-    const SweepVolume volume(spec);
+    const SweepVolume volume = [&] {
+        try {
+            return SweepVolume(spec);
+        } catch (const ValueError& x) {
+            const std::string m = x.what();
+            const size_t at = m.find("sweep: ");
+            bad(index, tool, at == std::string::npos ? m : m.substr(at + 7)); // the edit's index on it
+        }
+    }();
     task.check();
     // The stacks under the volume: bedrock inside it becomes air (granular material stays, for
     // the stabilisation to drop into the new room), the rest as it is: the CSG difference

@@ -135,6 +135,15 @@ SweepVolume::SweepVolume(const SweepSpec& spec) : mProfiles(spec.profiles)
         s.b = t.cross(s.n);
         return s;
     };
+    // Refuse a step that would need absurdly many cross-sections, before allocating any.
+    double sections = 0;
+    for (const auto& [a, b] : spec.arcs) {
+        sections += std::ceil((spec.nodes[size_t(b)] - spec.nodes[size_t(a)]).length() / spec.step);
+    }
+    if (!(sections <= double(kMaxPrisms))) {
+        fail<ValueError>("sweep: ", sections, " cross-sections (the arcs' length over a step of ", spec.step,
+                         " m), more than ", kMaxPrisms, "; use a larger step");
+    }
     mBounds = BBoxd();
     bool first = true;
     for (const auto& [a, b] : spec.arcs) {
@@ -224,23 +233,6 @@ double SweepVolume::prismInside(const Prism& q, const Vec3d& p) const
     for (size_t v = 0; v < A.size(); ++v) shape[v] = A[v] * (1.0 - w) + B[v] * w;
     const double d2 = polygonDistance(shape, uv);
     return std::min(d2, std::min(s - q.lo, q.hi - s) * L);
-}
-
-double SweepVolume::inside(const Vec3d& p) const
-{
-    double best = -std::numeric_limits<double>::infinity();
-    for (const Prism& q : mPrisms) {
-        if (!q.box.isInside(p)) {
-            // Outside the box: at least its distance outside.
-            const Vec3d lo = q.box.min(), hi = q.box.max();
-            const Vec3d d(std::max({lo[0] - p[0], 0.0, p[0] - hi[0]}), std::max({lo[1] - p[1], 0.0, p[1] - hi[1]}),
-                          std::max({lo[2] - p[2], 0.0, p[2] - hi[2]}));
-            best = std::max(best, -d.length());
-            continue;
-        }
-        best = std::max(best, prismInside(q, p));
-    }
-    return best;
 }
 
 double SweepVolume::inside(const Vec3d& p, const std::vector<uint32_t>& prisms) const

@@ -38,21 +38,23 @@ struct SweepSpec
 };
 
 /// A swept volume: prisms between consecutive cross-sections of every arc. inside(p) > 0 inside
-/// (roughly the distance to the boundary, m), <= 0 outside.
+/// (roughly the distance to the boundary, m), <= 0 outside. @throw ValueError (from the
+/// constructor) when the arcs' length over the step asks for more than kMaxPrisms prisms.
 class SweepVolume
 {
 public:
     explicit SweepVolume(const SweepSpec& spec);
 
-    double inside(const Vec3d& p) const;
-    /// @brief The same over the prisms whose box holds the vertical line through (x, y)
-    /// (candidates(x, y)), for evaluating many heights of one stack axis.
+    /// @brief Over @a prisms, those whose box holds the vertical line through p's (x, y)
+    /// (candidates(x, y)): one stack axis's heights evaluate against the same few.
     double inside(const Vec3d& p, const std::vector<uint32_t>& prisms) const;
     std::vector<uint32_t> candidates(double x, double y) const;
     /// The prisms' z extent over the vertical line through (x, y) (empty when none).
     std::pair<double, double> zRange(const std::vector<uint32_t>& prisms) const;
     BBoxd bounds() const { return mBounds; }
-    size_t prismCount() const { return mPrisms.size(); }
+
+    /// Most prisms a sweep may hold (~0.5 GB): more is a step far too small for the graph.
+    static constexpr size_t kMaxPrisms = 2'000'000;
 
 private:
     struct Section

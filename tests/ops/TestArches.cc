@@ -14,6 +14,7 @@
 #include <rockvdb/core/VdbIO.h>
 #include <rockvdb/core/Random.h>
 #include "GridCompare.h"
+#include "StackFixtures.h"
 
 #include <gtest/gtest.h>
 #include <openvdb/tools/Interpolation.h>
@@ -29,27 +30,10 @@ namespace {
 
 StackGeometry geometry(int nx, int ny, double cell, double quantum = 0.01)
 {
-    StackGeometry g;
-    g.nx = nx;
-    g.ny = ny;
-    g.cell = cell;
-    g.quantum = quantum;
-    return g;
+    return test::stackGeometry(nx, ny, cell, quantum);
 }
 
-// Random stacks: up to 6 layers of random materials and thicknesses.
-Stacks randomStacks(uint64_t seed, int n = 9)
-{
-    Task task;
-    return Stacks::build(geometry(n, n, 0.5, 0.01), [&](int i, int j, std::vector<Layer>& layers) {
-        const uint64_t key = uint64_t(j) * 1000 + uint64_t(i);
-        const int count = int(uniform(seed, uint64_t(0), key) * 6.0);
-        for (int l = 0; l < count; ++l) {
-            layers.push_back(Layer{Material(int(uniform(seed, uint64_t(1 + 2 * l), key) * 5.0) % 5),
-                                   uint32_t(1 + uniform(seed, uint64_t(2 + 2 * l), key) * 150.0)});
-        }
-    }, task);
-}
+using test::randomStacks;
 
 // The skeleton's volume in the cube, by brute force: every layer of every stack as a box.
 double bruteVolume(const Stacks& st, MaterialMask mask, const Vec3d& p, double sigma)

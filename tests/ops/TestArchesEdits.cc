@@ -9,6 +9,7 @@
 
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Random.h>
+#include "StackFixtures.h"
 
 #include <gtest/gtest.h>
 #include <openvdb/tools/VolumeToMesh.h>
@@ -26,12 +27,7 @@ namespace {
 
 StackGeometry geometry(int nx, int ny, double cell, double quantum = 0.01)
 {
-    StackGeometry g;
-    g.nx = nx;
-    g.ny = ny;
-    g.cell = cell;
-    g.quantum = quantum;
-    return g;
+    return test::stackGeometry(nx, ny, cell, quantum);
 }
 
 // Bedrock up to a smooth hill over a plateau at 5 m (0.5 m cells, 1 cm quanta), optionally
@@ -47,18 +43,7 @@ Stacks hill(int n = 80, double sand = 0.0)
     }, task);
 }
 
-Stacks randomStacks(uint64_t seed, int n)
-{
-    Task task;
-    return Stacks::build(geometry(n, n, 0.5), [&](int i, int j, std::vector<Layer>& layers) {
-        const uint64_t key = uint64_t(j) * 1000 + uint64_t(i);
-        const int count = int(uniform(seed, uint64_t(0), key) * 6.0);
-        for (int l = 0; l < count; ++l) {
-            layers.push_back(Layer{Material(int(uniform(seed, uint64_t(1 + 2 * l), key) * 5.0) % 5),
-                                   uint32_t(1 + uniform(seed, uint64_t(2 + 2 * l), key) * 150.0)});
-        }
-    }, task);
-}
+using test::randomStacks;
 
 double topOf(const Stacks& s, int i, int j, Material m)
 {
@@ -526,4 +511,20 @@ TEST(Erode, ACollapseInsideTheRockMakesRubbleThereAndLeavesTheSandCoverAlone)
     EXPECT_EQ(layers[0].material, Material::Bedrock);
     EXPECT_EQ(layers[1].material, Material::Sand);
     EXPECT_EQ(layers[2].material, Material::Rocks);
+}
+
+TEST(Crack, AStepFarTooSmallIsRefusedBeforeAllocating)
+{
+    Task task;
+    Stacks s = hill(20);
+    const Stacks s0 = s;
+    try {
+        applyEdit(s, {{"tool", "crack"}, {"nodes", {{1.0, 1.0}, {9.0, 9.0}}}, {"step", 1e-7},
+                      {"profile", {{-1, 1}, {1, 1}, {0, -2}}}}, 3, context(), task);
+        ADD_FAILURE() << "accepted";
+    } catch (const ValueError& x) {
+        EXPECT_NE(std::string(x.what()).find("edits[3] (crack)"), std::string::npos) << x.what();
+        EXPECT_NE(std::string(x.what()).find("use a larger step"), std::string::npos) << x.what();
+    }
+    EXPECT_TRUE(s == s0);
 }

@@ -9,21 +9,11 @@ import pyopenvdb as vdb
 import pytest
 
 import rockvdb
-from conftest import assert_bitwise_equal, run, tool
+from conftest import arches_small_scene as small_scene, assert_bitwise_equal, run, tool
 
 AR = tool("vdb_arches")
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-SCENE = os.path.join(ROOT, "samples", "data", "arches_strata.json")
 GROUND = ("sand", "bedrock", "rocks")
-
-
-def small_scene(tmp_path, **extra):
-    scene = json.load(open(SCENE))
-    scene["terrain"]["samples"] = [40, 30]
-    scene.update(extra)
-    path = tmp_path / "scene.json"
-    path.write_text(json.dumps(scene))
-    return path
 
 
 def by_name(path):

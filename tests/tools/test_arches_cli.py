@@ -9,20 +9,11 @@ import pytest
 
 import rockvdb
 
-from conftest import assert_bitwise_equal, one_line_error, run, tool
+from conftest import arches_small_scene as small_scene, assert_bitwise_equal, one_line_error, run, tool
 
 AR = tool("vdb_arches")
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCENE = os.path.join(ROOT, "samples", "data", "arches_strata.json")
-
-
-def small_scene(tmp_path, **extra):
-    scene = json.load(open(SCENE))
-    scene["terrain"]["samples"] = [40, 30]
-    scene.update(extra)
-    path = tmp_path / "scene.json"
-    path.write_text(json.dumps(scene))
-    return path
 
 
 def test_a_scene_gives_the_ground_one_level_set_per_material_and_ids(tmp_path):
