@@ -10,8 +10,13 @@
 #      cliff that carries every id grid
 #   4. fractal boulders (fractal-rocks-midpoint-displacement) scattered on the plateau by an
 #      fBm density map, resting on the cliff's level set, united with the scene
-#   5. a shaded preview tinted by material: 0 terrain, 1 equidimensional blocks, 2 tabular
-#      blocks, 3 scree rocks, 4 boulders
+#   5. a sea arch on the sea floor (arches, material stacks §3-§5): a warped rock wall turned
+#      into bedrock stacks, pierced by a swept tunnel (§4.2), notched at its foot by a carve
+#      stroke (§4.1), its top corner collapsed (§4.4) into sand and rock layers that the
+#      stabilisation piles at its foot, where the scree's rock tiles are instanced (§5); united
+#      with the scene
+#   6. a shaded preview tinted by material: 0 terrain, 1 equidimensional blocks, 2 tabular
+#      blocks, 3 scree rocks, 4 boulders, 5 arch bedrock, 6 arch sand, 7 arch rocks
 # usage: samples/01_demo.sh BUILD_DIR OUT_DIR [--quality draft|default|high]
 #        (or ROCKVDB_QUALITY=draft|default|high); writes OUT_DIR/demo.vdb and demo.png
 set -euo pipefail
@@ -63,6 +68,21 @@ cat > "$OUT/demo_scree.json" <<JSON
     [0, 0, -1, 1], [-1, 0, 0, -28]]},
   $CLIFF]}
 JSON
+# The sea arch: a wall 17 x 5 x 14 m standing across the view (52 degrees from x), its stacks
+# 25 cm wide down to just under the sea floor; the edits pierce, notch and break it.
+cat > "$OUT/demo_arch.json" <<'JSON'
+{"terrain": {"type": "warp", "amplitude": 0.5, "frequency": 0.3, "octaves": 3, "seed": 6,
+             "child": {"type": "transform", "translate": [68, 33, 5], "rotate": [0, 0, 52],
+                       "child": {"type": "box", "size": [17, 5, 14], "rounding": 1.5}}},
+ "extent": [54, 20, 82, 46], "floor": -0.3, "cell-size": 0.25, "weights": false,
+ "material-ids": [6, 5, 7],
+ "edits": [
+   {"tool": "tunnel", "nodes": [[72.7, 29.3, 0.5], [63.3, 36.7, 0.5]],
+    "profile": [[-4, -1.5], [4, -1.5], [4.2, 2.5], [2.5, 5.5], [0, 6.5], [-2.5, 5.5], [-4.2, 2.5]]},
+   {"tool": "sculpt", "mode": "carve", "radius": 1.8, "strength": 3,
+    "points": [[72.68, 35.71, 1.5], [73.3, 36.5, 1.5], [73.92, 37.29, 1.5]]},
+   {"tool": "erode", "mode": "collapse", "center": [72.5, 38.5, 11], "radius": 3.5, "rho": 0.7}]}
+JSON
 
 tiles() {
     "$B/vdb_blocks" -q --type equidimensional --tile-size 10 --seed 3 --voxel-size 0.2 \
@@ -92,11 +112,16 @@ boulders() {
     "$B/vdb_fractal_rock" -q --count 40 --ground "$OUT/demo_cliff.vdb" --area 3,5,26,55 \
         --size 3,2.4,1.6 --levels 2 --seed 9 --density-scale 12 --material 4 \
         --voxel-size "$VOXEL" -o - |
-    "$B/vdb_csg" -q union "$OUT/demo_scree.vdb" - -o "$OUT/demo.vdb"
+    "$B/vdb_csg" -q union "$OUT/demo_scree.vdb" - -o "$OUT/demo_boulders.vdb"
+}
+arch() {
+    "$B/vdb_arches" -q "$OUT/demo_arch.json" --rock-tiles "$OUT/demo_rocks.tiles" \
+        --voxel-size "$VOXEL" -o - |
+    "$B/vdb_csg" -q union "$OUT/demo_boulders.vdb" - -o "$OUT/demo.vdb"
 }
 preview() {
     "$B/vdb_preview" "$OUT/demo.vdb" --ids material \
-        --palette '0=#9a9184,1=#c8ae86,2=#b58a7c,3=#7d8792,4=#6f6a62' \
+        --palette '0=#9a9184,1=#c8ae86,2=#b58a7c,3=#7d8792,4=#6f6a62,5=#a3876a,6=#d9c08c,7=#5f5a55' \
         --azimuth -38 --elevation 24 --zoom 1.5 --width 1280 --height 720 \
         -o "$OUT/demo.png" 2> "$OUT/demo_preview.txt"
 }
@@ -106,7 +131,8 @@ stage "block tiles (vdb_blocks x2)" "$OUT/demo_tabular.vdb" tiles
 stage "cliff (vdb_amplify | detail)" "$OUT/demo_cliff.vdb" cliff
 stage "rock tiles (vdb_rockpile)" "$OUT/demo_rocks.tiles" rocks
 stage "scree (rockpile pile | csg)" "$OUT/demo_scree.vdb" scree
-stage "boulders (fractal_rock | csg)" "$OUT/demo.vdb" boulders
+stage "boulders (fractal_rock | csg)" "$OUT/demo_boulders.vdb" boulders
+stage "sea arch (vdb_arches | csg)" "$OUT/demo.vdb" arch
 stage "preview (vdb_preview)" "$OUT/demo.png" preview
 {
     echo "rockvdb demo ($QUALITY: ${VOXEL} m voxels) in $OUT:"

@@ -20,19 +20,21 @@ int main(int argc, char** argv)
 {
     cli::Tool tool(kToolName, archesSchema().summary() +
         " Writes 'surface' (the ground: sand, bedrock and rocks), one level set per ground material "
-        "present ('sand', 'bedrock', 'rocks'), 'material' (ids: sand 2, bedrock 3, rocks 4) and "
-        "weight_<material> fog grids (visible share of each material, §6; --weights false: none). "
-        "--stacks saves the stacks to continue later with --from-stacks. The output's "
+        "present ('sand', 'bedrock', 'rocks'), 'material' (ids: sand 2, bedrock 3, rocks 4, or "
+        "--material-ids) and weight_<material> fog grids (visible share of each material, §6; --no-weights: "
+        "none); with --rock-tiles also 'rock_id', and --points writes the rock instances. --stacks saves the stacks to continue later with --from-stacks. The output's "
         "rockvdb:params replays it: vdb_arches --params FILE -o OUT.");
     CLI::App& app = tool.app();
-    std::string scene, stacksOut, stacksIn;
+    std::string scene, stacksOut, stacksIn, pointsOut;
     app.add_option("scene", scene, "Scene .json: the table's keys (command-line options win)");
     tool.addParams(app, archesSchema());
     app.add_option("--stacks", stacksOut, "Also save the stacks (after stabilisation and the edits) to this .stacks file");
     app.add_option("--from-stacks", stacksIn,
                    "Start from these saved stacks (their scene's parameters) instead of building the terrain: "
-                   "--edits adds edits after theirs; only the bake's --voxel-size, --half-width, --max-memory and "
-                   "--weights may change");
+                   "--edits adds edits after theirs; only the bake's rows (" + bakeOnlyRowsText() + ") may change");
+    app.add_option("--points", pointsOut,
+                   "With --rock-tiles: also write the instanced rocks as a VDB points grid 'rocks' (P, rock, tile, "
+                   "instance; as vdb_rockpile pile --points) to this .vdb");
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
 
     return tool.run(argc, argv, [&] {
@@ -43,6 +45,12 @@ int main(int argc, char** argv)
             }
             if (stacksOut == tool.output()) fail<ValueError>("arches: --stacks and -o name the same file");
             requireWritable(stacksOut);
+        }
+        if (!pointsOut.empty()) {
+            if (pointsOut == tool.output() || pointsOut == stacksOut) {
+                fail<ValueError>("arches: --points names the same file as ", pointsOut == stacksOut ? "--stacks" : "-o");
+            }
+            requireWritable(pointsOut);
         }
         // The scene (or the saved stacks' scene), then what the command line gives on top.
         nlohmann::json given = nlohmann::json::object();
@@ -72,12 +80,15 @@ int main(int argc, char** argv)
             }
             if (saved && std::find(bakeOnlyRows().begin(), bakeOnlyRows().end(), it.key()) == bakeOnlyRows().end()) {
                 fail<ValueError>("arches: --", it.key(), " made the saved stacks; with --from-stacks only --edits "
-                                 "(more edits), --voxel-size, --half-width, --max-memory and --weights may be given");
+                                 "(more edits) and the bake's ", bakeOnlyRowsText(), " may be given");
             }
             given[it.key()] = it.value();
         }
         ArchesParams p = archesSchema().fromJson(given);
         p.baseDir = baseDir;
+        if (!pointsOut.empty() && p.rockTiles.empty()) {
+            fail<ValueError>("arches: --points needs --rock-tiles (the points are the rocks instanced in rock layers)");
+        }
         p.edits = jsonOrFile(p.edits); // recorded as content, not a path
         auto bar = tool.taskBar();
         Task task(bar.get());
@@ -122,6 +133,7 @@ int main(int argc, char** argv)
         // The stacks first: if the .vdb fails after, the run is repeatable from them; the
         // reverse would leave a terrain whose stacks were lost.
         if (!stacksOut.empty()) writeStackFile(stacksOut, r.stacks, archesSchema().toJson(p).dump());
+        if (!pointsOut.empty()) writeGrids(pointsOut, {r.points});
         writeGrids(tool.output(), out);
     });
 }

@@ -92,6 +92,12 @@ Schema<ArchesParams> makeArchesSchema()
     row(s, param("rock-threshold", ParamType::Real, "", 0.5, Range::openClosed(0, 1),
                  "Share of a rock's anchors that must lie in rock layers for it to be instanced"),
         &P::rockThreshold);
+    row(s, param("material-ids", ParamType::Ints, "", json::array({int(Material::Sand), int(Material::Bedrock),
+                                                                    int(Material::Rocks)}),
+                 Range::closed(0, (1 << 24) - 1),
+                 "Ids the 'material' grid holds for sand, bedrock and rocks (e.g. ids not taken by the grids "
+                 "this terrain is united with)", 3),
+        &P::materialIds);
     row(s, param("edits", ParamType::Json, "", json::array(), Range::any(),
                  "Edits applied in order after stabilisation (§4): a list of {\"tool\": sculpt | crack | tunnel | deposit | erode | "
                  "stabilize, ...} (JSON, or the path of a JSON file); each is stabilised locally"),
@@ -158,6 +164,24 @@ Stacks strataStacks(const ArchesParams& p, const json& node, Task& task)
         fail<ValueError>("arches: terrain: a strata value has the wrong type (", e.what(), ")");
     }
     return stacksFromStrata(spec, task);
+}
+
+/// The material grid's ids (the Material enum's values) as the table's material-ids say.
+void relabelMaterials(openvdb::FloatGrid& ids, const std::array<int, 3>& to, Task& task)
+{
+    std::array<float, kMaterialCount> map;
+    for (int m = 0; m < kMaterialCount; ++m) map[size_t(m)] = float(m);
+    map[size_t(Material::Sand)] = float(to[0]);
+    map[size_t(Material::Bedrock)] = float(to[1]);
+    map[size_t(Material::Rocks)] = float(to[2]);
+    std::vector<openvdb::FloatTree::LeafNodeType*> leaves;
+    ids.tree().getNodes(leaves);
+    parallelFor(task, leaves.size(), 8, [&](size_t l) {
+        for (auto it = leaves[l]->beginValueOn(); it; ++it) {
+            const float v = *it;
+            if (v >= 0.0f && v < float(kMaterialCount)) it.setValue(map[size_t(v)]);
+        }
+    });
 }
 
 } // namespace
@@ -357,17 +381,21 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
         // (Baked as in the loop: the same bits as the rock layers' own level set.)
         rockLayers = bakeSkeleton(Skeleton(stacks, maskOf(Material::Rocks)), b, task);
     }
-    if (all || output == ArchesOutput::Ids) r.material = materialGrid(parts, b.sigma, *r.surface, task);
+    if (all || output == ArchesOutput::Ids) {
+        r.material = materialGrid(parts, b.sigma, *r.surface, task);
+        relabelMaterials(*r.material, p.materialIds, task);
+    }
     if (instance) {
         const auto t0 = std::chrono::steady_clock::now();
         rockpile::PileParams pp;
         pp.threshold = p.rockThreshold;
         pp.seed = uint64_t(p.seed);
-        pp.material = int(Material::Rocks);
+        pp.material = p.materialIds[2];
         pp.halfWidth = p.halfWidth;
         const FieldPtr support = rockpile::levelSetSupport(rockLayers, *tiles);
         rockpile::PileResult pile = rockpile::runPile(*tiles, *support, pp, json::object(), false, false, task);
         r.rocksPlaced = pile.pile.instances.size();
+        r.points = rockpile::instancePoints(pile.pile.instances, tiles->params.voxelSize());
         openvdb::FloatGrid::Ptr rocks = pile.pile.surface;
         rocks->setName("rocks");
         // 'rocks' is now the instanced rocks' level set (the loop left the rock layers out of
@@ -388,6 +416,10 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
         }
         r.rockSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
+    // Rock tiles but no rock layers: no rocks, and points that say so.
+    if (!p.rockTiles.empty() && (needGround || output == ArchesOutput::Rocks) && !r.points) {
+        r.points = rockpile::instancePoints({}, b.voxelSize);
+    }
     if ((all && p.weights) || output == ArchesOutput::Weights) {
         std::vector<Material> present;
         for (Material m : {Material::Sand, Material::Bedrock, Material::Rocks}) {
@@ -405,6 +437,7 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
     for (auto& m : r.materials) stampProvenance(*m, kToolName, text);
     for (auto& w : r.weights) stampProvenance(*w, kToolName, text);
     if (r.rockId) stampProvenance(*r.rockId, kToolName, text);
+    if (r.points) stampProvenance(*r.points, kToolName, text);
     r.stats.stacks = g.count();
     r.stats.layers = stacks.layerCount();
     r.stats.bytes = stacks.bytes();
@@ -448,8 +481,19 @@ ArchesResult runArches(const ArchesParams& p, Stacks stacks, Task& task)
 
 const std::vector<std::string>& bakeOnlyRows()
 {
-    static const std::vector<std::string> rows = {"voxel-size", "half-width", "max-memory", "weights"};
+    static const std::vector<std::string> rows = {"voxel-size", "half-width", "max-memory", "weights",
+                                                  "material-ids"};
     return rows;
+}
+
+std::string bakeOnlyRowsText()
+{
+    const auto& rows = bakeOnlyRows();
+    std::string text;
+    for (size_t k = 0; k < rows.size(); ++k) {
+        text += (k == 0 ? "" : k + 1 == rows.size() ? " and " : ", ") + rows[k];
+    }
+    return text;
 }
 
 } // namespace arches

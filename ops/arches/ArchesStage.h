@@ -52,6 +52,7 @@ struct ArchesParams
     bool weights;                               ///< also the weight_<material> grids (§6)
     std::string rockTiles;                      ///< a tile set file: rocks instanced in rock layers (§5); "" = none
     double rockThreshold;                       ///< share of a rock's anchors inside the rock layers
+    std::array<int, 3> materialIds;             ///< ids 'material' holds for sand, bedrock, rocks
     nlohmann::json edits;                       ///< the edits (Edits.h), applied in order after stabilisation
     int seed;
     double maxMemoryGB;
@@ -78,6 +79,8 @@ struct ArchesResult
     openvdb::FloatGrid::Ptr material;              ///< 'material' ids over the ground's band
     std::vector<openvdb::FloatGrid::Ptr> weights;   ///< weight_<material> fog grids (§6) of the ground materials present
     openvdb::FloatGrid::Ptr rockId;                ///< with rock-tiles: the instanced rock per voxel (bg −1), else null
+    openvdb::GridBase::Ptr points;                 ///< with rock-tiles: the instances as VDB points 'rocks'
+                                                   ///< (P, rock, tile, instance; as vdb_rockpile pile --points)
     size_t rocksPlaced = 0;                        ///< with rock-tiles: rocks instanced
     double rockSeconds = 0;                        ///< with rock-tiles: instancing time
     ArchesStats stats;
@@ -120,7 +123,7 @@ ArchesOutput archesOutputFromString(const std::string& name, const std::string& 
 /// provenance. With rock-tiles (§5), the rock layers are filled with the tile set's rocks
 /// (vdb_rockpile's pile, supported by the rocks' own level set): the ground is then sand ∪
 /// bedrock united with those rocks, 'rocks' is the rocks' level set, and 'rock_id' names the
-/// rock at each voxel. Provenance is the table's JSON with @a inputs' keys on top (e.g. how a
+/// rock at each voxel, and 'points' holds the instances. Provenance is the table's JSON with @a inputs' keys on top (e.g. how a
 /// grid terrain was made). Each grid is the same bit for bit whichever @a output asked for it.
 ArchesResult bakeStacks(const ArchesParams& params, const Stacks& stacks, ArchesOutput output,
                         const nlohmann::json& inputs, Task& task);
@@ -137,9 +140,11 @@ std::vector<EditStats> applyEdits(const ArchesParams& params, Stacks& stacks, co
 ArchesResult runArches(const ArchesParams& params, Stacks stacks, Task& task);
 
 /// @brief The rows a saved .stacks file may be baked with differently (the bake's own:
-/// voxel-size, half-width, max-memory, weights) besides more edits; every other row made the
-/// stacks.
+/// voxel-size, half-width, max-memory, weights, material-ids) besides more edits; every other
+/// row made the stacks.
 const std::vector<std::string>& bakeOnlyRows();
+/// @brief bakeOnlyRows as text for messages: "voxel-size, half-width, ... and material-ids".
+std::string bakeOnlyRowsText();
 
 } // namespace arches
 } // namespace rockvdb

@@ -968,8 +968,10 @@ class Stacks:
         self.edit_stats.append(stats)
         return stats
 
-    def bake(self, material="all", *, voxel_size=None, half_width=None, max_memory=None,
-             weights=None, path=None):
+    # The rows a bake may change (the other rows made the stacks), from the C++ stage.
+    BAKE_ROWS = tuple(r.replace("-", "_") for r in _rockvdb.arches_bake_rows())
+
+    def bake(self, material="all", *, path=None, points_path=None, **rows):
         """Bake the convolution surfaces (§3.3, §6) as narrow-band level sets.
 
         material: 'all' (default) -> {name: grid} of what vdb_arches writes, in its file order:
@@ -977,23 +979,25 @@ class Stacks:
         level set per ground material present ('sand', 'bedrock', 'rocks') and 'surface' last;
         'surface' (or 'ground') -> the ground (sand, bedrock and rocks under one
         convolution); 'sand', 'bedrock', 'rocks' or 'water' -> that material's level set (empty
-        when absent); 'material' -> (surface, material ids: sand 2, bedrock 3, rocks 4);
-        'weights' -> [weight_<material>]: per band voxel, the share of each ground material's
-        visible faces around it (§6, 0..1), for shaders to blend textures by. The same grid is
-        the same bit for bit whichever call makes it.
+        when absent); 'material' -> (surface, material ids: sand 2, bedrock 3, rocks 4 unless
+        material_ids says otherwise); 'weights' -> [weight_<material>]: per band voxel, the
+        share of each ground material's visible faces around it (§6, 0..1), for shaders to
+        blend textures by. The same grid is the same bit for bit whichever call makes it.
 
-        voxel_size, half_width, max_memory, weights (False: 'all' without the weight grids): as
-        the table's rows (default: the stacks' scene; the other rows made the stacks);
-        provenance records them, so the grids replay through vdb_arches --params. path also
-        writes the grids (atomically) in vdb_arches' order: ids, weights and material level
-        sets, the ground last (vdb_tool acts on the last grid)."""
+        Keywords: the bake's rows of the table, Stacks.BAKE_ROWS (voxel_size, half_width,
+        max_memory, weights - False: 'all' without the weight grids - and material_ids), as
+        vdb_arches --help gives them (left out: the stacks' scene; the other rows made the
+        stacks); provenance records them, so the grids replay through vdb_arches --params.
+        path also writes the grids (atomically) in vdb_arches' order: ids, weights and material
+        level sets, the ground last (vdb_tool acts on the last grid). points_path (with
+        rock_tiles) writes the rocks instanced in rock layers as a VDB points grid 'rocks' (P,
+        rock, tile, instance), as vdb_arches --points."""
         fn = "Stacks.bake"
         _str(material, "material", fn)
         target = _opt(path, _path, "path", fn)
-        given = {"voxel_size": voxel_size, "half_width": half_width, "max_memory": max_memory,
-                 "weights": weights}
-        overrides = _stage_params(_ARCHES, fn, {k: v for k, v in given.items() if v is not None})
-        grids = self._s.bake(material, overrides)
+        points = _opt(points_path, _path, "points_path", fn)
+        overrides = _stage_params(_ARCHES, fn, {k: v for k, v in rows.items() if v is not None})
+        grids = self._s.bake(material, overrides, points)
         if target is not None:
             if material == "all":
                 ordered = list(grids.values())

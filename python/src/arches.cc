@@ -7,6 +7,7 @@
 
 #include <rockvdb/arches/ArchesStage.h>
 #include <rockvdb/arches/StackFile.h>
+#include <rockvdb/core/VdbIO.h>
 
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
@@ -85,7 +86,8 @@ MaterialMask maskFromNames(const std::vector<std::string>& names)
     return mask;
 }
 
-py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::string& overrides)
+py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::string& overrides,
+                        const std::optional<std::string>& pointsPath)
 {
     const ArchesOutput output = archesOutputFromString(what, "Stacks.bake: material");
     json j = s.params;
@@ -93,18 +95,29 @@ py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::s
     for (auto it = o.begin(); it != o.end(); ++it) {
         const auto& rows = bakeOnlyRows();
         if (std::find(rows.begin(), rows.end(), it.key()) == rows.end()) {
-            fail<ValueError>("Stacks.bake: ", it.key(), " made the stacks; a bake may change voxel-size, half-width, "
-                             "max-memory and weights");
+            fail<ValueError>("Stacks.bake: ", it.key(), " made the stacks; a bake may change ", bakeOnlyRowsText());
         }
         j[it.key()] = it.value();
     }
     const ArchesParams p = paramsOf(j);
+    if (pointsPath && p.rockTiles.empty()) {
+        fail<ValueError>("Stacks.bake: points_path needs rock_tiles (the points are the rocks instanced in rock layers)");
+    }
+    if (pointsPath) {
+        if (output == ArchesOutput::Sand || output == ArchesOutput::Bedrock || output == ArchesOutput::Water) {
+            fail<ValueError>("Stacks.bake: points_path needs a bake that instances the rocks (all, surface, material, "
+                             "weights or rocks; got '", what, "')");
+        }
+        requireWritable(*pointsPath);
+    }
     ArchesResult r;
     {
         py::gil_scoped_release release;
         PyTaskHost host;
         Task task(&host);
         r = bakeStacks(p, s.stacks, output, s.inputs, task);
+        // As vdb_arches --points writes them (no rock layers: no points).
+        if (pointsPath) writeGrids(*pointsPath, {r.points});
     }
     using G = openvdb::FloatGrid::Ptr;
     switch (output) {
@@ -257,7 +270,7 @@ void bindArches(py::module_& m)
             s.params["edits"].push_back(e);
             return editStats(st);
         }, py::arg("edit"))
-        .def("bake", &bakeStacksPy, py::arg("material"), py::arg("overrides"))
+        .def("bake", &bakeStacksPy, py::arg("material"), py::arg("overrides"), py::arg("points_path"))
         .def("save", [](const PyStacks& s, const std::string& path) {
             writeStackFile(path, s.stacks, s.params.dump());
         }, py::arg("path"))

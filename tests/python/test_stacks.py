@@ -3,6 +3,9 @@ vdb_arches for the same scene, stabilisation that conserves every material, nump
 agree with the stacks, files that round-trip, and bad input refused with one clear error."""
 import json
 import os
+import re
+import shutil
+import subprocess
 
 import numpy as np
 import pyopenvdb as vdb
@@ -310,7 +313,7 @@ def test_bad_edits_are_one_line_naming_the_edit_and_change_nothing(tmp_path):
     with pytest.raises(TypeError, match="radius"):
         s.sculpt([(1, 1, 5)])
     with pytest.raises(ValueError, match="a bake may change voxel-size"):
-        s._s.bake("surface", json.dumps({"sigma": 1.0}))
+        s.bake("surface", sigma=1.0)
 
 
 def test_rocks_are_instanced_in_the_rock_layers_and_cli_and_python_agree(tmp_path):
@@ -358,3 +361,68 @@ def test_rocks_are_instanced_in_the_rock_layers_and_cli_and_python_agree(tmp_pat
     assert inside / total > 0.9, inside / total
     # The ground is bedrock and the rocks: material ids 3 and 4 only.
     assert set(np.unique([v.value for v in grids["material"].citerOnValues()])) <= {3.0, 4.0}
+
+
+def points_of(path, tmp_path):
+    """A VDB points file's positions, through Debian's vdb_tool (pyopenvdb reads no points)."""
+    obj = tmp_path / (path.stem + "_points.obj")
+    p = subprocess.run(["vdb_tool", "-read", str(path), "-vdb2points", "-write", str(obj)],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    return np.array([[float(v) for v in l.split()[1:4]] for l in obj.read_text().splitlines()
+                     if l.startswith("v ")])
+
+
+@pytest.mark.skipif(not shutil.which("vdb_tool"), reason="libopenvdb-tools not installed")
+def test_rock_instances_as_points_and_material_ids_agree_between_cli_and_python(tmp_path):
+    """§5's instances as vdb_rockpile pile writes them (--points / points_path): one point per
+    instanced rock, inside the rock rock_id names; material-ids relabel 'material' (a bake row,
+    so a saved terrain can take other ids)."""
+    tiles = tmp_path / "tiles.vdb"
+    rockvdb.rock_tiles(n=4, voxels_per_cell=5, seed=3, path=tiles)
+    terrain = {"type": "strata", "samples": [20, 20], "base": 3, "amplitude": 0.5, "frequency": 0.2,
+               "layers": [{"material": "bedrock", "thickness": 1}, {"material": "rocks", "thickness": 1.7},
+                          {"material": "sand", "thickness": 10}]}
+    scene = {"terrain": terrain, "cell-size": 0.25, "quantum": 0.005, "rock-tiles": str(tiles),
+             "weights": False}
+    (tmp_path / "scene.json").write_text(json.dumps(scene))
+    r = run([AR, str(tmp_path / "scene.json"), "--material-ids", "12,13,14", "--points",
+             str(tmp_path / "cli_points.vdb"), "-o", str(tmp_path / "cli.vdb")])
+    assert r.returncode == 0, r.stderr
+    placed = int(re.search(r"(\d+) rocks instanced", r.stderr).group(1))
+    s = rockvdb.Stacks.from_scene(tmp_path / "scene.json")
+    grids = s.bake(material_ids=(12, 13, 14), points_path=tmp_path / "py_points.vdb")
+    same_grids(tmp_path / "cli.vdb", grids)
+    cli_pts = points_of(tmp_path / "cli_points.vdb", tmp_path)
+    assert np.array_equal(cli_pts, points_of(tmp_path / "py_points.vdb", tmp_path))
+    assert len(cli_pts) == placed > 20
+    # Each point is its rock's seed: inside the ground, on a voxel of some instanced rock, and
+    # the rocks they name are distinct.
+    dx = grids["surface"].transform.voxelSize()[0]
+    ground, ids = grids["surface"].getConstAccessor(), grids["rock_id"].getConstAccessor()
+    named = []
+    for p in cli_pts:
+        c = tuple(int(round(v / dx)) for v in p)
+        if ground.getValue(c) < 0 and ids.getValue(c) >= 0:
+            named.append(ids.getValue(c))
+    assert len(named) > 0.9 * placed and len(set(named)) == len(named)
+    # 'material' holds the ids given: sand 12, bedrock 13, rocks 14, nothing else.
+    seen = set(np.unique([v.value for v in grids["material"].citerOnValues()]))
+    assert seen == {12.0, 13.0, 14.0}, seen
+    # A bake of the same stacks with the default ids differs only in those values.
+    default = s.bake("material")[1]
+    assert set(np.unique([v.value for v in default.citerOnValues()])) == {2.0, 3.0, 4.0}
+    assert default.activeVoxelCount() == grids["material"].activeVoxelCount()
+    # Bad uses: points without rock tiles, a material that instances nothing, an id out of range.
+    bare = rockvdb.Stacks(terrain, cell_size=0.25, quantum=0.005)
+    with pytest.raises(ValueError, match="points_path needs rock_tiles"):
+        bare.bake(points_path=tmp_path / "x.vdb")
+    with pytest.raises(ValueError, match="instances the rocks"):
+        s.bake("sand", points_path=tmp_path / "x.vdb")
+    with pytest.raises(ValueError, match="material-ids"):
+        s.bake(material_ids=(1, 2, -1))
+    assert not (tmp_path / "x.vdb").exists()
+    r = run([AR, str(tmp_path / "scene.json"), "--rock-tiles", "", "--points", str(tmp_path / "x.vdb"),
+             "-o", str(tmp_path / "y.vdb")])
+    assert r.returncode == 2 and "--points needs --rock-tiles" in r.stderr and "\n" not in r.stderr.strip()
+    assert not (tmp_path / "x.vdb").exists() and not (tmp_path / "y.vdb").exists()

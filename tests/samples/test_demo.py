@@ -14,6 +14,8 @@ from conftest import BUILD, run
 DEMO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "samples",
                     "01_demo.sh")
 TERRAIN, EQUI, TABULAR, ROCKS, BOULDERS = 0.0, 1.0, 2.0, 3.0, 4.0
+ARCH, ARCH_SAND, ARCH_ROCKS = 5.0, 6.0, 7.0  # the sea arch's bedrock, sand and rocks
+ALL = (TERRAIN, EQUI, TABULAR, ROCKS, BOULDERS, ARCH, ARCH_SAND, ARCH_ROCKS)
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +35,7 @@ def test_one_file_with_every_part_and_consistent_ids(demo):
     for g in grids.values():
         assert g.activeVoxelCount() == s.activeVoxelCount()
     mat, bid, rid = (grids[n].getConstAccessor() for n in ("material", "block_id", "rock_id"))
-    where = {m: [] for m in (TERRAIN, EQUI, TABULAR, ROCKS, BOULDERS)}
+    where = {m: [] for m in ALL}
     for it in s.citerOnValues():
         if it.count != 1 or abs(it.value) > 0.25:
             continue  # voxels next to the surface only
@@ -41,10 +43,10 @@ def test_one_file_with_every_part_and_consistent_ids(demo):
         assert m in where, m
         # Block ids exactly on block materials, rock ids exactly on rocks.
         assert (b >= 0) == (m in (EQUI, TABULAR)), (it.min, m, b)
-        assert (r >= 0) == (m in (ROCKS, BOULDERS)), (it.min, m, r)
+        assert (r >= 0) == (m in (ROCKS, BOULDERS, ARCH_ROCKS)), (it.min, m, r)
         where[m].append([c * 0.25 for c in it.min])
     for m, pts in where.items():
-        assert len(pts) > (100 if m == BOULDERS else 500), (m, len(pts))
+        assert len(pts) > (100 if m in (BOULDERS, ARCH_SAND) else 500), (m, len(pts))
     p = {m: np.array(v) for m, v in where.items()}
     # Strata: tabular blocks above the equidimensional ones (boundary near 15 m, tilted).
     e = {m: p[m][:, 2] + 0.15 * p[m][:, 0] for m in (EQUI, TABULAR)}
@@ -59,6 +61,36 @@ def test_one_file_with_every_part_and_consistent_ids(demo):
     # The fractal boulders rest on the plateau (28 m; its edge ~31 m from the coast's waves).
     b = p[BOULDERS]
     assert b[:, 0].max() < 33 and 24 < b[:, 2].min() and b[:, 2].max() < 33
+    # The sea arch stands on the sea floor beyond the scree (its wall 17 x 5 x 14 m around
+    # (68, 33)); its collapsed top's rocks lie at its foot on the broken side, its sand on that
+    # side too, no higher than the collapse (a sphere of 3.5 m at 11 m).
+    a = p[ARCH]
+    assert 58 < a[:, 0].min() and a[:, 0].max() < 78 and 22 < a[:, 1].min() and a[:, 1].max() < 44
+    assert a[:, 2].min() < 1 and 10 < a[:, 2].max() < 14
+    for m in (ARCH_SAND, ARCH_ROCKS):
+        d = p[m]
+        assert np.median(d[:, 0]) > 68 and np.median(d[:, 1]) > 33, m  # the broken corner's side
+        assert d[:, 2].max() < 14.5, m
+    assert np.median(p[ARCH_ROCKS][:, 2]) < 4  # fallen: mostly near the floor
+
+
+def test_the_sea_arch_is_pierced_through(demo):
+    """§4.2: the tunnel swept through the wall leaves an opening: along its axis the level set
+    is air at every height under the arch's roof; beside it (through a pillar) and above (the
+    roof) it is rock."""
+    out, _ = demo
+    acc = vdb.read(str(out / "demo.vdb"), "surface").getConstAccessor()
+
+    def inside(p):
+        return acc.getValue(tuple(int(round(c / 0.25)) for c in p)) < 0
+
+    a, b = np.array([72.7, 29.3]), np.array([63.3, 36.7])  # the tunnel's nodes, across the wall
+    along = np.array([0.62, 0.79]) * 6  # along the wall, into a pillar
+    line = [a + (b - a) * t for t in np.linspace(0, 1, 41)]
+    for z in (1.0, 3.0, 5.0):
+        assert not any(inside((*q, z)) for q in line), z
+    assert sum(inside((*q, 9.0)) for q in line) >= 10  # the roof
+    assert sum(inside((*(q + along), 3.0)) for q in line) >= 10  # a pillar
 
 
 def test_preview_shows_each_part_and_the_summary_reports_each_stage(demo):
@@ -68,14 +100,15 @@ def test_preview_shows_each_part_and_the_summary_reports_each_stage(demo):
     shown = re.search(r"by material: (.*) \(material ids\)", err)
     assert shown, err
     share = {float(a): float(b) for a, b in re.findall(r"(\d+) ([\d.]+)%", shown[1])}
-    assert set(share) == {TERRAIN, EQUI, TABULAR, ROCKS, BOULDERS}, share
-    assert all(v >= (0.2 if m == BOULDERS else 0.8) for m, v in share.items()), share
+    assert set(share) == set(ALL), share
+    low = {BOULDERS: 0.2, ARCH_SAND: 0.05, ARCH_ROCKS: 0.1}
+    assert all(v >= low.get(m, 0.8) for m, v in share.items()), share
     for stage in ("block tiles", "cliff (vdb_amplify | detail)", "rock tiles", "scree", "boulders",
-                  "preview", "total"):
+                  "sea arch (vdb_arches | csg)", "preview", "total"):
         assert re.search(re.escape(stage) + r".*\d+\.\d s", err), (stage, err)
     assert re.search(r"demo\.vdb\s+[\d.]+ MB\s+surface \d+", err), err
     # A pipeline people copy: tools joined by pipes.
-    assert len(re.findall(r"-o -\s*\|", open(DEMO).read())) >= 2
+    assert len(re.findall(r"-o -\s*\|", open(DEMO).read())) >= 3
 
 
 @pytest.mark.skipif(not shutil.which("vdb_tool"), reason="libopenvdb-tools not installed")
