@@ -35,6 +35,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <functional>
 
 using namespace rockvdb;
@@ -629,6 +630,55 @@ void archesGroup(bool quick)
     }
 }
 
+
+// Issue 18: each material-stack sample end to end (the shell script as a user runs it: the
+// tools, their file I/O and the previews) at its default size, beside OpenVDB's
+// createLevelSetSphere in this process: the samples' surface voxels per second over the
+// sphere's (2 threads), a ratio that travels between machines.
+void samplesGroup(bool quick)
+{
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+    size_t sphereVoxels = 0;
+    const double sphere = bestOf(3, [&] {
+        sphereVoxels = size_t(openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(2.0f, Vec3f(0), 0.01f, 3.0f)
+                                  ->activeVoxelCount());
+    });
+    const double sphereRate = double(sphereVoxels) / sphere;
+    struct Sample
+    {
+        const char* script;
+        std::vector<const char*> outputs;
+    };
+    const Sample samples[] = {{"08_arches.sh", {"arches_strata.vdb", "arches_canyon.vdb"}},
+                              {"09_arches_coast.sh", {"arches_coast.vdb"}},
+                              {"10_arches_ravine.sh", {"arches_ravine.vdb"}},
+                              {"11_arches_canyon_collapse.sh", {"arches_canyon_collapse.vdb"}}};
+    const std::string out = "/tmp/rockvdb_bench_samples";
+    std::printf("\n## arches samples end to end (scripts with their previews, default sizes, 2 threads)\n\n");
+    std::printf("| sample | end to end | target | surface voxels | voxels/s | vs createLevelSetSphere (%.3g voxels/s) |\n"
+                "|---|---|---|---|---|---|\n", sphereRate);
+    for (const Sample& sm : samples) {
+        if (quick && std::strcmp(sm.script, "09_arches_coast.sh") != 0) continue;
+        const std::string cmd = "cd '" ROCKVDB_SOURCE_DIR "' && bash samples/" + std::string(sm.script) +
+                                " '" ROCKVDB_BINARY_DIR "' " + out + " > /dev/null 2>&1";
+        int rc = 0;
+        const double t = bestOf(1, [&] { rc = std::system(cmd.c_str()); });
+        if (rc != 0) {
+            std::printf("| %s | failed (exit %d) | <= 60 s | | | |\n", sm.script, rc);
+            continue;
+        }
+        size_t voxels = 0;
+        for (const char* name : sm.outputs) {
+            for (const auto& g : *readGrids(out + "/" + name)) {
+                if (g->getName() == "surface") voxels += size_t(g->activeVoxelCount());
+            }
+        }
+        std::printf("| %s | %.1f s | <= 60 s | %zu | %.3g | %.3f |\n", sm.script, t, voxels, double(voxels) / t,
+                    double(voxels) / t / sphereRate);
+    }
+    std::filesystem::remove_all(out);
+}
+
 int main(int argc, char** argv)
 {
     initialize();
@@ -638,7 +688,7 @@ int main(int argc, char** argv)
                 ROCKVDB_ALLOCATOR);
     bool all = true, wantFoundation = false, wantBlocks = false, wantAmplify = false,
          wantDetail = false, wantRockpile = false, wantFill = false, wantFractal = false,
-         wantArches = false;
+         wantArches = false, wantSamples = false;
     for (int i = 1; i < argc; ++i) {
         if (std::strcmp(argv[i], "foundation") == 0) { wantFoundation = true; all = false; }
         if (std::strcmp(argv[i], "blocks") == 0) { wantBlocks = true; all = false; }
@@ -648,6 +698,7 @@ int main(int argc, char** argv)
         if (std::strcmp(argv[i], "fill") == 0) { wantFill = true; all = false; }
         if (std::strcmp(argv[i], "fractal") == 0) { wantFractal = true; all = false; }
         if (std::strcmp(argv[i], "arches") == 0) { wantArches = true; all = false; }
+        if (std::strcmp(argv[i], "samples") == 0) { wantSamples = true; all = false; }
     }
     if (all || wantFoundation) foundation(quick);
     if (all || wantBlocks) blocksGroup(quick);
@@ -657,5 +708,6 @@ int main(int argc, char** argv)
     if (all || wantFill) fillGroup(quick);
     if (all || wantFractal) fractalGroup(quick);
     if (all || wantArches) archesGroup(quick);
+    if (all || wantSamples) samplesGroup(quick);
     return 0;
 }

@@ -69,12 +69,13 @@ cat > "$OUT/demo_scree.json" <<JSON
   $CLIFF]}
 JSON
 # The sea arch: a wall 17 x 5 x 14 m standing across the view (52 degrees from x), its stacks
-# 25 cm wide down to just under the sea floor; the edits pierce, notch and break it.
+# 25 cm wide down to just under the sea floor, smoothed over a bit more than a stack (sigma);
+# the edits pierce, notch and break it.
 cat > "$OUT/demo_arch.json" <<'JSON'
 {"terrain": {"type": "warp", "amplitude": 0.5, "frequency": 0.3, "octaves": 3, "seed": 6,
              "child": {"type": "transform", "translate": [68, 33, 5], "rotate": [0, 0, 52],
                        "child": {"type": "box", "size": [17, 5, 14], "rounding": 1.5}}},
- "extent": [54, 20, 82, 46], "floor": -0.3, "cell-size": 0.25, "weights": false,
+ "extent": [54, 20, 82, 46], "floor": -0.3, "cell-size": 0.25, "sigma": 0.3, "weights": false,
  "material-ids": [6, 5, 7],
  "edits": [
    {"tool": "tunnel", "nodes": [[72.7, 29.3, 0.5], [63.3, 36.7, 0.5]],
