@@ -669,7 +669,8 @@ void samplesGroup(bool quick)
         }
         size_t voxels = 0;
         for (const char* name : sm.outputs) {
-            for (const auto& g : *readGrids(out + "/" + name)) {
+            const openvdb::GridPtrVecPtr grids = readGrids(out + "/" + name); // (held: the loop reads it)
+            for (const auto& g : *grids) {
                 if (g->getName() == "surface") voxels += size_t(g->activeVoxelCount());
             }
         }
