@@ -1,5 +1,5 @@
-"""Run by headless Blender: import a .vdb, mesh grid 'surface' at threshold 0, report bounds
-and, for each x,y given, how many times the vertical line there crosses the mesh.
+"""Run by headless Blender: import a .vdb, mesh grid 'surface' at threshold 0, report bounds,
+its Euler characteristic and, for each x,y given, how many times the vertical line there crosses the mesh.
 usage: blender --background --factory-startup --python blender_mesh.py -- in.vdb report.json [x,y ...]
 Also imported by other Blender scripts for mesh_surface()."""
 import json
@@ -25,7 +25,8 @@ def crossings(mesh, matrix, x, y):
 
 def mesh_surface(path, columns=()):
     """Import path as a volume object and mesh its 'surface' grid (VOLUME_TO_MESH, threshold
-    0): {"grids": names, "vertices": count, "min": [x, y, z], "max": [x, y, z]} (world), and
+    0): {"grids": names, "vertices": count, "min": [x, y, z], "max": [x, y, z]} (world),
+    "euler": V - E + F of the mesh (2 for a sphere's topology, 0 for a torus'), and
     "crossings": the mesh's crossings of the vertical line through each (x, y) of columns."""
     bpy.ops.object.volume_import(filepath=path)
     vol = [o for o in bpy.context.scene.objects if o.type == "VOLUME"][-1]
@@ -42,7 +43,8 @@ def mesh_surface(path, columns=()):
     co = [obj.matrix_world @ v.co for v in mesh.vertices]
     lo = [min(c[a] for c in co) for a in range(3)] if co else [0, 0, 0]
     hi = [max(c[a] for c in co) for a in range(3)] if co else [0, 0, 0]
-    return {"grids": grids, "vertices": len(co), "min": lo, "max": hi,
+    euler = len(mesh.vertices) - len(mesh.edges) + len(mesh.polygons)
+    return {"grids": grids, "vertices": len(co), "min": lo, "max": hi, "euler": euler,
             "crossings": [crossings(mesh, obj.matrix_world, x, y) for x, y in columns]}
 
 

@@ -1,5 +1,6 @@
 """Real consumers read what we write: pyopenvdb, Debian's vdb_print / vdb_render, Blender."""
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -234,6 +235,39 @@ def test_blender_meshes_the_arches_overhangs(arches, tmp_path):
     assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
     r = json.loads(report.read_text())
     assert r["crossings"] == [4] * len(columns), (r["crossings"], columns)
+
+
+@pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
+def test_blender_meshes_an_edited_terrain_a_tunnel_makes_it_a_torus(tmp_path):
+    """Arches §4.2 through a real client: a ridge on a slab (a sphere's topology) with a tunnel
+    swept through it by a vdb_arches edit. Blender's mesh of the ground has Euler characteristic
+    2 before and 0 after (genus 1), and a vertical line through the ridge above the tunnel
+    crosses it 4 times (top, roof, tunnel floor, bottom) where it crossed twice."""
+    s2 = 0.7071067811865476
+    ridge = {"type": "union", "children": [
+        {"type": "box", "size": [30, 20, 5], "center": [15, 10, 2.5]},
+        {"type": "polytope", "planes": [[s2, 0, s2, 26 * s2], [-s2, 0, s2, -4 * s2], [0, 1, 0, 20],
+                                        [0, -1, 0, 0], [0, 0, -1, 0]]}]}
+    circle = [[1.2 * math.cos(k * math.pi / 4), 1.2 * math.sin(k * math.pi / 4)] for k in range(8)]
+    tunnel = {"tool": "tunnel", "nodes": [[6, 10, 7.5], [24, 10, 7.5]], "profile": circle}
+    reports = []
+    for name, edits in (("ridge", []), ("tunnel", [tunnel])):
+        scene = tmp_path / f"{name}.json"
+        scene.write_text(json.dumps({"terrain": ridge, "extent": [0, 0, 30, 20], "cell-size": 0.5,
+                                     "voxel-size": 0.25, "weights": False, "edits": edits}))
+        out = tmp_path / f"{name}.vdb"
+        run([tool("vdb_arches"), "-q", str(scene), "-o", str(out)], check=True)
+        report = tmp_path / f"{name}.report.json"
+        p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
+                            os.path.join(HERE, "blender_mesh.py"), "--", str(out), str(report),
+                            "15.13,10.07", "15.13,4.07"],
+                           capture_output=True, text=True, timeout=600)
+        assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
+        reports.append(json.loads(report.read_text()))
+    before, after = reports
+    assert before["euler"] == 2 and after["euler"] == 0, (before["euler"], after["euler"])
+    assert before["crossings"] == [2, 2] and after["crossings"] == [4, 2], \
+        (before["crossings"], after["crossings"])
 
 
 @pytest.mark.skipif(not shutil.which("vdb_tool"), reason="libopenvdb-tools not installed")
