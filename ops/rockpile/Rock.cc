@@ -1,7 +1,8 @@
 // Rock tiles: one rock (rock-piles §4–§5) — the discrete anisotropic Voronoi cell of its seed
-// among the 27 cells around it, its contact points with the neighbouring cells, and the
-// spheroidal erosion that rounds it except near its contacts. makeRock runs the phases in
-// that order; each phase is a function below.
+// among the 27 cells around it (claiming only the halves of its neighbours that face it), its
+// contact points with the neighbouring cells, and the spheroidal erosion that rounds it
+// except near its contacts. makeRock runs the phases in that order; each phase is a function
+// below.
 #include <rockvdb/rockpile/RockTiles.h>
 
 #include <rockvdb/core/Error.h>
@@ -55,6 +56,25 @@ struct Box
 };
 
 constexpr int16_t kUnknown = -1;
+constexpr int16_t kBarred = -2; // nearest to the rock's seed but in a half it may not claim
+
+// Two rocks whose cells are two apart along an axis do not see each other's seeds (each
+// competes with its own 27 cells), so both could claim a voxel of the cell between them. A
+// rock may therefore claim only the half of a neighbouring cell that faces its own cell
+// (per axis; with odd m the middle voxel layer goes to the rock of that cell): a function of
+// its cell alone, so the rocks of a region stay the same in every cube, and no voxel is ever
+// in two rocks. Departure from the rock-piles paper, which does not say how far a cell's
+// competitors reach.
+bool claimable(const Coord& v, const Coord& cell, int m)
+{
+    for (int a = 0; a < 3; ++a) {
+        const int c = int(std::floor(double(v[a]) / m)) - cell[a];
+        const int l = v[a] - (cell[a] + c) * m; // 0..m-1 inside that cell
+        if (c > 0 && !(2 * l + 1 < m)) return false;
+        if (c < 0 && !(2 * l + 1 > m)) return false;
+    }
+    return true;
+}
 
 // The competitors: every seed of the 27 cells around the rock's cell (§3); @a self is the
 // rock's own seed among them.
@@ -139,7 +159,8 @@ private:
 };
 
 // The discrete Voronoi cell of §4: the voxels flooded from the seed's voxel through voxels it
-// owns, within the 27 cells; which seeds own a face neighbour of it; its voxel bounds.
+// owns, within its cell and the halves of the 26 around it that face it (claimable); which
+// seeds own a face neighbour of it; its voxel bounds.
 struct VoronoiCell
 {
     Box<int16_t> label;          // owner of every voxel the flood looked at (else kUnknown)
@@ -163,6 +184,7 @@ VoronoiCell voronoiCell(const Seed& seed, const Coord& cell, int m, int self, si
             for (int k = -1; k <= 1 && queue.empty(); ++k) {
                 const Coord c = v.start.offsetBy(i, j, k);
                 label[c] = owner(c);
+                if (label[c] == self && !claimable(c, cell, m)) label[c] = kBarred;
                 if (label[c] == self) queue.push_back(c);
             }
     for (size_t q = 0; q < queue.size(); ++q) {
@@ -175,9 +197,10 @@ VoronoiCell voronoiCell(const Seed& seed, const Coord& cell, int m, int self, si
             if (!label.inside(u)) continue;
             if (label[u] == kUnknown) {
                 label[u] = owner(u);
+                if (label[u] == self && !claimable(u, cell, m)) label[u] = kBarred;
                 if (label[u] == self) queue.push_back(u);
             }
-            if (label[u] != self) v.touches[size_t(label[u])] = 1;
+            if (label[u] >= 0 && label[u] != self) v.touches[size_t(label[u])] = 1;
         }
     }
     return v;

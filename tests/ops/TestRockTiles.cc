@@ -435,6 +435,35 @@ TEST(RockPile, AnchorsAreInsideTheSupport)
     EXPECT_GT(st.droppedDeep, size_t(0)); // a 1.3 m ball of 0.2 m rocks has a deep core
 }
 
+TEST(RockPile, PlacedRocksNeverShareAVoxel)
+{
+    // Rocks in contact, not in each other (rock piles §6, arches §5): a support spanning many
+    // lattice vertices, edges and faces (where a rock straddling a cube face is offered by
+    // several features and must be placed once) - no solid voxel (rho > 1/2) of one placed
+    // rock is a solid voxel of another.
+    initialize();
+    const TileSet set = generateTiles(small());
+    const auto support = box(Vec3d(0.1, -0.2, 0.0), Vec3d(1.6, 1.3, 0.7));
+    PileParams pp;
+    pp.dropDeep = false; // the core's rocks too
+    const auto instances = selectRocks(set, *support, pp);
+    ASSERT_GT(instances.size(), size_t(200));
+    std::map<Coord, int> owners;
+    for (const Instance& in : instances) {
+        const Rock& r = set.rocks[in.rock];
+        for (int x = 0; x < r.dims[0]; ++x)
+            for (int y = 0; y < r.dims[1]; ++y)
+                for (int z = 0; z < r.dims[2]; ++z) {
+                    if (r.rho[size_t((x * r.dims[1] + y) * r.dims[2] + z)] > 0.5f) {
+                        ++owners[r.origin.offsetBy(x, y, z) + in.shift];
+                    }
+                }
+    }
+    size_t shared = 0;
+    for (const auto& o : owners) shared += o.second > 1;
+    EXPECT_EQ(shared, size_t(0)) << "of " << owners.size() << " voxels";
+}
+
 TEST(RockPile, PeriodicTilingRepeatsAndAperiodicDoesNot)
 {
     initialize();
