@@ -1,6 +1,7 @@
 #include "Cli.h"
 
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
@@ -8,6 +9,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <iterator>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
@@ -112,9 +114,10 @@ public:
     {
         json j;
         try {
-            input >> j;
-        } catch (const json::exception& e) {
-            throw CLI::ConversionError(std::string("malformed --params JSON: ") + e.what());
+            const std::string text((std::istreambuf_iterator<char>(input)), std::istreambuf_iterator<char>());
+            j = parseJson(text, "--params");
+        } catch (const ValueError& e) {
+            throw CLI::ConversionError(e.what());
         }
         if (!j.is_object()) throw CLI::ConversionError("--params JSON must be an object");
         if (mApp) checkKeys(mApp, j, "");
@@ -428,7 +431,7 @@ nlohmann::json Tool::givenParams(const SchemaBase& schema) const
         } else if (info.type == ParamType::Json) {
             const std::string& text = b.values->back();
             const bool inline_ = !text.empty() && (text[0] == '{' || text[0] == '[');
-            j[info.name] = inline_ ? nlohmann::json::parse(text, nullptr, false) : nlohmann::json(text);
+            j[info.name] = inline_ ? parseJson(text, "--" + info.name) : nlohmann::json(text);
         } else {
             j[info.name] = fromText(info.type, b.values->back());
         }
@@ -484,7 +487,8 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
         }
         if (!named && !paramsFile.empty()) {
             std::ifstream in(paramsFile);
-            const json j = json::parse(in, nullptr, false);
+            const json j = parseJsonOrDiscarded(
+                std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()));
             if (j.is_object()) {
                 for (auto it = j.begin(); it != j.end(); ++it) {
                     if (it->is_object() && isSubcommand(it.key())) {

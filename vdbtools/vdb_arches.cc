@@ -7,6 +7,7 @@
 #include <rockvdb/arches/ArchesStage.h>
 #include <rockvdb/arches/StackFile.h>
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <cstdio>
@@ -60,7 +61,7 @@ int main(int argc, char** argv)
             given = readScene(scene, baseDir);
         } else if (!stacksIn.empty()) {
             StackFile f = readStackFile(stacksIn);
-            given = nlohmann::json::parse(f.params, nullptr, false);
+            given = parseJsonOrDiscarded(f.params);
             if (!given.is_object()) fail<IoError>("arches: ", stacksIn, " holds no scene parameters");
             saved = std::move(f.stacks);
         }

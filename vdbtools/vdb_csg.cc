@@ -2,6 +2,7 @@
 #include "Cli.h"
 
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
 #include <rockvdb/core/GridCsg.h>
 #include <rockvdb/core/VdbIO.h>
 
@@ -64,7 +65,7 @@ int main(int argc, char** argv)
             nlohmann::json src = {{"file", path}};
             if (auto p = provenance(*g)) {
                 src["generator"] = p->generator;
-                src["params"] = nlohmann::json::parse(p->params, nullptr, false);
+                src["params"] = jsonOrText(p->params);
             }
             sources.push_back(src);
             grids.push_back(g);

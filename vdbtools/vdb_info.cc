@@ -1,6 +1,7 @@
 // vdb_info — what is in a .vdb: grids, voxel size, active voxels, bounds, memory, provenance.
 #include "Cli.h"
 
+#include <rockvdb/core/Expression.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
@@ -48,7 +49,7 @@ int main(int argc, char** argv)
                 }
                 if (auto p = provenance(*g)) {
                     jg["rockvdb"] = {{"version", p->version}, {"generator", p->generator},
-                                     {"params", nlohmann::json::parse(p->params, nullptr, false)}};
+                                     {"params", jsonOrText(p->params)}};
                 }
                 jf["grids"].push_back(jg);
             }

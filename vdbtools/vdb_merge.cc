@@ -2,6 +2,7 @@
 #include "Cli.h"
 
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
 #include <rockvdb/core/Merge.h>
 #include <rockvdb/core/VdbIO.h>
 
@@ -51,7 +52,7 @@ int main(int argc, char** argv)
                 nlohmann::json src = {{"file", inputs[i]}};
                 if (auto p = provenance(*f)) {
                     src["generator"] = p->generator;
-                    src["params"] = nlohmann::json::parse(p->params, nullptr, false);
+                    src["params"] = jsonOrText(p->params);
                 }
                 sources[f->getName()].push_back(src);
             }

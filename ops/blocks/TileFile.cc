@@ -2,6 +2,7 @@
 #include <rockvdb/blocks/BlockTile.h>
 
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
@@ -183,9 +184,9 @@ BlockTile readTile(const std::string& path)
             fail<ValueError>("tile file: '", path, "' is a .vdb without rockvdb:tile metadata "
                              "(write it with vdb_blocks)");
         }
-        j = json::parse(text, nullptr, false);
+        j = parseJsonOrDiscarded(text);
     } else {
-        j = json::parse(bytes, nullptr, false);
+        j = parseJsonOrDiscarded(bytes);
     }
     if (j.is_discarded()) {
         fail<ValueError>("tile file: '", path, "' is not JSON (expected a rockvdb tile)");

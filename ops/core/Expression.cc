@@ -259,13 +259,60 @@ std::optional<HeightfieldNode> heightfieldFromJson(const json& node, const Expre
 
 FieldPtr fieldFromJsonText(const std::string& text, const ExpressionContext& ctx)
 {
-    json j;
-    try {
-        j = json::parse(text);
-    } catch (const json::parse_error& e) {
-        fail<ValueError>("expression: malformed JSON: ", e.what());
+    return fieldFromJson(parseJson(text, "expression"), ctx);
+}
+
+namespace {
+
+struct TooDeep {};
+
+json parseLimited(const std::string& text)
+{
+    const json::parser_callback_t limit = [](int depth, json::parse_event_t, json&) {
+        if (depth > kMaxJsonDepth) throw TooDeep{};
+        return true;
+    };
+    return json::parse(text, limit);
+}
+
+// "[json.exception.parse_error.101] parse error at line 1, column 2: ..." -> "parse error at ..."
+std::string jsonMessage(const json::exception& e)
+{
+    std::string m = e.what();
+    if (m.rfind("[json.exception.", 0) == 0) {
+        const size_t close = m.find("] ");
+        if (close != std::string::npos) m = m.substr(close + 2);
     }
-    return fieldFromJson(j, ctx);
+    return m;
+}
+
+} // namespace
+
+json parseJson(const std::string& text, const std::string& what)
+{
+    try {
+        return parseLimited(text);
+    } catch (const TooDeep&) {
+        fail<ValueError>(what, ": JSON nested deeper than ", kMaxJsonDepth, " levels");
+    } catch (const json::exception& e) {
+        fail<ValueError>(what, ": malformed JSON (", jsonMessage(e), ")");
+    }
+}
+
+json parseJsonOrDiscarded(const std::string& text)
+{
+    try {
+        return parseLimited(text);
+    } catch (const TooDeep&) {
+    } catch (const json::exception&) {
+    }
+    return json(json::value_t::discarded);
+}
+
+json jsonOrText(const std::string& text)
+{
+    json j = parseJsonOrDiscarded(text);
+    return j.is_discarded() ? json(text) : j;
 }
 
 json readJsonFile(const std::string& path)
@@ -275,11 +322,7 @@ json readJsonFile(const std::string& path)
     std::ifstream f(path);
     if (!f) fail<IoError>("cannot read '", path, "'");
     const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    try {
-        return json::parse(text);
-    } catch (const json::parse_error& e) {
-        fail<ValueError>("malformed JSON in '", path, "': ", e.what());
-    }
+    return parseJson(text, "'" + path + "'");
 }
 
 } // namespace rockvdb

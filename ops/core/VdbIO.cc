@@ -1,5 +1,6 @@
 #include "VdbIO.h"
 
+#include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
 
 #include <openvdb/io/File.h>
@@ -7,6 +8,8 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <csignal>
+#include <cstdlib>
 #include <cstdio>
 #include <atomic>
 #include <cstring>
@@ -16,7 +19,10 @@
 #include <mutex>
 #include <random>
 #include <sstream>
+#include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #ifndef ROCKVDB_VERSION
@@ -204,30 +210,19 @@ void writeGrids(const std::string& path, const openvdb::GridCPtrVec& grids)
     writeCheckedAtomic(path, bytes);
 }
 
-openvdb::GridPtrVecPtr readGrids(const std::string& path)
+namespace {
+
+// A message from OpenVDB about a corrupt file can quote its bytes (a garbled grid name):
+// printable ASCII only, so the one line stays one readable line.
+std::string printable(const std::string& text)
 {
-    initialize();
-    std::string bytes;
-    const std::string name = path == "-" ? std::string("<stdin>") : path;
-    if (path == "-") {
-        if (::isatty(STDIN_FILENO)) {
-            fail<ValueError>("expected a .vdb on stdin, but stdin is a terminal");
-        }
-        bytes.assign(std::istreambuf_iterator<char>(std::cin), std::istreambuf_iterator<char>());
-    } else {
-        struct stat st;
-        if (::stat(path.c_str(), &st) != 0) {
-            fail<IoError>("cannot read '", path, "': no such file");
-        }
-        if (S_ISDIR(st.st_mode)) fail<IoError>("cannot read '", path, "': it is a folder");
-        std::ifstream f(path, std::ios::binary);
-        if (!f) fail<IoError>("cannot read '", path, "': ", std::strerror(errno));
-        bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-    }
-    // "VDB " magic as a little-endian int64 at offset 0.
-    if (bytes.size() < 8 || std::memcmp(bytes.data(), " BDV\0\0\0\0", 8) != 0) {
-        fail<IoError>("cannot read '", name, "': not a VDB file");
-    }
+    std::string out;
+    for (unsigned char c : text) out += (c >= 0x20 && c < 0x7f) ? char(c) : '?';
+    return out;
+}
+
+openvdb::GridPtrVecPtr parseVdb(const std::string& bytes, const std::string& name)
+{
     try {
         std::istringstream is(bytes, std::ios_base::binary);
         openvdb::io::Stream stream(is, /*delayLoad=*/false);
@@ -239,8 +234,141 @@ openvdb::GridPtrVecPtr readGrids(const std::string& path)
         return grids;
     } catch (const IoError&) {
         throw;
+    } catch (const std::bad_alloc&) {
+        throw;
     } catch (const std::exception& e) {
-        fail<IoError>("cannot read '", name, "': truncated or corrupt VDB file (", e.what(), ")");
+        fail<IoError>("cannot read '", name, "': truncated or corrupt VDB file (", printable(e.what()), ")");
+    }
+}
+
+/// The memory a read of @a bytes may take before the file counts as corrupt: VDB data
+/// expands by well under 64x from disk (blosc / zip of leaf buffers, active-value masks).
+size_t readBudget(size_t bytes) { return std::max<size_t>(size_t(512) << 20, 64 * bytes); }
+
+size_t addressSpace()
+{
+    std::ifstream f("/proc/self/statm");
+    size_t pages = 0;
+    f >> pages;
+    return pages * size_t(::sysconf(_SC_PAGESIZE));
+}
+
+// OpenVDB's reader trusts the sizes and offsets in a file: one flipped byte can make it read
+// past its buffers (SIGSEGV) or allocate gigabytes from a garbled size. So the bytes are
+// parsed first in a child process, under a cap on its address space; only when that parse
+// succeeds does this process parse them (the same bytes, the same result). The child only
+// parses and reports: on success nothing, else the one-line message through a pipe.
+void probeVdb(const std::string& bytes, const std::string& name)
+{
+    if (std::getenv("ROCKVDB_TRUST_VDB")) return; // (for measuring the probe's cost only)
+    int pipeFd[2];
+    if (::pipe(pipeFd) != 0) return; // no probe possible: read in-process, as before
+    const size_t cap = addressSpace() + readBudget(bytes.size());
+    std::fflush(nullptr);
+    const pid_t pid = ::fork();
+    if (pid < 0) {
+        ::close(pipeFd[0]);
+        ::close(pipeFd[1]);
+        return;
+    }
+    if (pid == 0) {
+        ::close(pipeFd[0]);
+        // Quiet: glibc's heap checks print to stderr when a corrupt file trips them.
+        const int null = ::open("/dev/null", O_WRONLY);
+        if (null >= 0) ::dup2(null, STDERR_FILENO);
+        struct rlimit lim{cap, cap};
+        ::setrlimit(RLIMIT_AS, &lim);
+        int code = 0;
+        std::string message;
+        try {
+            parseVdb(bytes, name);
+        } catch (const std::bad_alloc&) {
+            code = 3;
+        } catch (const std::exception& e) {
+            code = 1;
+            message = e.what();
+        } catch (...) {
+            code = 1;
+            message = "cannot read '" + name + "': corrupt VDB file";
+        }
+        if (!message.empty()) {
+            const ssize_t w = ::write(pipeFd[1], message.data(), message.size());
+            (void)w;
+        }
+        ::_exit(code);
+    }
+    ::close(pipeFd[1]);
+    std::string message;
+    char buf[512];
+    for (;;) {
+        const ssize_t r = ::read(pipeFd[0], buf, sizeof buf);
+        if (r > 0) message.append(buf, size_t(r));
+        else if (r == 0 || errno != EINTR) break;
+    }
+    ::close(pipeFd[0]);
+    int status = 0;
+    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 1 && !message.empty()) throw IoError(message);
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 3) {
+        fail<IoError>("cannot read '", name, "': corrupt VDB file (reading its ", bytes.size(),
+                      " bytes asked for more than ", readBudget(bytes.size()) >> 20,
+                      " MB: a size in it is out of range)");
+    }
+    if (WIFSIGNALED(status)) {
+        fail<IoError>("cannot read '", name, "': corrupt VDB file (OpenVDB's reader crashed on it: ",
+                      printable(::strsignal(WTERMSIG(status))), ")");
+    }
+    fail<IoError>("cannot read '", name, "': corrupt VDB file");
+}
+
+} // namespace
+
+openvdb::GridPtrVecPtr readGrids(const std::string& path)
+{
+    initialize();
+    std::string bytes;
+    const std::string name = path == "-" ? std::string("<stdin>") : path;
+    if (path == "-") {
+        if (::isatty(STDIN_FILENO)) {
+            fail<ValueError>("expected a .vdb on stdin, but stdin is a terminal");
+        }
+        // A stream has no size to check first: read it in blocks, up to half the RAM (an
+        // endless one, /dev/zero say, would otherwise take it all).
+        const size_t limit = size_t(0.5 * physicalMemoryBytes());
+        char block[1 << 16];
+        while (std::cin.read(block, sizeof block) || std::cin.gcount() > 0) {
+            bytes.append(block, size_t(std::cin.gcount()));
+            if (bytes.size() >= 8 && std::memcmp(bytes.data(), " BDV\0\0\0\0", 8) != 0) {
+                fail<IoError>("cannot read '<stdin>': not a VDB file");
+            }
+            if (bytes.size() > limit) {
+                fail<IoError>("cannot read '<stdin>': more than ", limit >> 20, " MB (half the RAM) on stdin");
+            }
+        }
+    } else {
+        struct stat st;
+        if (::stat(path.c_str(), &st) != 0) {
+            fail<IoError>("cannot read '", path, "': no such file");
+        }
+        if (S_ISDIR(st.st_mode)) fail<IoError>("cannot read '", path, "': it is a folder");
+        if (!S_ISREG(st.st_mode)) {
+            fail<IoError>("cannot read '", path, "': not a regular file (a device, pipe or socket; give '-' to read a "
+                          "stream from stdin)");
+        }
+        std::ifstream f(path, std::ios::binary);
+        if (!f) fail<IoError>("cannot read '", path, "': ", std::strerror(errno));
+        bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+    }
+    // "VDB " magic as a little-endian int64 at offset 0.
+    if (bytes.size() < 8 || std::memcmp(bytes.data(), " BDV\0\0\0\0", 8) != 0) {
+        fail<IoError>("cannot read '", name, "': not a VDB file");
+    }
+    probeVdb(bytes, name);
+    try {
+        return parseVdb(bytes, name);
+    } catch (const std::bad_alloc&) {
+        fail<IoError>("cannot read '", name, "': out of memory reading ", bytes.size(), " bytes");
     }
 }
 

@@ -205,7 +205,7 @@ DetailResult runDetail(const DetailStageParams& params, const DetailInputs& in, 
     for (auto it = in.names.begin(); it != in.names.end(); ++it) prov[it.key()] = it.value();
     if (auto src = provenance(*in.grid)) {
         prov["sources"] = json::array({{{"generator", src->generator},
-                                        {"params", json::parse(src->params, nullptr, false)}}});
+                                        {"params", jsonOrText(src->params)}}});
     }
     const std::string text = prov.dump();
     stampProvenance(*r.bake.surface, kDetailTool, text);

@@ -3,6 +3,7 @@
 #include <rockvdb/rockpile/RockTiles.h>
 
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
 #include <rockvdb/core/GridUtil.h>
 
 #include <nlohmann/json.hpp>
@@ -321,7 +322,7 @@ TileSet tilesFromGrid(const openvdb::FloatGrid& rho)
 {
     const auto meta = rho.getMetadata<openvdb::StringMetadata>("rockvdb:tiles");
     if (!meta) fail<ValueError>("rockpile: grid '", rho.getName(), "' holds no tile set (no rockvdb:tiles metadata)");
-    const nlohmann::json j = nlohmann::json::parse(meta->value(), nullptr, false);
+    const nlohmann::json j = parseJsonOrDiscarded(meta->value());
     if (j.is_discarded() || !j.contains("format") || j["format"] != 1) {
         fail<ValueError>("rockpile: unreadable tile set description (format 1 expected)");
     }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
 #include <rockvdb/core/Task.h>
 #include <rockvdb/core/VdbIO.h>
 
@@ -50,8 +51,7 @@ private:
 /// The JSON text of a Python call's parameters (the wrapper spells keys as the CLI does).
 inline nlohmann::json parseParams(const std::string& text, const char* op)
 {
-    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
-    if (j.is_discarded()) fail<ValueError>(op, ": parameters are not JSON");
+    nlohmann::json j = parseJson(text, std::string(op) + ": parameters");
     return j;
 }
 
@@ -61,7 +61,7 @@ inline nlohmann::json gridSource(const openvdb::GridBase& g)
     auto p = provenance(g);
     if (!p) return {{"grid", g.getName()}};
     return {{"grid", g.getName()}, {"generator", p->generator},
-            {"params", nlohmann::json::parse(p->params, nullptr, false)}};
+            {"params", jsonOrText(p->params)}};
 }
 
 /// rockvdb.Stacks' native half (arches.cc) and the arches table's description.

@@ -7,6 +7,7 @@
 
 #include <rockvdb/arches/ArchesStage.h>
 #include <rockvdb/arches/StackFile.h>
+#include <rockvdb/core/Expression.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <pybind11/numpy.h>
@@ -316,7 +317,7 @@ void bindArches(py::module_& m)
     m.def("arches_load", [](const std::string& path) {
         StackFile f = readStackFile(path);
         PyStacks s;
-        s.params = json::parse(f.params, nullptr, false);
+        s.params = parseJsonOrDiscarded(f.params);
         if (!s.params.is_object()) fail<IoError>("arches: ", path, " holds no scene parameters");
         s.params = archesSchema().toJson(paramsOf(s.params)); // validated, every row present
         s.stacks = std::move(f.stacks);

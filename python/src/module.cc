@@ -297,11 +297,7 @@ PYBIND11_MODULE(_rockvdb, m)
         return build({{"type", "polytope"}, {"planes", ps}, {"smooth", smooth}});
     }, py::arg("planes"), py::arg("smooth") = 0.0, "Intersection of n·p <= d half-spaces");
     m.def("expression", [](const std::string& text) {
-        json e;
-        try { e = json::parse(text); } catch (const json::exception& ex) {
-            throw ValueError(std::string("expression: malformed JSON: ") + ex.what());
-        }
-        return build(e);
+        return build(parseJson(text, "expression"));
     }, py::arg("json"), "A field from a JSON expression (see vdb_primitive expr)");
 
     m.def("heightfield", [](const std::string& path, double cellSize, double heightScale,
@@ -680,7 +676,7 @@ PYBIND11_MODULE(_rockvdb, m)
         for (const auto& in : grids) {
             auto p = provenance(*in);
             sources.push_back(p ? json{{"generator", p->generator},
-                                       {"params", json::parse(p->params, nullptr, false)}}
+                                       {"params", jsonOrText(p->params)}}
                                 : json(nullptr));
         }
         const std::string prov = json({{"op", op}, {"smooth", smooth}, {"sources", sources}}).dump();
