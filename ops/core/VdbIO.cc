@@ -75,9 +75,39 @@ std::string baseOf(const std::string& path)
     return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
-void checkWritableTarget(const std::string& path)
+// An output that is a symbolic link names the file it points to (followed, 40 links at most,
+// a dangling link's target included): the new file replaces that target and the link stays.
+std::string resolveTarget(const std::string& path)
 {
-    if (path.empty()) fail<ValueError>("output path is empty");
+    std::string p = path;
+    for (int hops = 0; hops < 40; ++hops) {
+        struct stat st;
+        if (::lstat(p.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) return p;
+        char buf[4096];
+        const ssize_t n = ::readlink(p.c_str(), buf, sizeof buf - 1);
+        if (n <= 0) return p;
+        std::string to(buf, size_t(n));
+        p = to[0] == '/' ? to : dirOf(p) + "/" + to;
+    }
+    fail<IoError>("cannot write '", path, "': too many levels of symbolic links");
+}
+
+// A character device or FIFO (/dev/null, /dev/stdout, a named pipe): written through, as a
+// stream, never replaced by a renamed file.
+bool isStreamTarget(const std::string& path)
+{
+    struct stat st;
+    return ::stat(path.c_str(), &st) == 0 && (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode));
+}
+
+void checkWritableTarget(const std::string& given)
+{
+    if (given.empty()) fail<ValueError>("output path is empty");
+    const std::string path = resolveTarget(given);
+    if (isStreamTarget(path)) {
+        if (::access(path.c_str(), W_OK) != 0) fail<IoError>("cannot write '", given, "': ", std::strerror(errno));
+        return;
+    }
     const std::string dir = dirOf(path);
     struct stat st;
     if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
@@ -158,19 +188,42 @@ public:
     ~PendingTemp() { gPendingTemp[0] = '\0'; }
 };
 
-// Temporary file in the target's folder, then rename; the caller has checked the target.
-void writeCheckedAtomic(const std::string& path, const std::string& bytes)
+// Write through to a stream target (checkWritableTarget said which), all or an error.
+void writeThrough(const std::string& given, const std::string& path, const std::string& bytes)
 {
+    if (auto check = gCommitCheck.load(); check && check()) throw Interrupted();
+    const int fd = ::open(path.c_str(), O_WRONLY);
+    if (fd < 0) fail<IoError>("cannot write '", given, "': ", std::strerror(errno));
+    size_t done = 0;
+    while (done < bytes.size()) {
+        const ssize_t w = ::write(fd, bytes.data() + done, bytes.size() - done);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) {
+            const int err = errno;
+            ::close(fd);
+            fail<IoError>("cannot write '", given, "': ", std::strerror(err));
+        }
+        done += size_t(w);
+    }
+    if (::close(fd) != 0) fail<IoError>("cannot write '", given, "': ", std::strerror(errno));
+}
+
+// Temporary file in the target's folder, then rename; the caller has checked the target. A
+// symbolic link is followed (its target replaced), a device or FIFO written through.
+void writeCheckedAtomic(const std::string& given, const std::string& bytes)
+{
+    const std::string path = resolveTarget(given);
+    if (isStreamTarget(path)) return writeThrough(given, path, bytes);
     const std::string tmp = tempNameFor(path);
     PendingTemp pending(tmp);
     {
         std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-        if (!f) fail<IoError>("cannot write '", path, "': ", std::strerror(errno));
+        if (!f) fail<IoError>("cannot write '", given, "': ", std::strerror(errno));
         f.write(bytes.data(), std::streamsize(bytes.size()));
         f.close();
         if (!f) {
             std::remove(tmp.c_str());
-            fail<IoError>("cannot write '", path, "': write failed (disk full?)");
+            fail<IoError>("cannot write '", given, "': write failed (disk full?)");
         }
     }
     if (auto check = gCommitCheck.load(); check && check()) {
@@ -180,7 +233,7 @@ void writeCheckedAtomic(const std::string& path, const std::string& bytes)
     if (std::rename(tmp.c_str(), path.c_str()) != 0) {
         const int err = errno;
         std::remove(tmp.c_str());
-        fail<IoError>("cannot write '", path, "': ", std::strerror(err));
+        fail<IoError>("cannot write '", given, "': ", std::strerror(err));
     }
 }
 } // namespace

@@ -193,3 +193,52 @@ def test_python_deep_json_is_a_value_error():
     import rockvdb
     with pytest.raises(ValueError, match="nested deeper than 200 levels"):
         rockvdb.expression(deep_expression(10000))
+
+
+def sphere_to(out):
+    return run([tool("vdb_primitive"), "-q", "sphere", "--radius", "0.5", "--voxel-size", "0.1",
+                "-o", str(out)])
+
+
+def test_an_output_symlink_is_followed_not_replaced(tmp_path):
+    """-o onto a symbolic link writes the file it points to (even a dangling link's) and
+    leaves the link a link; a rename over the link used to replace it."""
+    target = tmp_path / "real.vdb"
+    target.write_bytes(SENTINEL)
+    link = tmp_path / "link.vdb"
+    link.symlink_to("real.vdb")
+    assert sphere_to(link).returncode == 0
+    assert link.is_symlink() and target.read_bytes()[:8] == b" BDV\0\0\0\0"
+    dangling = tmp_path / "dangling.vdb"
+    dangling.symlink_to("made.vdb")
+    assert sphere_to(dangling).returncode == 0
+    assert dangling.is_symlink() and (tmp_path / "made.vdb").stat().st_size > 1000
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dangling.vdb", "link.vdb", "made.vdb", "real.vdb"]
+
+
+def test_an_output_device_or_fifo_is_written_through(tmp_path):
+    """-o onto a character device or a named pipe writes to it as a stream: the device node
+    stays a device (as root a rename replaced /dev/null with a file); a full device fails in
+    one line. Tested on device nodes made here, never the system's."""
+    import stat
+    import threading
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(open(fifo, "rb").read()))
+    reader.start()
+    assert sphere_to(fifo).returncode == 0
+    reader.join(60)
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode) and got and got[0][:8] == b" BDV\0\0\0\0"
+    if os.geteuid() != 0:
+        pytest.skip("device nodes need root")
+    null, full = tmp_path / "null", tmp_path / "full"
+    os.mknod(null, stat.S_IFCHR | 0o666, os.makedev(1, 3))
+    os.mknod(full, stat.S_IFCHR | 0o666, os.makedev(1, 7))
+    assert sphere_to(null).returncode == 0
+    assert stat.S_ISCHR(os.lstat(null).st_mode)
+    p = sphere_to(full)
+    lines = [l for l in p.stderr.splitlines() if l.strip()]
+    assert p.returncode == 1 and len(lines) == 1 and "No space left on device" in lines[0], p.stderr
+    assert stat.S_ISCHR(os.lstat(full).st_mode)
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["full", "null", "pipe"]  # no temporaries
