@@ -9,6 +9,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <iterator>
 #include <atomic>
 #include <csignal>
@@ -459,6 +460,42 @@ void Tool::info(const std::string& line) const
     if (!mQuiet) std::cerr << mName << ": " << line << "\n";
 }
 
+void distinctOutputs(const std::vector<std::pair<std::string, std::string>>& outputs)
+{
+    std::vector<std::pair<std::string, std::string>> seen; // (canonical path, option)
+    for (const auto& [option, path] : outputs) {
+        if (path.empty()) continue;
+        std::string key = path;
+        if (path != "-") {
+            std::error_code ec;
+            const auto c = std::filesystem::weakly_canonical(std::filesystem::absolute(path, ec), ec);
+            if (!ec) key = c.string();
+        }
+        for (const auto& [other, name] : seen) {
+            if (other == key) {
+                fail<ValueError>(name, " and ", option, path == "-" ? " both write to stdout ('-')"
+                                 : " name the same file '" + path + "'", "; give them different paths");
+            }
+        }
+        seen.emplace_back(key, option);
+    }
+}
+
+void refuseEmpty(const openvdb::GridBase& grid, const std::string& why)
+{
+    if (grid.activeVoxelCount() == 0) fail<ValueError>("the result is empty (no active voxels): ", why);
+}
+
+// (for messages that name an option: only when the tool has it)
+static bool hasOption(const CLI::App& app, const std::string& name)
+{
+    if (app.get_option_no_throw(name)) return true;
+    for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; })) {
+        if (sub->get_option_no_throw(name)) return true;
+    }
+    return false;
+}
+
 int Tool::run(int argc, char** argv, const std::function<void()>& body)
 {
     auto error = [&](const std::string& msg, int code) {
@@ -535,6 +572,10 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
                 tbb::global_control::max_allowed_parallelism, size_t(mThreads));
         }
         body();
+        // What went to stdout (vdb_info's report, a -o - stream) must have arrived: a full
+        // disk or a closed pipe is an error, not a success.
+        std::cout.flush();
+        if (!std::cout || std::fflush(stdout) != 0) fail<IoError>("cannot write to stdout: ", std::strerror(errno));
         cancelWatchdog(); // a signal after the last write: the outputs are complete
         return 0;
     } catch (const ValueError& e) {
@@ -545,7 +586,8 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
         cancelWatchdog();
         return error("interrupted; nothing written", 130);
     } catch (const std::bad_alloc&) {
-        return error("out of memory; nothing written (try a larger --voxel-size)", 1);
+        return error(std::string("out of memory; nothing written") +
+                     (hasOption(mApp, "--voxel-size") ? " (try a larger --voxel-size)" : ""), 1);
     } catch (const openvdb::Exception& e) {
         return error(e.what(), 1);
     } catch (const std::exception& e) {
@@ -564,6 +606,8 @@ BakeResult bakeAndWrite(const Tool& tool, const Field& field, const BakeSettings
                   r.stats.activeVoxels, r.stats.leaves, r.stats.cullSeconds, r.stats.fillSeconds,
                   r.stats.finishSeconds, r.stats.renormalized ? " (renormalised)" : "");
     tool.info(line);
+    refuseEmpty(*r.surface, "the shape lies outside the baked region, or so far from the origin that its "
+                            "voxel indices overflow (|coordinate| / voxel size must stay under 2^31)");
     const std::string params = tool.paramsJson();
     openvdb::GridCPtrVec grids;
     stampProvenance(*r.surface, tool.name(), params);

@@ -143,6 +143,15 @@ private:
 /// surface (and the attribute grid, when baked) atomically to tool.output().
 BakeResult bakeAndWrite(const Tool& tool, const Field& field, const BakeSettings& settings);
 
+/// @brief ValueError when two outputs of one run, given as (option, path), name the same file
+/// (after following symbolic links) or both write to stdout ('-'): one would be lost. Empty
+/// paths are outputs not asked for.
+void distinctOutputs(const std::vector<std::pair<std::string, std::string>>& outputs);
+
+/// @brief ValueError "the result is empty (no active voxels): <why>" when @a grid holds nothing:
+/// an empty file with exit 0 would pass for a result down a pipeline.
+void refuseEmpty(const openvdb::GridBase& grid, const std::string& why);
+
 /// @brief Parse "x,y,z" style option values already split by CLI11 into a Vec3d.
 Vec3d toVec3(const std::vector<double>& v, const char* what);
 

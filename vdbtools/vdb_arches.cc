@@ -44,15 +44,10 @@ int main(int argc, char** argv)
             if (std::filesystem::path(stacksOut).extension() != ".stacks") {
                 fail<ValueError>("arches: --stacks must end in .stacks (got '", stacksOut, "')");
             }
-            if (stacksOut == tool.output()) fail<ValueError>("arches: --stacks and -o name the same file");
             requireWritable(stacksOut);
         }
-        if (!pointsOut.empty()) {
-            if (pointsOut == tool.output() || pointsOut == stacksOut) {
-                fail<ValueError>("arches: --points names the same file as ", pointsOut == stacksOut ? "--stacks" : "-o");
-            }
-            requireWritable(pointsOut);
-        }
+        cli::distinctOutputs({{"-o", tool.output()}, {"--stacks", stacksOut}, {"--points", pointsOut}});
+        if (!pointsOut.empty()) requireWritable(pointsOut);
         // The scene (or the saved stacks' scene), then what the command line gives on top.
         nlohmann::json given = nlohmann::json::object();
         std::string baseDir = ".";

@@ -35,6 +35,7 @@ int main(int argc, char** argv)
     return tool.run(argc, argv, [&] {
         const BlocksParams p = blocksSchema().fromJson(tool.givenParams(blocksSchema()));
         const UpAxis upAxis = upAxisFromString(up, "blocks: --up");
+        cli::distinctOutputs({{"-o", tool.output()}, {"--tile", tileOut}, {"--meshes", meshes}});
         for (const auto& path : {tileOut, meshes}) {
             if (!path.empty()) requireWritable(path);
         }

@@ -91,6 +91,7 @@ int main(int argc, char** argv)
                       for (const auto& n : idNames) s += (s.empty() ? "" : ", ") + n;
                       return s;
                   }()));
+        cli::refuseEmpty(*result, "the inputs do not meet, or the difference or smooth radius removed everything");
         writeGrids(tool.output(), out);
     });
 }

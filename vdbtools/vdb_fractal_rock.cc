@@ -55,6 +55,8 @@ int main(int argc, char** argv)
     return tool.run(argc, argv, [&] {
         const FractalRockParams p = rockSchema().fromJson(tool.givenParams(rockSchema()));
         const UpAxis upAxis = upAxisFromString(up, "--mesh-up");
+        cli::distinctOutputs({{"-o", tool.output()}, {"--mesh", meshPath}, {"--normal-map", mapPath},
+                              {"--points", pointsPath}});
         for (const auto& path : {meshPath, mapPath}) {
             if (!path.empty()) requireWritable(path);
         }

@@ -29,6 +29,11 @@ int main(int argc, char** argv)
         tool.info(std::to_string(mesh.points.size()) + " points, " +
                   std::to_string(mesh.triangles.size()) + " triangles, " +
                   std::to_string(mesh.quads.size()) + " quads");
+        if (mesh.points.empty()) {
+            const double bg = double(grid->background());
+            fail<ValueError>("the result is empty: no surface at isovalue ", isovalue, " (the level set's band holds "
+                             "values within +-", bg, "; an isovalue must lie inside it)");
+        }
         writeMesh(mesh, tool.output(), upAxis);
     });
 }

@@ -58,6 +58,7 @@ int main(int argc, char** argv)
         char line[300];
         if (tiles->parsed()) {
             const RockTileParams p = tilesSchema().fromJson(tool.givenParams(tilesSchema()));
+            cli::distinctOutputs({{"-o", tool.output()}, {"--library", library}});
             if (!library.empty()) requireWritable(library);
             const TilesResult r = runTiles(p, !library.empty(), task);
             bar->clear();
@@ -75,6 +76,7 @@ int main(int argc, char** argv)
             return;
         }
         const PileParams p = pileSchema().fromJson(tool.givenParams(pileSchema()));
+        cli::distinctOutputs({{"-o", tool.output()}, {"--points", pointsPath}, {"--library", pileLibrary}});
         for (const auto& path : {pointsPath, pileLibrary}) {
             if (!path.empty()) requireWritable(path);
         }

@@ -157,7 +157,44 @@ ROWS = {
          "edits.json": "[" * 10000 + "]" * 10000},
         lambda t: [tool("vdb_arches"), str(t / "scene.json"), "--edits", str(t / "edits.json"),
                    "-o", str(t / "out.vdb")], 2, "nested deeper than 200 levels"),
+    "--tile and -o the same file": (
+        {}, lambda t: [tool("vdb_blocks"), "--tile-size", "4", "--voxel-size", "0.2", "--tile",
+                       str(t / "out.vdb"), "-o", str(t / "out.vdb")], 2, "name the same file"),
+    "--library and -o both stdout": (
+        {}, lambda t: [tool("vdb_rockpile"), "tiles", "--n", "4", "--library", "-", "-o", "-"], 2,
+        "both write to stdout"),
+    "--points and -o the same file (through ./)": (
+        {}, lambda t: [tool("vdb_fractal_rock"), "--count", "3", "--points", str(t / "." / "out.vdb"),
+                       "-o", str(t / "out.vdb")], 2, "name the same file"),
+    "--stacks and -o the same file": (
+        {"scene.json": json.dumps({"terrain": {"type": "box", "size": [4, 4, 2]}})},
+        lambda t: [tool("vdb_arches"), str(t / "scene.json"), "--stacks", str(t / "out.stacks"),
+                   "--points", str(t / "out.stacks"), "-o", str(t / "out.vdb")], 2, "name the same file"),
+    "a sphere 2e8 m away (indices overflow)": (
+        {}, lambda t: [tool("vdb_primitive"), "-q", "sphere", "--center", "2e8,0,0", "--voxel-size",
+                       "0.1", "-o", str(t / "out.vdb")], 2, "the result is empty"),
 }
+
+# name -> (argv builder (tmp, valid sphere) -> list, exit code, needle): rows on a valid file.
+ON_VALID = {
+    "csg with a 1e308 smooth radius": (
+        lambda t, v: [tool("vdb_csg"), "-q", "union", str(v), str(v), "--smooth", "1e308", "-o",
+                      str(t / "out.vdb")], 2, "the result is empty"),
+    "mesh at an isovalue outside the band": (
+        lambda t, v: [tool("vdb_mesh"), "-q", str(v), "--isovalue", "5", "-o", str(t / "out.vdb")], 2,
+        "no surface at isovalue 5"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(ON_VALID))
+def test_hostile_parameters_on_a_valid_file(name, valid, tmp_path):
+    argv, code, needle = ON_VALID[name]
+    out = tmp_path / "out.vdb"
+    out.write_bytes(SENTINEL)
+    p = run(argv(tmp_path, valid))
+    lines = [l for l in p.stderr.splitlines() if l.strip()]
+    assert p.returncode == code and len(lines) == 1 and needle in lines[0], p.stderr[-500:]
+    assert out.read_bytes() == SENTINEL
 
 
 @pytest.mark.parametrize("name", sorted(ROWS))
@@ -187,6 +224,24 @@ def test_a_10000_level_pile_support_is_refused(tmp_path):
     assert p.returncode == 2 and len(lines) == 1, p.stderr[-500:]
     assert "nested deeper than 200 levels" in lines[0]
     assert out.read_bytes() == SENTINEL
+
+
+def test_a_report_to_a_full_disk_fails_and_json_stays_json(valid, tmp_path):
+    """vdb_info > /dev/full used to exit 0; provenance that is not JSON made --json print
+    '<discarded>'. Now: exit 1 with one line, and --json is valid JSON holding the text."""
+    p = subprocess.run(f"{tool('vdb_info')} {valid} > /dev/full", shell=True, capture_output=True,
+                       text=True, timeout=60)
+    assert p.returncode == 1 and "cannot write to stdout" in p.stderr, p.stderr
+    import pyopenvdb as vdb
+    g = vdb.read(str(valid), "surface")
+    g["rockvdb:params"] = '{"voxel-size": 0.05, "broken'
+    odd = tmp_path / "odd.vdb"
+    vdb.write(str(odd), [g])
+    p = run([tool("vdb_info"), "--json", str(odd)])
+    assert p.returncode == 0, p.stderr
+    info = json.loads(p.stdout)
+    text = json.dumps(info)
+    assert '{\\"voxel-size\\": 0.05, \\"broken' in text, text[:500]
 
 
 def test_python_deep_json_is_a_value_error():
