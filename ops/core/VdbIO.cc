@@ -93,11 +93,13 @@ std::string resolveTarget(const std::string& path)
 }
 
 // A character device or FIFO (/dev/null, /dev/stdout, a named pipe): written through, as a
-// stream, never replaced by a renamed file.
+// stream, never replaced by a renamed file (a FIFO without a reader waits for one, as any
+// writer of it does; Ctrl-C still ends the tool).
 bool isStreamTarget(const std::string& path)
 {
     struct stat st;
-    return ::stat(path.c_str(), &st) == 0 && (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode));
+    return ::stat(path.c_str(), &st) == 0 &&
+           (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode));
 }
 
 void checkWritableTarget(const std::string& given)
@@ -105,7 +107,9 @@ void checkWritableTarget(const std::string& given)
     if (given.empty()) fail<ValueError>("output path is empty");
     const std::string path = resolveTarget(given);
     if (isStreamTarget(path)) {
-        if (::access(path.c_str(), W_OK) != 0) fail<IoError>("cannot write '", given, "': ", std::strerror(errno));
+        if (::access(path.c_str(), W_OK) != 0) {
+            fail<IoError>("cannot write '", given, "': ", std::strerror(errno));
+        }
         return;
     }
     const std::string dir = dirOf(path);
