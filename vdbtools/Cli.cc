@@ -31,7 +31,7 @@ namespace {
 // Ctrl-C / SIGTERM: the flag every Task checks at a coarse grain. A phase that cannot check
 // (an OpenVDB tool without an interrupter, a file being read) is covered by a watchdog: if
 // the process is still running 0.8 s after the signal (or at a second signal) it removes the
-// temporary file being written, if any, says so and exits 130 at once. Only
+// temporary files written and not renamed yet, says so and exits 130 at once. Only
 // async-signal-safe calls here.
 std::atomic<bool> gSigint{false};
 char gInterruptLine[512] = "interrupted\n";
@@ -39,8 +39,7 @@ size_t gInterruptLength = 12;
 
 void hardExit()
 {
-    const char* tmp = pendingTempFile();
-    if (tmp[0] != '\0') ::unlink(tmp);
+    removePendingTemps();
     ssize_t ignored = ::write(STDERR_FILENO, gInterruptLine, gInterruptLength);
     (void)ignored;
     ::_exit(130);
@@ -571,7 +570,12 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
             threads = std::make_unique<tbb::global_control>(
                 tbb::global_control::max_allowed_parallelism, size_t(mThreads));
         }
-        body();
+        {
+            // Every output of the run lands together, after the work, or none does.
+            OutputBatch outputs;
+            body();
+            outputs.commit();
+        }
         // What went to stdout (vdb_info's report, a -o - stream) must have arrived: a full
         // disk or a closed pipe is an error, not a success.
         std::cout.flush();

@@ -35,10 +35,16 @@ int main(int argc, char** argv)
                  "Do not carry the inputs' id grids (block_id, rock_id, material, ...). By "
                  "default each is carried: a voxel takes the id of the input whose surface the "
                  "result follows there (in a difference, the first input's)");
+    double maxMemoryGB = 0;
+    app.add_option("--max-memory", maxMemoryGB,
+                   "Refuse a CSG whose resampled inputs or widened bands are estimated above "
+                   "this (GB; 0 = 75% of RAM)")->capture_default_str();
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
 
     return tool.run(argc, argv, [&] {
         require(std::isfinite(smooth) && smooth >= 0, "csg", "--smooth", ">= 0", smooth);
+        require(std::isfinite(maxMemoryGB) && maxMemoryGB >= 0, "csg", "--max-memory", ">= 0 GB",
+                maxMemoryGB);
         if (std::count(inputs.begin(), inputs.end(), "-") > 1) {
             fail<ValueError>("csg: stdin ('-') can be given only once");
         }
@@ -70,7 +76,7 @@ int main(int argc, char** argv)
             sources.push_back(src);
             grids.push_back(g);
         }
-        auto result = csgGrids(csgOpFromString(op), grids, smooth);
+        auto result = csgGrids(csgOpFromString(op), grids, smooth, maxMemoryGB * 1e9);
         nlohmann::json params = nlohmann::json::parse(tool.paramsJson());
         params["sources"] = sources;
         stampProvenance(*result, tool.name(), params.dump());

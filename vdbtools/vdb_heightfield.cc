@@ -28,7 +28,8 @@ int main(int argc, char** argv)
 
     return tool.run(argc, argv, [&] {
         const BakeSettings settings = tool.bake().settings();
-        auto hf = std::make_shared<Heightfield>(loadHeightfield(input, cellSize, heightScale));
+        auto hf = std::make_shared<Heightfield>(loadHeightfield(input, cellSize, heightScale,
+                                                                   settings.maxMemoryBytes));
         HeightfieldSettings hs;
         hs.baseDepth = baseDepth;
         cli::bakeAndWrite(tool, *heightfieldField(hf, hs), settings);

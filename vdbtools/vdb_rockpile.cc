@@ -35,6 +35,10 @@ int main(int argc, char** argv)
     tiles->add_option("--library", library,
                       "Also write every rock's level set, each in its own slot of level set "
                       "'library', to this .vdb");
+    double tilesMaxMemoryGB = 0;
+    tiles->add_option("--max-memory", tilesMaxMemoryGB,
+                      "Refuse a tile set estimated above this before any work (GB; 0 = 75% of RAM)")
+        ->capture_default_str();
     tool.addOutput(*tiles, "Output tile set (.vdb; '-' = stdout)");
 
     auto* pile = app.add_subcommand("pile", pileSchema().summary());
@@ -60,7 +64,9 @@ int main(int argc, char** argv)
             const RockTileParams p = tilesSchema().fromJson(tool.givenParams(tilesSchema()));
             cli::distinctOutputs({{"-o", tool.output()}, {"--library", library}});
             if (!library.empty()) requireWritable(library);
-            const TilesResult r = runTiles(p, !library.empty(), task);
+            require(std::isfinite(tilesMaxMemoryGB) && tilesMaxMemoryGB >= 0, "rockpile",
+                    "--max-memory", ">= 0 GB", tilesMaxMemoryGB);
+            const TilesResult r = runTiles(p, !library.empty(), task, tilesMaxMemoryGB * 1e9);
             bar->clear();
             const RockTileStats& st = r.set.stats;
             std::snprintf(line, sizeof line, "%zu stones (%zu regions, %zu seeds, %zu contacts); "
@@ -92,6 +98,8 @@ int main(int argc, char** argv)
                       r.stats.selectSeconds, r.stats.levelSetSeconds,
                       double(r.stats.placed) / std::max(1e-9, r.stats.selectSeconds + r.stats.levelSetSeconds));
         tool.info(line);
+        cli::refuseEmpty(*r.pile.surface, "no rock of the tile set lies in the support (is it "
+                         "smaller than a rock, or only a thin shell?)");
         if (r.points) writeGrids(pointsPath, {r.points});
         if (r.library) writeGrids(pileLibrary, {r.library});
         openvdb::GridCPtrVec out{r.pile.surface, r.pile.rockId};

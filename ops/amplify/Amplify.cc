@@ -154,9 +154,10 @@ FieldPtr heightfieldTerrain(std::shared_ptr<const Heightfield> hf, double baseDe
     return ground;
 }
 
-FieldPtr levelSetTerrain(openvdb::FloatGrid::ConstPtr grid, const PlacementRules& rules)
+FieldPtr levelSetTerrain(openvdb::FloatGrid::ConstPtr grid, const PlacementRules& rules,
+                         double maxMemoryBytes)
 {
-    return levelSetField(std::move(grid), rules.reach());
+    return levelSetField(std::move(grid), rules.reach(), maxMemoryBytes);
 }
 
 void checkTileSizes(const std::vector<std::shared_ptr<const BlockTile>>& tiles, bool mixedSizes)
@@ -261,12 +262,28 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
         lo[a] = int(std::floor((tb.min()[a] - widen - ahi[a]) / s));
         hi[a] = int(std::floor((tb.max()[a] + widen - alo[a]) / s));
     }
+    // Counted before any is made: a terrain hundreds of km wide over a 10 m tile would ask
+    // for trillions of cells (and their int indices would overflow).
+    double count = 1;
+    for (int a = 0; a < 3; ++a) {
+        // ... and inside the rules' region (the --roi) when it is smaller.
+        const double bmin = std::max(tb.min()[a] - widen, rules.region.min()[a]);
+        const double bmax = std::min(tb.max()[a] + widen, rules.region.max()[a]);
+        const double l = std::floor((bmin - ahi[a]) / s);
+        const double h = std::floor((bmax - alo[a]) / s);
+        count *= std::max(0.0, h - l + 1.0);
+        lo[a] = int(std::max(l, -2e9));
+        hi[a] = int(std::min(h, 2e9));
+    }
+    if (count * double(tile.blocks.size()) > 5e7) {
+        fail<ValueError>("amplify: the terrain (", tb.extents()[0], " x ", tb.extents()[1], " x ",
+                         tb.extents()[2], " m) spans ", count, " cells of the ", s, " m tile with ",
+                         tile.blocks.size(), " blocks each, over the presence table's 5e7; "
+                         "amplify a region of it (--roi) or use a larger tile");
+    }
     for (int i = lo[0]; i <= hi[0]; ++i)
         for (int j = lo[1]; j <= hi[1]; ++j)
             for (int k = lo[2]; k <= hi[2]; ++k) cells.push_back({i, j, k});
-    require(double(cells.size()) * double(tile.blocks.size()) <= 5e7, "amplify",
-            "terrain size / tile size", "small enough for the presence table",
-            std::to_string(cells.size()) + " cells");
 
     const size_t nb = tile.blocks.size();
     std::vector<std::vector<uint8_t>> flags(cells.size(), std::vector<uint8_t>(nb, 0));

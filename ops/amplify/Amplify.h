@@ -97,7 +97,8 @@ FieldPtr heightfieldTerrain(std::shared_ptr<const Heightfield> hf, double baseDe
 
 /// @brief A 3D terrain level set (overhangs, arches) as a field, its band widened to
 /// rules.reach() so that presence reads true distances.
-FieldPtr levelSetTerrain(openvdb::FloatGrid::ConstPtr grid, const PlacementRules& rules);
+FieldPtr levelSetTerrain(openvdb::FloatGrid::ConstPtr grid, const PlacementRules& rules,
+                         double maxMemoryBytes = 0.0);
 
 /// @brief ValueError unless all tiles share one size (or @a mixedSizes allows it).
 void checkTileSizes(const std::vector<std::shared_ptr<const blocks::BlockTile>>& tiles,

@@ -115,9 +115,9 @@ AmplifyRun runAmplify(const AmplifyParams& params, const AmplifyInputs& in, Task
     double cellSize = params.cellSize;
     const std::string& path = in.terrainPath;
     if (in.terrainGrid) {
-        ground = levelSetTerrain(in.terrainGrid, rules);
+        ground = levelSetTerrain(in.terrainGrid, rules, settings.maxMemoryBytes);
     } else if (endsWith(path, ".vdb") || path == "-") {
-        ground = levelSetTerrain(readLevelSet(path, params.terrainGrid), rules);
+        ground = levelSetTerrain(readLevelSet(path, params.terrainGrid), rules, settings.maxMemoryBytes);
     } else if (endsWith(path, ".json")) {
         ExpressionContext ctx;
         const auto slash = path.find_last_of('/');
@@ -132,7 +132,8 @@ AmplifyRun runAmplify(const AmplifyParams& params, const AmplifyInputs& in, Task
         ground = heightfieldTerrain(node->heightfield, node->baseDepth, rules);
     } else if (!path.empty()) {
         ground = heightfieldTerrain(
-            std::make_shared<Heightfield>(loadHeightfield(path, cellSize, params.heightScale)),
+            std::make_shared<Heightfield>(loadHeightfield(path, cellSize, params.heightScale,
+                                                          settings.maxMemoryBytes)),
             params.baseDepth, rules);
     } else {
         fail<ValueError>("amplify: the terrain is required");

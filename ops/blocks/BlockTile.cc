@@ -220,8 +220,9 @@ BlockTile generateTile(const BlockTileParams& in, Task& task)
             bool clean = true;
             if (hull.dimension == 3) {
                 // Any other cluster's point, an authored block's included.
-                auto third = [&](int to) {
-                    return clusterOf[size_t(to)] != c && smallOf[size_t(to)] != int(k);
+                // (a copy of c: a structured binding cannot be captured in C++17)
+                auto third = [&, cc = c](int to) {
+                    return clusterOf[size_t(to)] != cc && smallOf[size_t(to)] != int(k);
                 };
                 auto inside = [&](const Vec3d& q) {
                     for (const auto& h : hull.planes) {

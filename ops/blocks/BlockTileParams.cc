@@ -2,6 +2,7 @@
 #include <rockvdb/blocks/TileBuild.h>
 
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Primitives.h>
 
 #include <nlohmann/json.hpp>
 #include <openvdb/math/Mat3.h>
@@ -134,6 +135,27 @@ void BlockTileParams::validate() const
             require(std::isfinite(q[0]) && std::isfinite(q[1]) && std::isfinite(q[2]) &&
                         std::isfinite(q[3]) && std::hypot(q[0], q[1], q[2]) > 1e-9,
                     op, (what + " plane").c_str(), "finite with a non-zero normal", "bad plane");
+        }
+        // A block wider than the tile overlaps its own periodic images (and one 1e6 m wide
+        // would be voxelised over its whole extent): each must be bounded and fit the tile.
+        require(authored[i].planes.size() <= kMaxPolytopePlanes, op, what.c_str(),
+                "at most 512 planes", authored[i].planes.size());
+        std::vector<Plane> planes;
+        for (const auto& q : authored[i].planes) planes.push_back({Vec3d(q[0], q[1], q[2]), q[3]});
+        const std::vector<Vec3d> verts = polytopeVertices(planes);
+        if (verts.empty()) {
+            fail<ValueError>(op, ": ", what, " is empty or unbounded (its planes enclose no finite volume)");
+        }
+        Vec3d lo = verts[0], hi = verts[0];
+        for (const auto& v : verts) {
+            lo = minComponent(lo, v);
+            hi = maxComponent(hi, v);
+        }
+        const double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+        if (extent > tileSize) {
+            fail<ValueError>(op, ": ", what, " is ", extent, " m across, wider than the ", tileSize,
+                             " m tile (a periodic tile cannot hold a block wider than itself); "
+                             "make it smaller or raise --tile-size");
         }
     }
 }

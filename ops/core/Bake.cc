@@ -81,6 +81,16 @@ Domain makeDomain(const Field& field, const BakeSettings& s)
     BBoxd world = field.bounds();
     const bool bounded = isBounded(world);
     if (!bounded && !s.region) {
+        double reach = 0;
+        bool finite = true;
+        for (int a = 0; a < 3; ++a) {
+            finite = finite && std::isfinite(world.min()[a]) && std::isfinite(world.max()[a]);
+            reach = std::max({reach, std::abs(world.min()[a]), std::abs(world.max()[a])});
+        }
+        if (finite && reach < 1e300) {
+            fail<ValueError>("bake: the field's bounds reach ", reach, " m from the origin (more "
+                             "than 1e15 m: no voxel grid spans that); make it smaller or give a region");
+        }
         fail<ValueError>("bake: the field is unbounded (a plane or half-space); give a region");
     }
     if (bounded) world.expand(double(d.background) * bandScale + 2 * dx);

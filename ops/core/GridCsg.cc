@@ -20,6 +20,21 @@ using openvdb::FloatGrid;
 
 namespace {
 
+// What resampling @a g onto @a ref's transform allocates: tools::resampleToMatch rebuilds a
+// level set (mesh at g's resolution, then a narrow band at ref's), so the new band holds the
+// surface area in ref's voxels: g's band voxels x (dx_g / dx_ref)² x (band ratio), about 16 B
+// each with the rebuild's index grid. A coarse input resampled onto a much finer first input
+// grows with the square of the ratio.
+double resampleBytes(const FloatGrid& g, const FloatGrid& ref)
+{
+    if (g.transform() == ref.transform()) return double(g.memUsage());
+    const double dxg = g.voxelSize()[0], dxr = ref.voxelSize()[0];
+    const double hwg = std::max(1.0, double(g.background()) / dxg);
+    const double hwr = std::max(1.0, double(ref.background()) / dxr);
+    const double area = double(g.activeVoxelCount()) / (2.0 * hwg) * dxg * dxg;
+    return area / (dxr * dxr) * 2.0 * hwr * 16.0;
+}
+
 FloatGrid::Ptr onTransformOf(const FloatGrid& g, const FloatGrid& ref)
 {
     if (g.transform() == ref.transform()) return g.deepCopy();
@@ -32,7 +47,8 @@ FloatGrid::Ptr onTransformOf(const FloatGrid& g, const FloatGrid& ref)
 
 } // namespace
 
-FloatGrid::Ptr csgGrids(CsgOp op, const std::vector<FloatGrid::ConstPtr>& grids, double r)
+FloatGrid::Ptr csgGrids(CsgOp op, const std::vector<FloatGrid::ConstPtr>& grids, double r,
+                        double maxMemoryBytes)
 {
     initialize();
     require(!grids.empty(), "csg", "number of inputs", ">= 1", grids.size());
@@ -42,6 +58,18 @@ FloatGrid::Ptr csgGrids(CsgOp op, const std::vector<FloatGrid::ConstPtr>& grids,
         requireLevelSet(*grids[i], "csg input " + std::to_string(i));
     }
     const FloatGrid& ref = *grids[0];
+    const double limit = memoryLimitBytes(maxMemoryBytes);
+    double copies = 0;
+    for (size_t i = 0; i < grids.size(); ++i) {
+        const double bytes = resampleBytes(*grids[i], ref);
+        copies += bytes;
+        if (copies > limit) {
+            fail<ValueError>("csg: input ", i + 1, " (voxel size ", grids[i]->voxelSize()[0],
+                             " m) on the first input's voxel size ", ref.voxelSize()[0],
+                             " m needs about ", formatBytes(copies), ", over the ", formatBytes(limit),
+                             " allowed; give the coarsest input first, or raise --max-memory");
+        }
+    }
     std::vector<FloatGrid::Ptr> in;
     for (const auto& g : grids) in.push_back(onTransformOf(*g, ref));
 
@@ -72,11 +100,11 @@ FloatGrid::Ptr csgGrids(CsgOp op, const std::vector<FloatGrid::ConstPtr>& grids,
             bytes += voxels * 5.0;
         }
         bytes *= 1.5;
-        const double limit = 0.75 * physicalMemoryBytes();
         if (bytes > limit) {
             fail<ValueError>("csg: refusing smooth radius ", r, " m at voxel size ", dx,
                              " m: widening the bands needs about ", formatBytes(bytes),
-                             ", over the ", formatBytes(limit), " limit");
+                             ", over the ", formatBytes(limit),
+                             " allowed; use a smaller --smooth, or raise --max-memory");
         }
         FloatGrid::Ptr acc = openvdb::tools::dilateSdf(*result, dilation);
         for (size_t i = 1; i < in.size(); ++i) {

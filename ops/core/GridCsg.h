@@ -18,8 +18,10 @@ namespace rockvdb {
 /// operator reads within R of the result's band is a real distance; the blend is then
 /// evaluated per voxel and clipped back to the first grid's half width.
 /// @note Inputs are never modified. The result is named after the first input.
+/// @throw ValueError when the resampled copies or the widened bands are estimated above
+///        @a maxMemoryBytes (0: 75% of RAM), before anything is allocated.
 openvdb::FloatGrid::Ptr csgGrids(CsgOp op, const std::vector<openvdb::FloatGrid::ConstPtr>& grids,
-                                 double smoothRadius = 0.0);
+                                 double smoothRadius = 0.0, double maxMemoryBytes = 0);
 
 /// @brief An id grid (block_id, rock_id, material: integer ids, background −1) for the result
 /// of csgGrids(@a op, @a surfaces): each active voxel of @a result takes the id of the input

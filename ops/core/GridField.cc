@@ -1,5 +1,6 @@
 #include "GridField.h"
 
+#include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/VdbIO.h>
 
@@ -129,7 +130,8 @@ private:
 
 } // namespace
 
-openvdb::FloatGrid::ConstPtr widenBand(openvdb::FloatGrid::ConstPtr grid, double exactWidth)
+openvdb::FloatGrid::ConstPtr widenBand(openvdb::FloatGrid::ConstPtr grid, double exactWidth,
+                                       double maxMemoryBytes)
 {
     if (!grid) fail<ValueError>("level set field: grid is null");
     requireLevelSet(*grid, "terrain");
@@ -137,6 +139,21 @@ openvdb::FloatGrid::ConstPtr widenBand(openvdb::FloatGrid::ConstPtr grid, double
     const double width = double(grid->background());
     if (!(exactWidth > width)) return grid;
     const int iterations = int(std::ceil((exactWidth - width) / dx - 1e-4)) + 1;
+    // Fast sweeping voxelises active tiles and grows the band layer by layer: the band's
+    // voxels (tiles at their full count) grow by about iterations / (2·half width) of the
+    // band per layer, ~12 bytes each with the sweep's masks.
+    const double active = double(grid->activeVoxelCount());
+    const double halfWidth = std::max(1.0, width / dx);
+    const double bytes = active * (1.0 + iterations / halfWidth) * 12.0;
+    const double limit = memoryLimitBytes(maxMemoryBytes);
+    if (bytes > limit) {
+        const openvdb::Index64 tiles = grid->tree().activeTileCount();
+        fail<ValueError>("level set '", grid->getName(), "': widening its band by ", iterations,
+                         " voxels needs about ", formatBytes(bytes), ", over the ", formatBytes(limit),
+                         " allowed", tiles ? " (its " + std::to_string(tiles) +
+                         " active tiles count at their full voxel count; a narrow-band level set "
+                         "has none)" : std::string(), "; use a coarser voxel size or raise --max-memory");
+    }
     openvdb::FloatGrid::Ptr g = openvdb::tools::dilateSdf(*grid, iterations);
     // Beyond the widened band the field must keep growing: background = the new width.
     const float bg = float(width + iterations * dx);
@@ -151,9 +168,9 @@ openvdb::FloatGrid::ConstPtr widenBand(openvdb::FloatGrid::ConstPtr grid, double
     return g;
 }
 
-FieldPtr levelSetField(openvdb::FloatGrid::ConstPtr grid, double exactWidth)
+FieldPtr levelSetField(openvdb::FloatGrid::ConstPtr grid, double exactWidth, double maxMemoryBytes)
 {
-    return std::make_shared<LevelSetField>(widenBand(std::move(grid), exactWidth));
+    return std::make_shared<LevelSetField>(widenBand(std::move(grid), exactWidth, maxMemoryBytes));
 }
 
 } // namespace rockvdb

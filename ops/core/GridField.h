@@ -13,7 +13,9 @@ namespace rockvdb {
 /// distances or gradients that far from the surface get real values.
 /// The field shares @a grid (or its widened copy) and never modifies it.
 /// @throw ValueError unless @a grid is a level set.
-FieldPtr levelSetField(openvdb::FloatGrid::ConstPtr grid, double exactWidth = 0.0);
+/// @throw ValueError when widening is estimated above @a maxMemoryBytes (0: 75% of RAM).
+FieldPtr levelSetField(openvdb::FloatGrid::ConstPtr grid, double exactWidth = 0.0,
+                       double maxMemoryBytes = 0.0);
 
 /// @brief @a grid itself when its band already reaches @a exactWidth metres, else a copy
 /// widened by tools::dilateSdf: whole face-neighbour layers, one more than exactWidth needs
@@ -21,6 +23,10 @@ FieldPtr levelSetField(openvdb::FloatGrid::ConstPtr grid, double exactWidth = 0.
 /// Face layers reach exactWidth along the axes and about width + (exactWidth − width)/√3
 /// along the diagonals; voxels beyond hold ±background.
 /// @throw ValueError unless @a grid is a level set.
-openvdb::FloatGrid::ConstPtr widenBand(openvdb::FloatGrid::ConstPtr grid, double exactWidth);
+/// @throw ValueError when the widened band is estimated above @a maxMemoryBytes (0: 75% of
+///        RAM) before sweeping: active tiles (which fast sweeping voxelises) count at their
+///        full voxel count.
+openvdb::FloatGrid::ConstPtr widenBand(openvdb::FloatGrid::ConstPtr grid, double exactWidth,
+                                       double maxMemoryBytes = 0.0);
 
 } // namespace rockvdb

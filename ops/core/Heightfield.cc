@@ -21,11 +21,12 @@ void Heightfield::validate(const char* op) const
     }
 }
 
-Heightfield loadHeightfield(const std::string& path, double cellSize, double heightScale)
+Heightfield loadHeightfield(const std::string& path, double cellSize, double heightScale,
+                            double maxMemoryBytes)
 {
     require(std::isfinite(cellSize) && cellSize > 0, "heightfield", "cell size", "> 0", cellSize);
     require(std::isfinite(heightScale), "heightfield", "height scale", "finite", heightScale);
-    const GrayImage img = readGrayImage(path, "heightfield");
+    const GrayImage img = readGrayImage(path, "heightfield", maxMemoryBytes);
     Heightfield hf;
     hf.nx = img.width;
     hf.ny = img.height;
@@ -231,13 +232,15 @@ private:
         if (lb > rho) return sign * lb;
         // Exact: search cells ring by ring around (ci, cj) while a ring can still be closer.
         const int cx = h.nx - 1, cy = h.ny - 1;
-        const int maxRing = int(std::ceil(rho / c)) + 1;
+        // Rings beyond the grid hold no cells: the search ends there however small the
+        // cells are against rho (a 1e-9 m cell size would otherwise ask for 1e8 rings).
+        const int gridRing = std::max({ci, cx - 1 - ci, cj, cy - 1 - cj});
+        const int maxRing = int(std::min(std::ceil(rho / c) + 1.0, double(gridRing)));
         double best2 = std::numeric_limits<double>::max();
         for (int r = 0; r <= maxRing; ++r) {
             const double ringGap = std::max(0.0, (r - 1) * c);
             if (ringGap * ringGap >= best2) break;
-            for (int j = cj - r; j <= cj + r; ++j) {
-                if (j < 0 || j >= cy) continue;
+            for (int j = std::max(cj - r, 0); j <= std::min(cj + r, cy - 1); ++j) {
                 const bool edgeRow = (j == cj - r || j == cj + r);
                 for (int i = ci - r; i <= ci + r; i += (edgeRow ? 1 : 2 * r)) {
                     if (i >= 0 && i < cx) {

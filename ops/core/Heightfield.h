@@ -34,7 +34,8 @@ struct Heightfield
 /// @brief Load an EXR / 16-bit PNG heightfield (see file comment for the convention).
 /// @param cellSize     sample spacing (m), > 0
 /// @param heightScale  metres per image unit, finite
-Heightfield loadHeightfield(const std::string& path, double cellSize, double heightScale);
+Heightfield loadHeightfield(const std::string& path, double cellSize, double heightScale,
+                            double maxMemoryBytes = 0);
 
 /// @brief A procedural fBm heightfield: z = amplitude · fbm2(x, y) / Σgain (m).
 Heightfield noiseHeightfield(int nx, int ny, double cellSize, double amplitude,

@@ -1,5 +1,6 @@
 #include "Image.h"
 
+#include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/VdbIO.h>
 
@@ -34,6 +35,27 @@ std::string readAll(const std::string& path, const char* op)
     return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
 }
 
+// Before a decode allocates for the size its header claims: that size must fit what the
+// file's bytes can hold (a 346-byte PNG claiming 60000x60000 pixels would take 7 GB first and
+// fail on truncation after), and the image with its float copies (about 10 bytes per pixel
+// between decode and use) must fit the memory limit.
+void checkClaimedSize(const std::string& path, const char* op, double width, double height,
+                      double sampleBytes, double maxExpansion, size_t fileBytes, double maxMemoryBytes)
+{
+    const double raw = width * height * sampleBytes;
+    if (raw > maxExpansion * double(fileBytes) + 65536.0) {
+        fail<IoError>(op, ": cannot read '", path, "': corrupt or truncated image (its header claims ",
+                      width, "x", height, " pixels, ", formatBytes(raw), ", but the file holds only ",
+                      fileBytes, " bytes)");
+    }
+    const double need = width * height * 10.0, limit = memoryLimitBytes(maxMemoryBytes);
+    if (need > limit) {
+        fail<ValueError>(op, ": '", path, "' is ", width, "x", height, " pixels: reading it needs about ",
+                         formatBytes(need), ", over the ", formatBytes(limit),
+                         " allowed; use a smaller image or raise --max-memory");
+    }
+}
+
 // ---- PNG ------------------------------------------------------------------------------
 
 struct PngReadState
@@ -58,7 +80,7 @@ void pngErrorFn(png_structp png, png_const_charp msg)
 }
 void pngWarnFn(png_structp, png_const_charp) {}
 
-GrayImage readPng(const std::string& path, const std::string& bytes, const char* op)
+GrayImage readPng(const std::string& path, const std::string& bytes, const char* op, double maxMemoryBytes)
 {
     std::string err;
     png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &err, pngErrorFn, pngWarnFn);
@@ -89,6 +111,8 @@ GrayImage readPng(const std::string& path, const std::string& bytes, const char*
         fail<ValueError>(op, ": '", path, "' is a ", bitDepth, "-bit ", kind,
                          " PNG; expected a 16-bit single-channel (greyscale) PNG");
     }
+    // Deflate expands at most 1032:1 (and each row carries a filter byte).
+    checkClaimedSize(path, op, img.width, img.height, 2.0, 1100.0, bytes.size(), maxMemoryBytes);
     png_set_swap(png); // big-endian samples to host order
     data.resize(size_t(img.width) * size_t(img.height));
     rows.resize(size_t(img.height));
@@ -154,7 +178,7 @@ private:
     uint64_t mPos = 0;
 };
 
-GrayImage readExr(const std::string& path, const std::string& bytes, const char* op)
+GrayImage readExr(const std::string& path, const std::string& bytes, const char* op, double maxMemoryBytes)
 {
     try {
         MemoryIStream stream(bytes, path);
@@ -172,6 +196,10 @@ GrayImage readExr(const std::string& path, const std::string& bytes, const char*
         GrayImage img;
         img.width = dw.max.x - dw.min.x + 1;
         img.height = dw.max.y - dw.min.y + 1;
+        // EXR's codecs expand less than deflate's 1032:1 except on constant data (run-length
+        // coded PIZ): 10 000:1 is generous for any real file.
+        checkClaimedSize(path, op, double(dw.max.x) - dw.min.x + 1, double(dw.max.y) - dw.min.y + 1,
+                         4.0, 1e4, bytes.size(), maxMemoryBytes);
         img.pixels.assign(size_t(img.width) * size_t(img.height), 0.0f);
         Imf::FrameBuffer fb;
         char* base = reinterpret_cast<char*>(img.pixels.data()) -
@@ -182,6 +210,8 @@ GrayImage readExr(const std::string& path, const std::string& bytes, const char*
         file.readPixels(dw.min.y, dw.max.y);
         return img;
     } catch (const ValueError&) {
+        throw;
+    } catch (const IoError&) {
         throw;
     } catch (const std::exception& e) {
         fail<IoError>(op, ": cannot read '", path, "': ", e.what());
@@ -197,16 +227,16 @@ bool endsWith(const std::string& s, const std::string& suffix)
 
 } // namespace
 
-GrayImage readGrayImage(const std::string& path, const char* op)
+GrayImage readGrayImage(const std::string& path, const char* op, double maxMemoryBytes)
 {
     const std::string bytes = readAll(path, op);
     static const unsigned char pngSig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     static const unsigned char exrSig[4] = {0x76, 0x2f, 0x31, 0x01};
     GrayImage img;
     if (bytes.size() >= 8 && std::memcmp(bytes.data(), pngSig, 8) == 0) {
-        img = readPng(path, bytes, op);
+        img = readPng(path, bytes, op, maxMemoryBytes);
     } else if (bytes.size() >= 4 && std::memcmp(bytes.data(), exrSig, 4) == 0) {
-        img = readExr(path, bytes, op);
+        img = readExr(path, bytes, op, maxMemoryBytes);
     } else {
         fail<IoError>(op, ": cannot read '", path, "': not an EXR or PNG image");
     }

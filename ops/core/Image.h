@@ -18,9 +18,10 @@ struct GrayImage
 
 /// @brief Read a single-channel float EXR (values as stored) or a 16-bit greyscale PNG
 /// (0..65535 mapped to 0..1), chosen by content.
-/// @throw IoError for a missing or unreadable file; ValueError for a wrong channel count or
-///        bit depth (the message says what was found).
-GrayImage readGrayImage(const std::string& path, const char* op = "image");
+/// @throw IoError for a missing or unreadable file, or one whose header claims more pixels
+///        than its bytes can hold; ValueError for a wrong channel count or bit depth (the
+///        message says what was found), or an image over @a maxMemoryBytes (0: 75% of RAM).
+GrayImage readGrayImage(const std::string& path, const char* op = "image", double maxMemoryBytes = 0);
 
 /// @brief Encode an 8-bit RGB image (row-major, 3 bytes per pixel) as PNG bytes.
 std::string encodePngRgb8(int width, int height, const std::vector<uint8_t>& rgb);

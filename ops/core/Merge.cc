@@ -1,5 +1,8 @@
 #include "Merge.h"
 
+#include <cstdio>
+#include <string>
+
 #include <rockvdb/core/Error.h>
 
 #include <openvdb/tools/SignedFloodFill.h>
@@ -41,9 +44,15 @@ openvdb::FloatGrid::Ptr mergeChunks(const std::vector<openvdb::FloatGrid::ConstP
                 const openvdb::Index n = v.pos();
                 if (dst->isValueOn(n) && dst->getValue(n) != *v) {
                     const auto ijk = v.getCoord();
+                    // Nine significant digits: two floats that differ always print apart.
+                    auto exact = [](float x) {
+                        char buf[32];
+                        std::snprintf(buf, sizeof buf, "%.9g", double(x));
+                        return std::string(buf);
+                    };
                     fail<ValueError>("merge: chunks disagree on grid '", c.getName(), "' at voxel (",
                                      ijk.x(), ", ", ijk.y(), ", ", ijk.z(), "): ",
-                                     dst->getValue(n), " vs ", *v, " (not chunks of one bake?)");
+                                     exact(dst->getValue(n)), " vs ", exact(*v), " (not chunks of one bake?)");
                 }
                 dst->setValueOn(n, *v);
             }

@@ -234,13 +234,14 @@ std::string lowerExtension(const std::string& path)
     return ext;
 }
 
-void addPolygon(Mesh& m, const std::vector<int>& idx, const std::string& where)
+// @a idx counts from 0; @a base is how the file counts (OBJ from 1), for the message.
+void addPolygon(Mesh& m, const std::vector<int>& idx, const std::string& where, int base = 0)
 {
     if (idx.size() < 3) fail<ValueError>(where, ": a face needs at least 3 vertices");
     for (int i : idx) {
         if (i < 0 || size_t(i) >= m.points.size()) {
-            fail<ValueError>(where, ": vertex index ", i, " out of range (", m.points.size(),
-                             " vertices)");
+            fail<ValueError>(where, ": vertex index ", int64_t(i) + base, " out of range (",
+                             m.points.size(), " vertices", base ? ", counted from 1)" : ")");
         }
     }
     for (size_t k = 1; k + 1 < idx.size(); ++k) {
@@ -275,7 +276,7 @@ Mesh readObj(const std::string& path, std::istream& in)
                 }
                 idx.push_back(i > 0 ? i - 1 : int(m.points.size()) + i);
             }
-            addPolygon(m, idx, where);
+            addPolygon(m, idx, where, 1);
         }
     }
     return m;

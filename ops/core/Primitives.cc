@@ -256,6 +256,11 @@ std::vector<Vec3d> polytopeVertices(const std::vector<Plane>& planes)
 FieldPtr convexPolytope(const std::vector<Plane>& planes, double smoothRadius)
 {
     require(!planes.empty(), "polytope", "number of planes", ">= 1", planes.size());
+    // The vertex enumeration (its bounds) is cubic in the planes and every voxel evaluates
+    // all of them: thousands of planes would run for minutes, so they are refused up front.
+    static_assert(kMaxPolytopePlanes == 512, "the message below names the limit");
+    require(planes.size() <= kMaxPolytopePlanes, "polytope", "number of planes",
+            "<= 512 (the work is cubic in the planes)", planes.size());
     require(std::isfinite(smoothRadius) && smoothRadius >= 0, "polytope", "smooth radius",
             ">= 0", smoothRadius);
     std::vector<Plane> unit;

@@ -37,7 +37,9 @@ struct Plane
 /// intersection of implicit-blocks-rocky-scenery §4.2 folded over the planes in order.
 /// Bounds come from the polytope's vertices; an unbounded set of planes is unbounded.
 /// Not exact outside near edges and corners (max of planes is a lower bound there).
+/// At most kMaxPolytopePlanes planes (the bounds' vertex enumeration is cubic in them).
 FieldPtr convexPolytope(const std::vector<Plane>& planes, double smoothRadius = 0.0);
+constexpr size_t kMaxPolytopePlanes = 512;
 
 /// @brief Vertices of the convex polytope {n_k·p <= d_k} (empty when empty or unbounded).
 std::vector<Vec3d> polytopeVertices(const std::vector<Plane>& planes);

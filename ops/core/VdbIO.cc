@@ -25,6 +25,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+// Defined only in a sanitizer runtime (a weak reference stays null in a normal build).
+extern "C" void __sanitizer_set_death_callback(void (*)(void)) __attribute__((weak));
+
 #ifndef ROCKVDB_VERSION
 #define ROCKVDB_VERSION "0.0.0"
 #endif
@@ -178,19 +181,57 @@ void requireWritable(const std::string& path)
 
 namespace {
 
-char gPendingTemp[4096] = "";
+// Temporary files that exist and are not renamed yet, for a signal handler to unlink: a slot
+// is filled before the file is created and emptied after it is renamed or removed.
+constexpr int kPendingSlots = 32;
+char gPendingTemp[kPendingSlots][4096];
+std::mutex gPendingMutex;
 std::atomic<bool (*)()> gCommitCheck{nullptr};
 
-// The temporary file named in gPendingTemp while it exists (a signal handler may read it).
 class PendingTemp
 {
 public:
     explicit PendingTemp(const std::string& tmp)
     {
-        if (tmp.size() < sizeof gPendingTemp) std::memcpy(gPendingTemp, tmp.c_str(), tmp.size() + 1);
+        std::lock_guard<std::mutex> lock(gPendingMutex);
+        for (int i = 0; i < kPendingSlots && tmp.size() < sizeof gPendingTemp[0]; ++i) {
+            if (gPendingTemp[i][0] == '\0') {
+                std::memcpy(gPendingTemp[i] + 1, tmp.c_str() + 1, tmp.size());
+                std::atomic_signal_fence(std::memory_order_seq_cst);
+                gPendingTemp[i][0] = tmp[0]; // the slot counts from its first byte on
+                mSlot = i;
+                return;
+            }
+        }
     }
-    ~PendingTemp() { gPendingTemp[0] = '\0'; }
+    ~PendingTemp()
+    {
+        std::lock_guard<std::mutex> lock(gPendingMutex);
+        if (mSlot >= 0) gPendingTemp[mSlot][0] = '\0';
+    }
+    PendingTemp(const PendingTemp&) = delete;
+    PendingTemp& operator=(const PendingTemp&) = delete;
+
+private:
+    int mSlot = -1;
 };
+
+// The open OutputBatch's outputs: (given name, target, temporary) written and not renamed,
+// and the bytes for stdout.
+struct PendingOutputs
+{
+    struct File
+    {
+        std::string given, path, tmp;
+        std::unique_ptr<PendingTemp> pending;
+    };
+    std::vector<File> files;
+    std::vector<std::pair<std::string, std::string>> streams; // devices, FIFOs: (given, path)
+    std::vector<std::string> streamBytes;                     // what each of them gets
+    std::string stdoutBytes;
+    bool hasStdout = false;
+};
+PendingOutputs* gBatch = nullptr;
 
 // Write through to a stream target (checkWritableTarget said which), all or an error.
 void writeThrough(const std::string& given, const std::string& path, const std::string& bytes)
@@ -217,9 +258,14 @@ void writeThrough(const std::string& given, const std::string& path, const std::
 void writeCheckedAtomic(const std::string& given, const std::string& bytes)
 {
     const std::string path = resolveTarget(given);
-    if (isStreamTarget(path)) return writeThrough(given, path, bytes);
+    if (isStreamTarget(path)) {
+        if (!gBatch) return writeThrough(given, path, bytes);
+        gBatch->streams.emplace_back(given, path);
+        gBatch->streamBytes.push_back(bytes);
+        return;
+    }
     const std::string tmp = tempNameFor(path);
-    PendingTemp pending(tmp);
+    auto pending = std::make_unique<PendingTemp>(tmp);
     {
         std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
         if (!f) fail<IoError>("cannot write '", given, "': ", std::strerror(errno));
@@ -229,6 +275,10 @@ void writeCheckedAtomic(const std::string& given, const std::string& bytes)
             std::remove(tmp.c_str());
             fail<IoError>("cannot write '", given, "': write failed (disk full?)");
         }
+    }
+    if (gBatch) {
+        gBatch->files.push_back({given, path, tmp, std::move(pending)});
+        return;
     }
     if (auto check = gCommitCheck.load(); check && check()) {
         std::remove(tmp.c_str());
@@ -240,15 +290,74 @@ void writeCheckedAtomic(const std::string& given, const std::string& bytes)
         fail<IoError>("cannot write '", given, "': ", std::strerror(err));
     }
 }
+
+void writeOrKeepStdout(const std::string& bytes)
+{
+    if (!gBatch) return writeStdout(bytes);
+    if (::isatty(STDOUT_FILENO)) writeStdout(bytes); // (refused: the message says why)
+    if (gBatch->hasStdout) fail<ValueError>("two outputs of one run write to stdout");
+    gBatch->hasStdout = true;
+    gBatch->stdoutBytes = bytes;
+}
 } // namespace
 
-const char* pendingTempFile() { return gPendingTemp; }
+void removePendingTemps()
+{
+    for (int i = 0; i < kPendingSlots; ++i) {
+        if (gPendingTemp[i][0] != '\0') ::unlink(gPendingTemp[i]);
+    }
+}
+
+OutputBatch::OutputBatch()
+{
+    if (gBatch) fail<std::logic_error>("an OutputBatch is already open");
+    gBatch = new PendingOutputs;
+}
+
+OutputBatch::~OutputBatch()
+{
+    PendingOutputs* b = gBatch;
+    gBatch = nullptr;
+    for (auto& f : b->files) {
+        if (!f.tmp.empty()) std::remove(f.tmp.c_str());
+    }
+    delete b;
+}
+
+void OutputBatch::commit()
+{
+    PendingOutputs* b = gBatch;
+    if (!b) return;
+    if (auto check = gCommitCheck.load(); check && check()) throw Interrupted(); // (~ removes)
+    gBatch = nullptr; // the writes below go straight out
+    try {
+        // Streams first (a closed pipe fails before any file is replaced), then the renames.
+        if (b->hasStdout) writeStdout(b->stdoutBytes);
+        for (size_t i = 0; i < b->streams.size(); ++i) {
+            writeThrough(b->streams[i].first, b->streams[i].second, b->streamBytes[i]);
+        }
+        for (size_t i = 0; i < b->files.size(); ++i) {
+            auto& f = b->files[i];
+            if (std::rename(f.tmp.c_str(), f.path.c_str()) != 0) {
+                const int err = errno;
+                fail<IoError>("cannot write '", f.given, "': ", std::strerror(err));
+            }
+            f.tmp.clear();
+            f.pending.reset();
+        }
+    } catch (...) {
+        gBatch = b; // ~OutputBatch removes what is left
+        throw;
+    }
+    gBatch = b;
+    b->files.clear();
+}
 
 void setCommitCheck(bool (*cancelled)()) { gCommitCheck.store(cancelled); }
 
 void writeFileAtomic(const std::string& path, const std::string& bytes)
 {
-    if (path == "-") return writeStdout(bytes);
+    if (path == "-") return writeOrKeepStdout(bytes);
     checkWritableTarget(path);
     writeCheckedAtomic(path, bytes);
 }
@@ -263,7 +372,7 @@ void writeGrids(const std::string& path, const openvdb::GridCPtrVec& grids)
     } catch (const openvdb::Exception& e) {
         fail<IoError>("cannot write '", path, "': ", e.what());
     }
-    if (path == "-") return writeStdout(bytes);
+    if (path == "-") return writeOrKeepStdout(bytes);
     writeCheckedAtomic(path, bytes);
 }
 
@@ -330,6 +439,10 @@ void probeVdb(const std::string& bytes, const std::string& name)
     }
     if (pid == 0) {
         ::close(pipeFd[0]);
+        // A crash here is the answer, not a finding: the parent's crash handlers (a
+        // sanitizer's or libFuzzer's, which would report and write an artifact) are dropped.
+        for (const int sig : {SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT}) std::signal(sig, SIG_DFL);
+        if (__sanitizer_set_death_callback) __sanitizer_set_death_callback(nullptr);
         // Quiet: glibc's heap checks print to stderr when a corrupt file trips them.
         const int null = ::open("/dev/null", O_WRONLY);
         if (null >= 0) ::dup2(null, STDERR_FILENO);

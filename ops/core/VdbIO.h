@@ -54,9 +54,27 @@ void requireLevelSet(const openvdb::GridBase& grid, const std::string& what);
 /// not a folder itself. Tools call it before any work so a bad -o fails fast.
 void requireWritable(const std::string& path);
 
-/// @brief The temporary file being written at this moment ("" when none). Async-signal-safe
-/// to read: a signal handler that ends the process unlinks it, so nothing is left behind.
-const char* pendingTempFile();
+/// @brief Unlink every temporary file written and not yet renamed over its target.
+/// Async-signal-safe: a signal handler that ends the process calls it, so nothing is left.
+void removePendingTemps();
+
+/// @brief While one is open, every write of this process (writeGrids, writeFileAtomic and
+/// the writers built on them) lands with the others of the batch or not at all: each output
+/// is encoded and written to its temporary file beside its target at once (so a full disk
+/// or a bad folder fails there), stdout's bytes are kept; commit() then writes stdout and
+/// renames every temporary over its target. A batch closed without commit() (an error, a
+/// Ctrl-C) removes its temporaries: no output of the run is written, none replaced. One
+/// batch at a time, opened and committed on one thread (the CLI opens one around each run).
+class OutputBatch
+{
+public:
+    OutputBatch();
+    ~OutputBatch();
+    OutputBatch(const OutputBatch&) = delete;
+    OutputBatch& operator=(const OutputBatch&) = delete;
+    /// @throw Interrupted when the commit check says so (nothing is renamed then).
+    void commit();
+};
 
 /// @brief A check made just before a finished temporary file is renamed over its target:
 /// when it returns true the temporary is removed and Interrupted thrown, so a cancel that

@@ -635,12 +635,13 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
                           double(grid->background())) / dx;
     if (!none && widen > kMaxWidenVoxels) {
         fail<ValueError>("detail: amplitudes (warp ", p.maxWarp(), " m, gabor ", p.maxGabor(),
-                         " m) need the input's band widened by ", int(std::ceil(widen)),
+                         " m) need the input's band widened by ", std::ceil(widen),
                          " voxels, at most ", kMaxWidenVoxels, " at voxel size ", dx,
                          " m: use smaller amplitudes or a coarser input");
     }
     const openvdb::FloatGrid::ConstPtr wide =
-        widenBand(grid, none ? 0.0 : p.reach(settings.halfWidth * settings.voxelSize));
+        widenBand(grid, none ? 0.0 : p.reach(settings.halfWidth * settings.voxelSize),
+                  settings.maxMemoryBytes);
     FieldPtr f = detailField(levelSetField(wide), p, dx);
     if (none) return bake(*f, settings, interrupt);
     BakeSettings s = settings;

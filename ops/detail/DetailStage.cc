@@ -187,6 +187,22 @@ DetailResult runDetail(const DetailStageParams& params, const DetailInputs& in, 
     if (in.blendMask && params.blend.is_null()) {
         fail<ValueError>("detail: a blend mask needs blend (--blend / blend: the parameters)");
     }
+    if (in.blendMask) {
+        // Weights, so in [0, 1]: a 5, a −3 or a NaN is a wrong grid, not something to clamp.
+        const openvdb::FloatGrid& m = *in.blendMask;
+        auto bad = [](float v) { return !(v >= -1e-6f && v <= 1.0f + 1e-6f); };
+        if (bad(m.background())) {
+            fail<ValueError>("detail: blend mask '", m.getName(), "' has background ", m.background(),
+                             "; its weights must be in [0, 1]");
+        }
+        for (auto it = m.cbeginValueAll(); it; ++it) {
+            if (bad(*it)) {
+                const auto ijk = it.getCoord();
+                fail<ValueError>("detail: blend mask '", m.getName(), "' holds ", *it, " at voxel (",
+                                 ijk.x(), ", ", ijk.y(), ", ", ijk.z(), "); its weights must be in [0, 1]");
+            }
+        }
+    }
     p.blendMask = in.blendMask;
     const double dx = in.grid->voxelSize()[0];
     BakeSettings settings = params.bake.settings(dx, double(in.grid->background()) / dx);

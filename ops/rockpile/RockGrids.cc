@@ -335,6 +335,15 @@ TileSet tilesFromGrid(const openvdb::FloatGrid& rho)
         params[key] = it.value();
     }
     set.params = RockTileParams::fromJson(params);
+    // The description and the grid must agree: an edited n, voxels-per-cell or cube-size
+    // would otherwise silently rescale every rock.
+    const double dx = rho.voxelSize()[0], expected = set.params.voxelSize();
+    if (!(std::abs(dx - expected) <= 1e-6 * expected)) {
+        fail<ValueError>("rockpile: grid '", rho.getName(), "' has voxels of ", dx, " m but its tile set "
+                         "description (n = ", set.params.n, ", voxels-per-cell = ", set.params.voxelsPerCell,
+                         ", cube-size = ", set.params.cubeSize, " m) means ", expected,
+                         " m: the metadata was edited or belongs to another grid");
+    }
     auto acc = rho.getConstAccessor();
     for (const auto& rj : j.at("rocks")) {
         Rock r;

@@ -122,6 +122,16 @@ std::vector<Instance> selectRocks(const TileSet& set, const Field& support, cons
     const double dx = tp.voxelSize();
     const BBoxd bb = support.bounds();
     if (!isBounded(bb)) fail<ValueError>("rockpile: the support must be bounded");
+    // Supports are sampled at float positions and rocks placed in int32 voxels: beyond 2^20
+    // voxels from the origin a float resolves less than 1/16 of a voxel (at 1e8 m, 8 m), so
+    // the selection would be noise; refused instead of an empty or garbled pile.
+    const double farthest = std::max({std::abs(bb.min()[0]), std::abs(bb.min()[1]), std::abs(bb.min()[2]),
+                                      std::abs(bb.max()[0]), std::abs(bb.max()[1]), std::abs(bb.max()[2])});
+    if (farthest / dx > double(1 << 20)) {
+        fail<ValueError>("rockpile: the support reaches ", farthest, " m from the origin, beyond the ",
+                         double(1 << 20) * dx, " m (2^20 voxels of ", dx,
+                         " m) where positions stay precise; move it nearer the origin");
+    }
 
     // Region look-up by (type, axes, colours).
     std::map<std::tuple<int, std::array<int, 3>, std::vector<int>>, size_t> regionOf;

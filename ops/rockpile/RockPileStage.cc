@@ -1,5 +1,6 @@
 #include "RockPileStage.h"
 
+#include <rockvdb/core/Bake.h>
 #include <rockvdb/core/VdbIO.h>
 
 namespace rockvdb {
@@ -129,9 +130,30 @@ void PileParams::validate() const
             halfWidth);
 }
 
-TilesResult runTiles(const RockTileParams& params, bool library, Task& task)
+double tilesBytes(const RockTileParams& p, bool library)
+{
+    const double n = p.n, inner = n - 2.0;
+    const double cells = p.tiling == Tiling::Periodic
+                             ? n * n * n
+                             : 16.0 + 48.0 * inner + 96.0 * inner * inner + 256.0 * inner * inner * inner;
+    const double m = p.voxelsPerCell;
+    // Bytes per cell voxel at the peak RSS, measured at n = 6 and 10 (m = 10): 52 and 49
+    // without the library (the rocks' dense boxes of ρ, their Voronoi scratch, the tile
+    // grid beside them), 122 and 117 with it (the rocks' narrow bands and their atlas).
+    const double perVoxel = library ? 124.0 : 52.0;
+    return cells * m * m * m * perVoxel + 64e6;
+}
+
+TilesResult runTiles(const RockTileParams& params, bool library, Task& task, double maxMemoryBytes)
 {
     params.validate();
+    const double need = tilesBytes(params, library), limit = memoryLimitBytes(maxMemoryBytes);
+    if (need > limit) {
+        fail<ValueError>("rockpile: a tile set of n = ", params.n, " cells per cube edge at ",
+                         params.voxelsPerCell, " voxels per cell needs about ", formatBytes(need),
+                         ", over the ", formatBytes(limit), " allowed; use a smaller --n or "
+                         "--voxels-per-cell, or raise --max-memory");
+    }
     TilesResult r;
     // Shares measured at the defaults: Voronoi + erosion dominates; the library's level sets
     // take about as long again when asked for.

@@ -36,7 +36,16 @@ struct TilesResult
 
 /// @brief Generate a tile set (phases: voronoi + erosion, tile grid, library), every grid
 /// stamped with provenance {"tiles": params}.
-TilesResult runTiles(const RockTileParams& params, bool library, Task& task);
+/// @throw ValueError before any work when tilesBytes() is over @a maxMemoryBytes (0: 75% of
+///        RAM): the message gives the estimate and the parameters that lower it.
+TilesResult runTiles(const RockTileParams& params, bool library, Task& task,
+                     double maxMemoryBytes = 0);
+
+/// @brief Peak memory of runTiles, estimated from the parameters alone: the cells of every
+/// region (aperiodic: 2·8 + 12·4(n−2) + 48·2(n−2)² + 256(n−2)³; periodic: n³) times m³
+/// voxels each, at the bytes per voxel measured for the rocks' boxes, the Voronoi scratch
+/// and the tile grid (and the library's level sets when asked).
+double tilesBytes(const RockTileParams& params, bool library);
 
 /// @brief The tile set of a file written by `tiles` (its grid 'rho').
 /// @throw IoError for unreadable files, ValueError when the file holds no tile set.

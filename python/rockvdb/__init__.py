@@ -156,8 +156,25 @@ def _stage_params(table, fn, params):
             value = _ints(value, row["count"], key, fn)
         else:
             value = _floats(value, row["count"], key, fn)
+        bad = _non_finite(value)
+        if bad is not None:
+            # (JSON has no NaN: the C++ side would only see a parse error)
+            raise ValueError(f"{fn}: {key} must be finite (got {bad})")
         out[row["name"]] = value
-    return _json.dumps(out)
+    return _json.dumps(out, allow_nan=False)
+
+
+def _non_finite(value):
+    """The first NaN or infinity in a number, list or dict (None when there is none)."""
+    import math
+    if isinstance(value, float) and not math.isfinite(value):
+        return value
+    items = value.values() if isinstance(value, dict) else value if isinstance(value, (list, tuple)) else ()
+    for v in items:
+        bad = _non_finite(v)
+        if bad is not None:
+            return bad
+    return None
 
 
 def _shown(value):
@@ -410,14 +427,15 @@ def read_image(path):
     return _rockvdb.read_image(_path(path, "path", "read_image"), "image")
 
 
-def csg(op, grids, smooth=0.0, ids=None):
+def csg(op, grids, smooth=0.0, ids=None, max_memory=0.0):
     """Fold 'union', 'intersection' or 'difference' (the first minus the others) over
     level-set grids, left to right; smooth: blend radius (m, default 0 = hard CSG). Grids on
     another voxel size are resampled onto the first. Inputs are left untouched; returns a new
     grid. ids: one list of id grids (block_id, rock_id, material, ...) per input (default
     None); then returns (surface, [id grids]) with each name carried as vdb_csg carries it: a
     voxel takes the id of the input whose surface the result follows there (in a difference,
-    the first input's), -1 where that input has no such grid."""
+    the first input's), -1 where that input has no such grid. max_memory (GB, 0 = 75% of RAM):
+    a CSG whose resampled inputs or widened bands are estimated above it is refused first."""
     fn = "csg"
     grids = _grids(grids, "grids", fn)
     lists = []
@@ -428,7 +446,8 @@ def csg(op, grids, smooth=0.0, ids=None):
         if len(lists) != len(grids):
             raise ValueError(f"csg: ids needs one list of id grids per input grid (got "
                              f"{len(lists)} for {len(grids)})")
-    return _rockvdb.csg(_str(op, "op", fn), grids, _float(smooth, "smooth", fn), lists)
+    return _rockvdb.csg(_str(op, "op", fn), grids, _float(smooth, "smooth", fn), lists,
+                        _float(max_memory, "max_memory", fn))
 
 
 def read(path, grid=None):
@@ -683,10 +702,11 @@ detail = _stage_function(
 # ---------------------------------------------------------------------------------------------
 # Rock tiles and rock piles (aperiodic-rock-piles, arches-material-stacks §5)
 
-def _rock_tiles(path=None, **params):
+def _rock_tiles(path=None, max_memory=0.0, **params):
     fn = "rock_tiles"
     target = _opt(path, _path, "path", fn)
-    grid = _rockvdb.rock_tiles(_stage_params(_ROCK_TILES, fn, params))
+    grid = _rockvdb.rock_tiles(_stage_params(_ROCK_TILES, fn, params),
+                               _float(max_memory, "max_memory", fn))
     if target is not None:
         _rockvdb.write(target, [grid])
     return grid
@@ -697,8 +717,9 @@ rock_tiles = _stage_function(
     "A rock tile set (vdb_rockpile tiles from Python; aperiodic-rock-piles §2-§5, arches §5).",
     "Returns the tile set as a pyopenvdb.FloatGrid 'rho' (each rock's erosion state in its own "
     "slot, the description in metadata 'rockvdb:tiles'); path also writes it (atomically). "
-    "Ctrl-C raises KeyboardInterrupt.",
-    after=[("path", None)])
+    "max_memory (GB, 0 = 75% of RAM): a tile set estimated above it is refused before any "
+    "work. Ctrl-C raises KeyboardInterrupt.",
+    after=[("path", None), ("max_memory", 0.0)])
 
 
 def _tile_grid(tiles, fn):

@@ -356,13 +356,15 @@ PYBIND11_MODULE(_rockvdb, m)
         throw ValueError("schema: no stage '" + stage + "'");
     }, py::arg("stage"));
 
-    m.def("rock_tiles", [](const std::string& params) {
+    m.def("rock_tiles", [](const std::string& params, double maxMemoryGB) {
         const rockpile::RockTileParams p = rockpile::tilesSchema().fromJson(parseParams(params, "rockpile"));
+        require(std::isfinite(maxMemoryGB) && maxMemoryGB >= 0, "rockpile", "max_memory", ">= 0 GB",
+                maxMemoryGB);
         py::gil_scoped_release release;
         PyTaskHost host;
         Task task(&host);
-        return rockpile::runTiles(p, false, task).rho;
-    }, py::arg("params"));
+        return rockpile::runTiles(p, false, task, maxMemoryGB * 1e9).rho;
+    }, py::arg("params"), py::arg("max_memory") = 0.0);
 
     // One fractal rock: (surface or None, {points, triangles, normals[, uvs, triangle_uvs,
     // normal_map]} as numpy arrays).
@@ -641,7 +643,9 @@ PYBIND11_MODULE(_rockvdb, m)
        "Read a float EXR / 16-bit PNG (0..1) as a 2D array (row 0 first)");
 
     m.def("csg", [](const std::string& op, const std::vector<Grid>& grids, double smooth,
-                    const std::vector<std::vector<Grid>>& ids) -> py::object {
+                    const std::vector<std::vector<Grid>>& ids, double maxMemoryGB) -> py::object {
+        require(std::isfinite(maxMemoryGB) && maxMemoryGB >= 0, "csg", "max_memory", ">= 0 GB",
+                maxMemoryGB);
         std::vector<openvdb::FloatGrid::ConstPtr> in(grids.begin(), grids.end());
         if (!ids.empty() && ids.size() != grids.size()) {
             throw ValueError("csg: ids needs one list of id grids per input grid");
@@ -659,7 +663,7 @@ PYBIND11_MODULE(_rockvdb, m)
         std::vector<Grid> carried;
         {
             py::gil_scoped_release release;
-            g = csgGrids(csgOpFromString(op), in, smooth);
+            g = csgGrids(csgOpFromString(op), in, smooth, maxMemoryGB * 1e9);
             for (const auto& name : names) {
                 std::vector<openvdb::FloatGrid::ConstPtr> per;
                 for (const auto& list : ids) {
@@ -689,7 +693,7 @@ PYBIND11_MODULE(_rockvdb, m)
         }
         return py::make_tuple(py::cast(g), out);
     }, py::arg("op"), py::arg("grids"), py::arg("smooth") = 0.0,
-       py::arg("ids") = std::vector<std::vector<Grid>>{},
+       py::arg("ids") = std::vector<std::vector<Grid>>{}, py::arg("max_memory") = 0.0,
        "union / intersection / difference of level-set grids (inputs untouched)");
 
     m.def("read", [](const std::string& path, const std::string& name) { return readLevelSet(path, name); },

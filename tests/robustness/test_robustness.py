@@ -5,10 +5,13 @@ code when it fails, no crash, no hang, and nothing written or replaced.
 The table is ROWS below: (name, command builder, expected exit code, a needle of the message).
 Flipped-byte files are swept separately (FLIP_TOOLS), a fixed seeded set of flips per tool."""
 import json
+import math
 import os
 import random
+import struct
 import subprocess
 import sys
+import zlib
 
 import pytest
 
@@ -126,6 +129,14 @@ print(read, refused)
     assert p.stderr == "", p.stderr[-500:]  # nothing from crashed readers leaks out
 
 
+def png_claiming(width, height):
+    """A 16-bit grey PNG header claiming width x height pixels, with a few bytes of data."""
+    def chunk(kind, body):
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 16, 0, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(b"\0" * 4096)) + b"\0" * 300)
+
+
 def deep_expression(depth):
     return '{"type": "union", "children": [' * depth + '{"type": "sphere", "radius": 1}' + "]}" * depth
 
@@ -170,6 +181,28 @@ ROWS = {
         {"scene.json": json.dumps({"terrain": {"type": "box", "size": [4, 4, 2]}})},
         lambda t: [tool("vdb_arches"), str(t / "scene.json"), "--stacks", str(t / "out.stacks"),
                    "--points", str(t / "out.stacks"), "-o", str(t / "out.vdb")], 2, "name the same file"),
+    "a 346-byte PNG claiming 60000x60000 pixels": (
+        {"big.png": png_claiming(60000, 60000)},
+        lambda t: [tool("vdb_heightfield"), str(t / "big.png"), "-o", str(t / "out.vdb")], 1,
+        "corrupt or truncated image (its header claims 60000x60000 pixels, 7.2 GB"),
+    "a polytope of 4000 planes": (
+        {"poly.json": json.dumps({"type": "polytope", "planes": [
+            [math.cos(k), math.sin(k), math.sin(3 * k), 1.0] for k in range(4000)]})},
+        lambda t: [tool("vdb_primitive"), "expr", str(t / "poly.json"), "-o", str(t / "out.vdb")], 2,
+        "number of planes must be <= 512"),
+    "an authored box 1e6 m wide": (
+        {"authored.json": json.dumps([{"type": "box", "center": [0, 0, 0], "size": [1e6, 1e6, 1e6]}])},
+        lambda t: [tool("vdb_blocks"), "--authored", str(t / "authored.json"), "-o", str(t / "out.vdb")],
+        2, "authored block 0 is 1e+06 m across, wider than the 20 m tile"),
+    "rockpile tiles --n 40": (
+        {}, lambda t: [tool("vdb_rockpile"), "tiles", "--n", "40", "-o", str(t / "out.vdb")], 2,
+        "needs about 737.8 GB, over the"),
+    "rockpile tiles over --max-memory": (
+        {}, lambda t: [tool("vdb_rockpile"), "tiles", "--n", "8", "--max-memory", "1", "-o",
+                       str(t / "out.vdb")], 2, "or raise --max-memory"),
+    "a failing second output (--meshes m.stl)": (
+        {}, lambda t: [tool("vdb_blocks"), "-q", "--voxel-size", "0.5", "--meshes", str(t / "m.stl"),
+                       "-o", str(t / "out.vdb")], 2, "must end in .obj or .ply"),
     "a sphere 2e8 m away (indices overflow)": (
         {}, lambda t: [tool("vdb_primitive"), "-q", "sphere", "--center", "2e8,0,0", "--voxel-size",
                        "0.1", "-o", str(t / "out.vdb")], 2, "the result is empty"),
@@ -201,7 +234,7 @@ def test_hostile_parameters_on_a_valid_file(name, valid, tmp_path):
 def test_hostile_input_row(name, tmp_path):
     files, argv, code, needle = ROWS[name]
     for f, text in files.items():
-        (tmp_path / f).write_text(text)
+        (tmp_path / f).write_bytes(text if isinstance(text, bytes) else text.encode())
     out = tmp_path / "out.vdb"
     out.write_bytes(SENTINEL)
     p = run(argv(tmp_path))
@@ -297,3 +330,211 @@ def test_an_output_device_or_fifo_is_written_through(tmp_path):
     assert p.returncode == 1 and len(lines) == 1 and "No space left on device" in lines[0], p.stderr
     assert stat.S_ISCHR(os.lstat(full).st_mode)
     assert sorted(x.name for x in tmp_path.iterdir()) == ["full", "null", "pipe"]  # no temporaries
+
+
+# A full disk, simulated with RLIMIT_FSIZE (writes past 64 KB fail with EFBIG; SIGXFSZ is
+# ignored so the write returns the error): every Python writer raises OSError, keeps the
+# previous file as it was and leaves no temporary behind.
+PY_WRITERS = {
+    "write": "rockvdb.write(out, [big])",
+    "rock_tiles(path=)": "rockvdb.rock_tiles(path=out, n=4)",
+    "write_heightfield": "rockvdb.write_heightfield(out + '.exr', numpy.random.rand(200, 200))",
+    "mesh": "rockvdb.mesh(big, out + '.obj')",
+    "BlockTile.save": "rockvdb.block_tile(bake=False, tile_size=8).save(out + '.tile')",
+}
+PY_FULL_DISK = """
+import os, resource, signal, sys
+import numpy
+import rockvdb
+out = sys.argv[1]
+big = rockvdb.sphere(1.0).bake(voxel_size=0.02)
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+resource.setrlimit(resource.RLIMIT_FSIZE, (65536, resource.RLIM_INFINITY))
+try:
+    {call}
+except OSError as e:
+    print("OSError", e)
+    sys.exit(0)
+print("no error")
+sys.exit(1)
+"""
+
+
+@pytest.mark.parametrize("name", sorted(PY_WRITERS))
+def test_a_python_writer_on_a_full_disk_raises_and_keeps_the_old_file(name, tmp_path):
+    out = tmp_path / "out.vdb"
+    targets = [out] + [tmp_path / ("out.vdb" + ext) for ext in (".exr", ".obj", ".tile")]
+    for t in targets:
+        t.write_bytes(SENTINEL)
+    p = subprocess.run([sys.executable, "-c", PY_FULL_DISK.format(call=PY_WRITERS[name]), str(out)],
+                       capture_output=True, text=True, timeout=300, env=os.environ)
+    assert p.returncode == 0 and p.stdout.startswith("OSError"), (p.stdout, p.stderr[-800:])
+    assert "cannot write" in p.stdout, p.stdout
+    assert all(t.read_bytes() == SENTINEL for t in targets)
+    assert sorted(os.listdir(tmp_path)) == sorted(t.name for t in targets)
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    """Inputs of the memory and time rows that need files made by the tools."""
+    d = tmp_path_factory.mktemp("scene")
+    run([tool("vdb_blocks"), "-q", "--voxel-size", "0.5", "--tile", str(d / "eq.tile"), "-o",
+         str(d / "eq.vdb")], check=True)
+    run([tool("vdb_rockpile"), "-q", "tiles", "--n", "4", "-o", str(d / "tiles.vdb")], check=True)
+    run([tool("vdb_primitive"), "-q", "sphere", "--radius", "0.01", "--voxel-size", "0.0005", "-o",
+         str(d / "fine.vdb")], check=True)
+    run([tool("vdb_primitive"), "-q", "sphere", "--radius", "500", "--voxel-size", "10", "-o",
+         str(d / "coarse.vdb")], check=True)
+    # A terrain 2800 km across on voxels 200 km apart.
+    run([tool("vdb_primitive"), "-q", "sphere", "--radius", "1e6", "--voxel-size", "2e5", "-o",
+         str(d / "far_voxels.vdb")], check=True)
+    # A 'level set' with active tiles (fast sweeping would voxelise 6.9e12 voxels).
+    subprocess.run([sys.executable, "-c", (
+        "import pyopenvdb as vdb, sys\n"
+        "g = vdb.FloatGrid(0.3); g.gridClass = vdb.GridClass.LEVEL_SET; g.name = 'surface'\n"
+        "g.transform = vdb.createLinearTransform(0.1)\n"
+        "g.fill((0, 0, 0), (40959, 40959, 4095), -0.3, True)\n"
+        "vdb.write(sys.argv[1], [g])\n"), str(d / "tiles_terrain.vdb")], check=True)
+    (d / "far.json").write_text(json.dumps({"type": "sphere", "center": [1e8, 0, 0], "radius": 2}))
+    (d / "bad.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n")
+    (d / "blend.json").write_text(json.dumps({"gabor_amplitude": 0.04}))
+    subprocess.run([sys.executable, "-c", (
+        "import json, sys, pyopenvdb as vdb\n"
+        "d = sys.argv[1]\n"
+        # Blend masks of 5, -3 and NaN over the fine sphere.
+        "for name, v in (('five', 5.0), ('minus', -3.0), ('nan', float('nan'))):\n"
+        "    g = vdb.FloatGrid(0.0); g.name = 'mask'; g.transform = vdb.createLinearTransform(0.0005)\n"
+        "    g.fill((-5, -5, -5), (5, 5, 5), v, True)\n"
+        "    vdb.write(d + '/mask_' + name + '.vdb', [g])\n"
+        # A tile set whose description says n = 5 where the grid was made with n = 4.
+        "rho = vdb.read(d + '/tiles.vdb', 'rho')\n"
+        "meta = json.loads(rho['rockvdb:tiles']); meta['params']['n'] = 5\n"
+        "rho['rockvdb:tiles'] = json.dumps(meta)\n"
+        "vdb.write(d + '/tiles_edited.vdb', [rho])\n"
+        # Two chunks of one grid that differ by one float step at one voxel.
+        "a = vdb.read(d + '/fine.vdb', 'surface'); b = a.deepCopy()\n"
+        "acc = b.getAccessor(); v = acc.getValue((20, 0, 0))\n"
+        "import numpy; acc.setValueOn((20, 0, 0), float(numpy.nextafter(numpy.float32(v), numpy.float32(1))))\n"
+        "vdb.write(d + '/chunk_a.vdb', [a]); vdb.write(d + '/chunk_b.vdb', [b])\n"),
+        str(d)], check=True)
+    return d
+
+
+# name -> (argv builder (tmp, scene) -> list, exit code, needle): rows on files the tools made.
+ON_SCENE = {
+    "csg onto a 20 000x finer first input": (
+        lambda t, d: [tool("vdb_csg"), "union", str(d / "fine.vdb"), str(d / "coarse.vdb"), "-o",
+                      str(t / "out.vdb")], 2, "input 2 (voxel size 10 m) on the first input's voxel "
+        "size 0.0005 m needs about 1.2 PB"),
+    "a 500-byte truncated second input": (
+        lambda t, d: ["sh", "-c", f"head -c 500 {d / 'coarse.vdb'} > {t / 'trunc.vdb'} && "
+                      f"{tool('vdb_csg')} union {d / 'fine.vdb'} {t / 'trunc.vdb'} -o {t / 'out.vdb'}"],
+        1, "truncated or corrupt VDB file"),
+    "amplify a terrain with active tiles": (
+        lambda t, d: [tool("vdb_amplify"), "--terrain", str(d / "tiles_terrain.vdb"), "--tiles",
+                      str(d / "eq.tile"), "-o", str(t / "out.vdb")], 2,
+        "its 100 active tiles count at their full voxel count"),
+    "amplify a terrain on voxels 200 km apart": (
+        lambda t, d: [tool("vdb_amplify"), "--terrain", str(d / "far_voxels.vdb"), "--tiles",
+                      str(d / "eq.tile"), "-o", str(t / "out.vdb")], 2, "over the presence table's 5e7"),
+    "a pile support at x = 1e8": (
+        lambda t, d: [tool("vdb_rockpile"), "pile", "--tiles", str(d / "tiles.vdb"), "--support",
+                      str(d / "far.json"), "-o", str(t / "out.vdb")], 2,
+        "the support reaches 1e+08 m from the origin"),
+    # Messages that misled.
+    "bounds of 1e30 m are not 'unbounded'": (
+        lambda t, d: [tool("vdb_primitive"), "box", "--size", "1e30,1,1", "-o", str(t / "out.vdb")], 2,
+        "the field's bounds reach 5e+29 m from the origin"),
+    "an OBJ index counts from 1": (
+        lambda t, d: [tool("vdb_rockpile"), "pile", "--tiles", str(d / "tiles.vdb"), "--support",
+                      str(d / "bad.obj"), "-o", str(t / "out.vdb")], 2,
+        "bad.obj:4: vertex index 99 out of range (3 vertices, counted from 1)"),
+    "a blend mask of 5": (
+        lambda t, d: [tool("vdb_detail"), str(d / "fine.vdb"), "--blend", str(d / "blend.json"),
+                      "--blend-mask", str(d / "mask_five.vdb"), "-o", str(t / "out.vdb")], 2,
+        "blend mask 'mask' holds 5 at voxel"),
+    "a blend mask of -3": (
+        lambda t, d: [tool("vdb_detail"), str(d / "fine.vdb"), "--blend", str(d / "blend.json"),
+                      "--blend-mask", str(d / "mask_minus.vdb"), "-o", str(t / "out.vdb")], 2,
+        "blend mask 'mask' holds -3 at voxel"),
+    "a blend mask of NaN": (
+        lambda t, d: [tool("vdb_detail"), str(d / "fine.vdb"), "--blend", str(d / "blend.json"),
+                      "--blend-mask", str(d / "mask_nan.vdb"), "-o", str(t / "out.vdb")], 2,
+        "blend mask 'mask' holds nan at voxel"),
+    "tile metadata with an edited n": (
+        lambda t, d: [tool("vdb_rockpile"), "pile", "--tiles", str(d / "tiles_edited.vdb"), "--support",
+                      str(d / "far.json"), "-o", str(t / "out.vdb")], 2,
+        "the metadata was edited or belongs to another grid"),
+}
+
+
+def test_a_merge_mismatch_prints_two_different_numbers(scene, tmp_path):
+    """The values once printed as '0.28841 vs 0.28841': nine digits tell any two floats apart."""
+    p = run([tool("vdb_merge"), str(scene / "chunk_a.vdb"), str(scene / "chunk_b.vdb"), "-o",
+             str(tmp_path / "out.vdb")])
+    lines = [l for l in p.stderr.splitlines() if l.strip()]
+    assert p.returncode == 2 and len(lines) == 1 and "chunks disagree" in lines[0], p.stderr
+    a, b = lines[0].split("): ")[1].split(" (")[0].split(" vs ")
+    assert a != b and float(a) != float(b)
+
+
+def test_python_nan_is_a_value_error_naming_the_parameter():
+    sys.path.insert(0, os.path.join(os.environ["ROCKVDB_BUILD"], "python"))
+    import rockvdb
+    with pytest.raises(ValueError, match=r"^block_tile: tile_size must be finite \(got nan\)$"):
+        rockvdb.block_tile(bake=False, tile_size=float("nan"))
+    with pytest.raises(ValueError, match=r"fractal_rock: .* must be finite \(got inf\)"):
+        rockvdb.fractal_rock(voxel_size=float("inf"))
+
+
+@pytest.mark.parametrize("name", sorted(ON_SCENE))
+def test_memory_and_time_are_estimated_first(name, scene, tmp_path):
+    argv, code, needle = ON_SCENE[name]
+    out = tmp_path / "out.vdb"
+    out.write_bytes(SENTINEL)
+    p = run(argv(tmp_path, scene))
+    lines = [l for l in p.stderr.splitlines() if l.strip()]
+    assert p.returncode == code and len(lines) == 1 and needle in lines[0], p.stderr[-800:]
+    assert out.read_bytes() == SENTINEL
+
+
+def test_a_heightfield_of_1e9_m_cells_bakes_at_once(tmp_path):
+    """--cell-size 1e-9 once searched 1e8 rings of cells per voxel: now the search ends at
+    the grid's edge and the (thin column) terrain bakes in well under a second."""
+    import numpy
+    sys.path.insert(0, os.path.join(os.environ["ROCKVDB_BUILD"], "python"))
+    import rockvdb
+    rockvdb.write_heightfield(str(tmp_path / "h.exr"), numpy.random.RandomState(1).rand(64, 64))
+    p = run([tool("vdb_heightfield"), "-q", str(tmp_path / "h.exr"), "--cell-size", "1e-9", "-o",
+             str(tmp_path / "out.vdb")])
+    assert p.returncode == 0, p.stderr
+    import pyopenvdb
+    g = pyopenvdb.read(str(tmp_path / "out.vdb"), "surface")
+    assert g.activeVoxelCount() > 0
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_a_signal_during_the_writes_replaces_nothing(tmp_path, sig):
+    """All outputs of a run land together: with -o a FIFO nobody reads, the run blocks in its
+    last step, writing; a signal then must leave the other output (--tile, a regular file)
+    as it was, remove its temporary and exit 130 within a second or so."""
+    import signal
+    import time
+    fifo = tmp_path / "fifo.vdb"
+    os.mkfifo(fifo)
+    tile = tmp_path / "t.tile"
+    tile.write_bytes(SENTINEL)
+    p = subprocess.Popen([tool("vdb_blocks"), "-q", "--voxel-size", "0.5", "--tile", str(tile), "-o",
+                          str(fifo)], stderr=subprocess.PIPE)
+    # Wait until the tile's temporary is on disk: the run is then at its writes.
+    deadline = time.monotonic() + 120
+    while not [f for f in os.listdir(tmp_path) if ".tmp-" in f] and time.monotonic() < deadline:
+        assert p.poll() is None, p.stderr.read()
+        time.sleep(0.02)
+    time.sleep(0.2)
+    t0 = time.monotonic()
+    p.send_signal(getattr(signal, sig))
+    _, err = p.communicate(timeout=30)
+    assert p.returncode == 130 and time.monotonic() - t0 < 2.0, (p.returncode, err)
+    assert tile.read_bytes() == SENTINEL
+    assert sorted(os.listdir(tmp_path)) == ["fifo.vdb", "t.tile"]
