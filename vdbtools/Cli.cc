@@ -72,7 +72,7 @@ std::string cliText(const nlohmann::json& v)
         for (const auto& x : v) s += (s.empty() ? "" : ",") + cliText(x);
         return s;
     }
-    return v.dump();
+    return v.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 // A command-line word as the JSON value its row expects; what does not parse stays a string
@@ -207,7 +207,7 @@ private:
     {
         if (v.is_string()) return v.get<std::string>();
         if (v.is_boolean()) return v.get<bool>() ? "true" : "false";
-        return v.dump();
+        return v.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     }
 
     static bool isSubcommand(const CLI::App* app, const std::string& name)
@@ -446,7 +446,7 @@ std::unique_ptr<TaskBar> Tool::taskBar() const
 
 std::string Tool::paramsJson() const
 {
-    return ConfigJson::toJson(&mApp, true).dump();
+    return ConfigJson::toJson(&mApp, true).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 std::unique_ptr<Progress> Tool::progress(const std::string& label) const

@@ -128,7 +128,7 @@ int main(int argc, char** argv)
         out.push_back(r.surface);
         // The stacks first: if the .vdb fails after, the run is repeatable from them; the
         // reverse would leave a terrain whose stacks were lost.
-        if (!stacksOut.empty()) writeStackFile(stacksOut, r.stacks, archesSchema().toJson(p).dump());
+        if (!stacksOut.empty()) writeStackFile(stacksOut, r.stacks, archesSchema().toJson(p).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
         if (!pointsOut.empty()) writeGrids(pointsOut, {r.points});
         writeGrids(tool.output(), out);
     });

@@ -79,7 +79,7 @@ int main(int argc, char** argv)
         auto result = csgGrids(csgOpFromString(op), grids, smooth, maxMemoryGB * 1e9);
         nlohmann::json params = nlohmann::json::parse(tool.paramsJson());
         params["sources"] = sources;
-        stampProvenance(*result, tool.name(), params.dump());
+        stampProvenance(*result, tool.name(), params.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
         openvdb::GridCPtrVec out{result};
         for (const auto& name : idNames) {
             std::vector<openvdb::FloatGrid::ConstPtr> ids;
@@ -88,7 +88,7 @@ int main(int argc, char** argv)
                 ids.push_back(it == m.end() ? nullptr : it->second);
             }
             auto carried = csgAttribute(csgOpFromString(op), grids, ids, *result, name);
-            stampProvenance(*carried, tool.name(), params.dump());
+            stampProvenance(*carried, tool.name(), params.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
             out.push_back(carried);
         }
         tool.info(std::to_string(result->activeVoxelCount()) + " active voxels" +

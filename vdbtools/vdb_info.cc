@@ -56,7 +56,8 @@ int main(int argc, char** argv)
             files.push_back(jf);
         }
         if (asJson) {
-            std::cout << files.dump(2) << "\n";
+            // (names from a file may be any bytes: invalid UTF-8 is replaced, not thrown on)
+            std::cout << files.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
             return;
         }
         if (brief) {
@@ -92,7 +93,7 @@ int main(int argc, char** argv)
                 }
                 if (jg.contains("rockvdb")) {
                     const auto& r = jg["rockvdb"];
-                    std::string params = r["params"].dump();
+                    std::string params = r["params"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
                     if (params.size() > 160) params = params.substr(0, 157) + "...";
                     std::cout << "    rockvdb " << r["version"].get<std::string>() << " "
                               << r["generator"].get<std::string>() << " " << params << "\n";

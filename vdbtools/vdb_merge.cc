@@ -75,7 +75,7 @@ int main(int argc, char** argv)
             auto merged = mergeChunks(byName[name]);
             nlohmann::json params = base;
             params["sources"] = sources[name];
-            stampProvenance(*merged, tool.name(), params.dump());
+            stampProvenance(*merged, tool.name(), params.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
             tool.info(name + ": " + std::to_string(merged->activeVoxelCount()) + " active voxels");
             out.push_back(merged);
         }

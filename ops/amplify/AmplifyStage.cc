@@ -158,7 +158,7 @@ AmplifyRun runAmplify(const AmplifyParams& params, const AmplifyInputs& in, Task
 
     json prov = amplifySchema().toJson(params);
     for (auto it = in.names.begin(); it != in.names.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = prov.dump();
+    const std::string text = prov.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     for (const auto& g : {r.grids.surface, r.grids.blockId, r.grids.material}) {
         stampProvenance(*g, kAmplifyTool, text);
     }

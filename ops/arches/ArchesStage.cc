@@ -430,7 +430,7 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
     r.stats.bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     json prov = archesSchema().toJson(p);
     for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = prov.dump();
+    const std::string text = prov.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     for (auto* grid : {&r.surface, &r.material}) {
         if (*grid) stampProvenance(**grid, kToolName, text);
     }

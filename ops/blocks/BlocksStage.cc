@@ -241,10 +241,10 @@ BlocksResult bakeTile(std::shared_ptr<const BlockTile> tile, const BlocksParams&
     used.tile = tile->params;
     json prov = blocksSchema().toJson(used);
     for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = prov.dump();
+    const std::string text = prov.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     stampProvenance(*r.bake.surface, kBlocksTool, text);
     stampProvenance(*r.bake.attribute, kBlocksTool, text);
-    r.bake.surface->insertMeta("rockvdb:tile", openvdb::StringMetadata(tileToJson(*tile).dump()));
+    r.bake.surface->insertMeta("rockvdb:tile", openvdb::StringMetadata(tileToJson(*tile).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)));
     return r;
 }
 

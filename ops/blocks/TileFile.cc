@@ -152,7 +152,7 @@ BlockTile tileFromJson(const json& j)
 
 void writeTile(const BlockTile& tile, const std::string& path)
 {
-    writeFileAtomic(path, tileToJson(tile).dump() + "\n");
+    writeFileAtomic(path, tileToJson(tile).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 BlockTile readTile(const std::string& path)

@@ -309,10 +309,46 @@ json parseJsonOrDiscarded(const std::string& text)
     return json(json::value_t::discarded);
 }
 
+namespace {
+
+// @a text with every byte that does not start a well-formed UTF-8 sequence replaced by U+FFFD:
+// a JSON string must be valid UTF-8 (dump() throws on the first bad byte otherwise), and
+// metadata read from a file can hold anything.
+std::string validUtf8(const std::string& text)
+{
+    std::string out;
+    out.reserve(text.size());
+    const auto* b = reinterpret_cast<const unsigned char*>(text.data());
+    const size_t n = text.size();
+    for (size_t i = 0; i < n;) {
+        const unsigned char c = b[i];
+        size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xe ? 3 : (c >> 3) == 0x1e ? 4 : 0;
+        bool ok = len > 0 && i + len <= n;
+        for (size_t k = 1; ok && k < len; ++k) ok = (b[i + k] & 0xc0) == 0x80;
+        if (ok && len > 1) {
+            // No overlong forms, no surrogates, nothing past U+10FFFF.
+            uint32_t cp = c & (0xff >> (len + 1));
+            for (size_t k = 1; k < len; ++k) cp = (cp << 6) | (b[i + k] & 0x3f);
+            static const uint32_t least[5] = {0, 0, 0x80, 0x800, 0x10000};
+            ok = cp >= least[len] && cp <= 0x10ffff && !(cp >= 0xd800 && cp <= 0xdfff);
+        }
+        if (ok) {
+            out.append(text, i, len);
+            i += len;
+        } else {
+            out += "\xef\xbf\xbd";
+            ++i;
+        }
+    }
+    return out;
+}
+
+} // namespace
+
 json jsonOrText(const std::string& text)
 {
     json j = parseJsonOrDiscarded(text);
-    return j.is_discarded() ? json(text) : j;
+    return j.is_discarded() ? json(validUtf8(text)) : j;
 }
 
 json readJsonFile(const std::string& path)

@@ -223,7 +223,7 @@ DetailResult runDetail(const DetailStageParams& params, const DetailInputs& in, 
         prov["sources"] = json::array({{{"generator", src->generator},
                                         {"params", jsonOrText(src->params)}}});
     }
-    const std::string text = prov.dump();
+    const std::string text = prov.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     stampProvenance(*r.bake.surface, kDetailTool, text);
     if (!in.ids.empty()) {
         task.phase("ids", 0.1);

@@ -100,7 +100,7 @@ inline float fastExp(float x)
     p = p * f + 9.9999994e-1f;
     int32_t bits;
     std::memcpy(&bits, &p, 4);
-    bits += int32_t(fi) << 23;
+    bits += int32_t(uint32_t(int32_t(fi)) << 23); // (a negative exponent: shift it unsigned)
     std::memcpy(&p, &bits, 4);
     return p;
 }

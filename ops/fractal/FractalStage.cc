@@ -352,7 +352,7 @@ RockResult runRock(const FractalRockParams& p, bool withLevelSet, bool withNorma
         task.check();
         r.stats.levelSetSeconds = since(t0);
         r.stats.activeVoxels = size_t(r.surface->activeVoxelCount());
-        stampProvenance(*r.surface, kToolName, rockSchema().toJson(p).dump());
+        stampProvenance(*r.surface, kToolName, rockSchema().toJson(p).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
     }
     task.done();
     return r;
@@ -463,7 +463,7 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
     r.stats.levelSetSeconds = since(t0);
     json prov = rockSchema().toJson(p);
     for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = prov.dump();
+    const std::string text = prov.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     stampProvenance(*r.surface, kToolName, text);
     stampProvenance(*r.rockId, kToolName, text);
     if (p.material >= 0) {
@@ -620,7 +620,7 @@ CarveResult runCarve(const FractalRockParams& p, const openvdb::FloatGrid& solid
     r.surface->setGridClass(openvdb::GRID_LEVEL_SET);
     json prov = rockSchema().toJson(p);
     for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = prov.dump();
+    const std::string text = prov.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     stampProvenance(*r.surface, kToolName, text);
     stampProvenance(*r.cave, kToolName, text);
     task.done();

@@ -257,7 +257,7 @@ openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, Task& task, double halfW
         for (LeafT* leaf : list) library->tree().addLeaf(leaf);
     nlohmann::json slots = nlohmann::json::array();
     for (size_t i = 0; i < count; ++i) slots.push_back({offsets[i][0], offsets[i][1], offsets[i][2]});
-    library->insertMeta("rockvdb:library_offsets", openvdb::StringMetadata(slots.dump()));
+    library->insertMeta("rockvdb:library_offsets", openvdb::StringMetadata(slots.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)));
     if (seconds) *seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     return library;
 }
@@ -314,7 +314,7 @@ openvdb::FloatGrid::Ptr tileGrid(const TileSet& set, Task& task)
                    {"contacts", st.contacts}}},
         {"regions", regions},
         {"rocks", rocks}};
-    rho->insertMeta("rockvdb:tiles", openvdb::StringMetadata(meta.dump()));
+    rho->insertMeta("rockvdb:tiles", openvdb::StringMetadata(meta.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)));
     return rho;
 }
 

@@ -161,7 +161,7 @@ TilesResult runTiles(const RockTileParams& params, bool library, Task& task, dou
     r.set = generateTiles(params, task);
     task.phase("tile grid", library ? 0.05 : 0.1);
     r.rho = tileGrid(r.set, task);
-    const std::string prov = json{{"tiles", params.toJson()}}.dump();
+    const std::string prov = json{{"tiles", params.toJson()}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     stampProvenance(*r.rho, kToolName, prov);
     if (library) {
         task.phase("level sets", 0.5);
@@ -194,7 +194,7 @@ PileResult runPile(const TileSet& tiles, const Field& support, const PileParams&
     r.stats.levelSetSeconds = r.pile.stats.levelSetSeconds;
     json p = pileSchema().toJson(params);
     for (auto it = inputs.begin(); it != inputs.end(); ++it) p[it.key()] = it.value();
-    const std::string text = json{{"pile", p}}.dump();
+    const std::string text = json{{"pile", p}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     for (const auto& g : {r.pile.surface, r.pile.rockId, r.pile.material}) {
         if (g) stampProvenance(*g, kToolName, text);
     }

@@ -146,8 +146,8 @@ py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::s
 
 } // namespace
 
-std::string archesSchemaText() { return archesSchema().describe().dump(); }
-std::string archesEditTools() { return editTools().dump(); }
+std::string archesSchemaText() { return archesSchema().describe().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
+std::string archesEditTools() { return editTools().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
 
 void bindArches(py::module_& m)
 {
@@ -163,7 +163,7 @@ void bindArches(py::module_& m)
         .def_property_readonly("quantum", [](const PyStacks& s) { return s.stacks.geometry().quantum; })
         .def_property_readonly("bytes", [](const PyStacks& s) { return s.stacks.bytes(); })
         .def_property_readonly("layer_count", [](const PyStacks& s) { return s.stacks.layerCount(); })
-        .def_property_readonly("params", [](const PyStacks& s) { return s.params.dump(); })
+        .def_property_readonly("params", [](const PyStacks& s) { return s.params.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); })
         .def("volume_quanta", [](const PyStacks& s, const std::string& name) {
             return s.stacks.volumeQuanta(materialFromName(name, "Stacks.volume: material"));
         }, py::arg("material"))
@@ -273,7 +273,7 @@ void bindArches(py::module_& m)
         }, py::arg("edit"))
         .def("bake", &bakeStacksPy, py::arg("material"), py::arg("overrides"), py::arg("points_path"))
         .def("save", [](const PyStacks& s, const std::string& path) {
-            writeStackFile(path, s.stacks, s.params.dump());
+            writeStackFile(path, s.stacks, s.params.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
         }, py::arg("path"))
         .def("__eq__", [](const PyStacks& a, const PyStacks& b) { return a.stacks == b.stacks; });
 

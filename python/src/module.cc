@@ -92,9 +92,9 @@ py::object bakeField(const PyField& f, double voxelSize, double halfWidth,
     p["renormalize"] = renormalize;
     p["tracker_steps"] = trackerSteps;
     if (region) p["region"] = *region;
-    stampProvenance(*r.surface, generator, p.dump());
+    stampProvenance(*r.surface, generator, p.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
     if (!r.attribute) return py::cast(r.surface);
-    stampProvenance(*r.attribute, generator, p.dump());
+    stampProvenance(*r.attribute, generator, p.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
     return py::make_tuple(py::cast(r.surface), py::cast(r.attribute));
 }
 
@@ -197,7 +197,7 @@ PYBIND11_MODULE(_rockvdb, m)
         })
         .def_property_readonly("lipschitz", [](const PyField& f) { return f.field->lipschitz(); })
         .def_property_readonly("exact", [](const PyField& f) { return f.field->exact(); })
-        .def_property_readonly("expression", [](const PyField& f) { return f.expr.dump(); },
+        .def_property_readonly("expression", [](const PyField& f) { return f.expr.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); },
                                "JSON expression (vdb_primitive expr) that rebuilds this field")
         .def("union", [](const PyField& a, const PyField& b, double r) { return combine("union", a, b, r); },
              py::arg("other"), py::arg("smooth") = 0.0)
@@ -236,7 +236,7 @@ PYBIND11_MODULE(_rockvdb, m)
            "returns (surface, ids)");
 
     py::class_<PyTile>(m, "Tile", "A fractured block tile (implicit-blocks §4); see rockvdb.block_tile")
-        .def("to_json", [](const PyTile& t) { return blocks::tileToJson(*t.tile).dump(); },
+        .def("to_json", [](const PyTile& t) { return blocks::tileToJson(*t.tile).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); },
              "The tile file's JSON text")
         .def("save", [](const PyTile& t, const std::string& path) { blocks::writeTile(*t.tile, path); },
              py::arg("path"), "Write the tile file (atomic)")
@@ -345,13 +345,13 @@ PYBIND11_MODULE(_rockvdb, m)
     bindArches(m);
 
     m.def("schema", [](const std::string& stage) {
-        if (stage == "rock_tiles") return rockpile::tilesSchema().describe().dump();
-        if (stage == "rock_pile") return rockpile::pileSchema().describe().dump();
-        if (stage == "detail") return detailing::detailSchema().describe().dump();
-        if (stage == "block_tile") return blocks::blocksSchema().describe().dump();
-        if (stage == "tile") return blocks::tileSchema().describe().dump();
-        if (stage == "amplify") return amplify::amplifySchema().describe().dump();
-        if (stage == "fractal_rock" || stage == "fractal_scatter") return fractal::rockSchema().describe().dump();
+        if (stage == "rock_tiles") return rockpile::tilesSchema().describe().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+        if (stage == "rock_pile") return rockpile::pileSchema().describe().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+        if (stage == "detail") return detailing::detailSchema().describe().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+        if (stage == "block_tile") return blocks::blocksSchema().describe().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+        if (stage == "tile") return blocks::tileSchema().describe().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+        if (stage == "amplify") return amplify::amplifySchema().describe().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+        if (stage == "fractal_rock" || stage == "fractal_scatter") return fractal::rockSchema().describe().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
         if (stage == "arches") return archesSchemaText();
         throw ValueError("schema: no stage '" + stage + "'");
     }, py::arg("stage"));
@@ -571,7 +571,7 @@ PYBIND11_MODULE(_rockvdb, m)
             lib = rockpile::libraryGrid(set, task);
         }
         stampProvenance(*lib, rockpile::kToolName,
-                        json{{"tiles", rockpile::tilesSchema().toJson(set.params)}}.dump());
+                        json{{"tiles", rockpile::tilesSchema().toJson(set.params)}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
         return lib;
     }, py::arg("tiles"));
 
@@ -683,7 +683,7 @@ PYBIND11_MODULE(_rockvdb, m)
                                        {"params", jsonOrText(p->params)}}
                                 : json(nullptr));
         }
-        const std::string prov = json({{"op", op}, {"smooth", smooth}, {"sources", sources}}).dump();
+        const std::string prov = json({{"op", op}, {"smooth", smooth}, {"sources", sources}}).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
         stampProvenance(*g, "rockvdb.csg", prov);
         if (ids.empty()) return py::cast(g);
         py::list out;

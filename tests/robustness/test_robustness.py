@@ -538,3 +538,19 @@ def test_a_signal_during_the_writes_replaces_nothing(tmp_path, sig):
     assert p.returncode == 130 and time.monotonic() - t0 < 2.0, (p.returncode, err)
     assert tile.read_bytes() == SENTINEL
     assert sorted(os.listdir(tmp_path)) == ["fifo.vdb", "t.tile"]
+
+
+def test_a_file_name_that_is_not_utf8_is_written_and_read(tmp_path):
+    """Found by fuzz_json (regressions/json/provenance-invalid-utf8): provenance embeds file
+    names, and a Latin-1 name made every tool fail with a raw JSON type error. Names are bytes
+    on Linux: they are written and read, the provenance holds U+FFFD where a byte is not UTF-8."""
+    name = os.fsencode(str(tmp_path)) + b"/caf\xe9.vdb"
+    p = run([tool("vdb_primitive"), "-q", "sphere", "--radius", "0.5", "--voxel-size", "0.1", "-o", name])
+    assert p.returncode == 0 and os.path.exists(name), p.stderr
+    out = os.fsencode(str(tmp_path)) + b"/u\xfe.vdb"
+    p = run([tool("vdb_csg"), "-q", "union", name, name, "-o", out])
+    assert p.returncode == 0, p.stderr
+    p = run([tool("vdb_info"), "--json", out])
+    assert p.returncode == 0, p.stderr
+    info = json.loads(p.stdout)
+    assert "caf\ufffd.vdb" in json.dumps(info, ensure_ascii=False)
