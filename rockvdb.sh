@@ -3,7 +3,10 @@
 #   ./rockvdb.sh demo [--quality draft|default|high]
 #                       install missing Debian packages, build (Release, -j2), bake the demo
 #                       scene to out/demo.vdb and render out/demo.png (ROCKVDB_QUALITY works too)
-#   ./rockvdb.sh test   same set-up, then run every test (C++, Python, CLI, real clients) via CTest
+#   ./rockvdb.sh test   same set-up, then run every test (C++, Python, CLI, real clients) via CTest,
+#                       then the sanitizer and fuzz jobs (.ci/sanitize: ASan + UBSan build of
+#                       the C++ tests, libFuzzer targets for 30 s each, TSan build of the
+#                       baker and stage tests)
 #   ./rockvdb.sh build  set-up and build only
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -16,6 +19,8 @@ PACKAGES=(
     pybind11-dev libboost-python-dev python3-dev python3-openvdb python3-numpy python3-pytest
     libgtest-dev libbenchmark-dev libjemalloc-dev
     libopenvdb-tools blender
+    clang libclang-rt-14-dev dpkg-dev
+    python3-distributed python3-dask
 )
 
 missing=()
@@ -40,7 +45,8 @@ case "$MODE" in
         echo "rockvdb: wrote out/demo.vdb and out/demo.png" >&2
         ;;
     test)
-        cd build && ctest --output-on-failure -j2 --timeout 1500
+        (cd build && ctest --output-on-failure -j2 --timeout 1500)
+        ./.ci/sanitize
         ;;
     build) ;;
     *) echo "usage: $0 [demo|test|build]" >&2; exit 2 ;;

@@ -1,5 +1,6 @@
 #include "Cli.h"
 
+#include <rockvdb/core/Chunks.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
 #include <rockvdb/core/VdbIO.h>
@@ -18,6 +19,8 @@
 #include <sys/time.h>
 #include <fstream>
 #include <iostream>
+#include <map>
+#include <set>
 #include <mutex>
 #include <unistd.h>
 
@@ -346,7 +349,101 @@ Tool::Tool(std::string name, std::string description)
 
 CLI::Option* Tool::addOutput(CLI::App& where, const std::string& help)
 {
-    return where.add_option("-o,--output", mOutput, help)->required();
+    mOutputOption = where.add_option("-o,--output", mOutput, help)->required();
+    return mOutputOption;
+}
+
+void Tool::addDistribution(CLI::App& where)
+{
+    mDistributable = true;
+    if (mOutputOption) mOutputOption->required(false); // (--plan writes none; run() checks)
+    where.add_flag("--plan", mPlan,
+                   "Print the bake's plan as JSON on stdout (its whole index box, estimated "
+                   "bytes, the split into chunks that --chunk-memory or --chunks gives) and bake "
+                   "nothing");
+    where.add_option("--local-workers", mLocalWorkers,
+                     "Bake the chunks on a local Dask cluster of this many worker processes "
+                     "(rockvdb.distributed), then merge them into -o")
+        ->check(CLI::Range(1, 4096));
+    where.add_option("--scheduler", mScheduler,
+                     "Bake the chunks on the Dask cluster at this address (tcp://host:8786; "
+                     "workers need the same rockvdb and shared paths), then merge into -o");
+    where.add_option("--chunk-memory", mChunkMemoryGB,
+                     "With --plan or a cluster and no --chunks: the fewest chunks whose estimated "
+                     "peak memory fits this many GB each")
+        ->check(CLI::NonNegativeNumber);
+    where.add_option("--chunk-dir", mChunkDir,
+                     "Folder for the chunk files and manifest.json of a cluster run [default: "
+                     "OUTPUT.chunks]; a rerun reuses the chunks whose checksums match");
+    where.add_flag("--keep-chunks", mKeepChunks,
+                   "Keep the chunk folder after merging (vdb_merge --manifest merges it again; "
+                   "DCCs may load the chunks one by one)");
+}
+
+int Tool::distribute(const std::vector<std::string>& words)
+{
+    // The stage's own arguments go to every chunk as given; the driver's are taken out and
+    // passed to it by name.
+    static const std::set<std::string> valued = {"-o", "--output", "--local-workers", "--scheduler",
+                                                 "--chunk-dir", "--chunk-memory", "--chunks", "--chunk"};
+    static const std::set<std::string> flags = {"--keep-chunks", "--plan"};
+    std::map<std::string, std::string> given;
+    std::vector<std::string> rest;
+    for (size_t i = 1; i < words.size(); ++i) {
+        const std::string& w = words[i];
+        const size_t eq = w.find('=');
+        const std::string key = w.rfind("--", 0) == 0 && eq != std::string::npos ? w.substr(0, eq) : w;
+        if (valued.count(key)) {
+            if (key != w) {
+                given[key] = w.substr(eq + 1);
+            } else if (i + 1 < words.size()) {
+                given[key] = words[++i];
+            }
+            continue;
+        }
+        if (flags.count(w)) continue;
+        rest.push_back(w);
+    }
+    if (mOutput.empty()) fail<ValueError>("--output is required");
+    if (std::count(rest.begin(), rest.end(), "-")) {
+        fail<ValueError>("a cluster run reads its inputs from files every worker can open, not stdin");
+    }
+    if (given.count("--chunk")) {
+        fail<ValueError>("--chunk names one chunk of a farm job; a cluster run (--local-workers, "
+                         "--scheduler) bakes them all");
+    }
+    char exe[4096];
+    const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (n <= 0) fail<IoError>("cannot find this executable (/proc/self/exe)");
+    exe[n] = 0;
+    const std::string bin = std::string(exe).substr(0, std::string(exe).rfind('/'));
+    // The rockvdb package beside the tools: the build tree's python/, an install prefix's
+    // site folder; else wherever the interpreter finds it (the default prefix, /usr/local).
+    for (const std::string dir : {bin + "/../python", bin + "/../" ROCKVDB_PYTHON_SITE}) {
+        if (::access((dir + "/rockvdb/distributed.py").c_str(), R_OK) == 0) {
+            const char* old = std::getenv("PYTHONPATH");
+            const std::string path = old && *old ? dir + ":" + old : dir;
+            ::setenv("PYTHONPATH", path.c_str(), 1);
+            break;
+        }
+    }
+    std::vector<std::string> argv = {ROCKVDB_PYTHON, "-m", "rockvdb.distributed", "--tool", exe,
+                                     "--output", mOutput};
+    if (mLocalWorkers > 0) argv.insert(argv.end(), {"--local-workers", std::to_string(mLocalWorkers)});
+    if (!mScheduler.empty()) argv.insert(argv.end(), {"--scheduler", mScheduler});
+    for (const char* k : {"--chunk-dir", "--chunk-memory", "--chunks"}) {
+        if (given.count(k)) argv.insert(argv.end(), {k, given[k]});
+    }
+    if (mKeepChunks) argv.push_back("--keep-chunks");
+    if (mQuiet) argv.push_back("--quiet");
+    argv.push_back("--");
+    argv.insert(argv.end(), rest.begin(), rest.end());
+    std::vector<char*> args;
+    for (auto& a : argv) args.push_back(a.data());
+    args.push_back(nullptr);
+    std::fflush(stderr);
+    ::execv(ROCKVDB_PYTHON, args.data());
+    fail<IoError>("cannot run ", ROCKVDB_PYTHON, " for the distributed bake: ", std::strerror(errno));
 }
 
 void Tool::addBakeOptions(CLI::App& where, bool inputDefaults)
@@ -550,6 +647,25 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
     } catch (const CLI::ParseError& e) {
         return error(std::string(e.what()) + " (see --help)", 2);
     }
+    if (mDistributable) {
+        // Before any signal handling: the driver takes the process over.
+        try {
+            if (mLocalWorkers > 0 || !mScheduler.empty()) {
+                if (mPlan) fail<ValueError>("--plan bakes nothing: drop --local-workers / --scheduler");
+                return distribute(words);
+            }
+            if (!mPlan && mOutput.empty()) fail<ValueError>("--output is required");
+            if (!mPlan && (mChunkMemoryGB > 0 || !mChunkDir.empty() || mKeepChunks)) {
+                fail<ValueError>("--chunk-memory, --chunk-dir and --keep-chunks shape a cluster run "
+                                 "(--local-workers or --scheduler) or a --plan");
+            }
+        } catch (const ValueError& e) {
+            return error(std::string(e.what()) + " (see --help)", 2);
+        } catch (const IoError& e) {
+            return error(e.what(), 1);
+        }
+        if (mPlan) requestPlan(mChunkMemoryGB * 1e9);
+    }
     {
         const bool tty = !mQuiet && ::isatty(STDERR_FILENO);
         const std::string line = (tty ? "\r\033[K" : "") + mName +
@@ -582,6 +698,10 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
         if (!std::cout || std::fflush(stdout) != 0) fail<IoError>("cannot write to stdout: ", std::strerror(errno));
         cancelWatchdog(); // a signal after the last write: the outputs are complete
         return 0;
+    } catch (const PlanReady& plan) {
+        std::cout << plan.plan().dump(-1, ' ', false, json::error_handler_t::replace) << "\n";
+        std::cout.flush();
+        return std::cout ? 0 : 1;
     } catch (const ValueError& e) {
         return error(e.what(), 2);
     } catch (const IoError& e) {

@@ -93,6 +93,12 @@ public:
     /// @brief One option per row of a stage's table, on @a where: --name, help with unit,
     /// range and default from the table (flags take --name / --no-name).
     void addParams(CLI::App& where, const SchemaBase& schema);
+    /// @brief The options of a chunked, distributed bake on @a where (a stage with the
+    /// `chunks` / `chunk` rows; call after addOutput): --plan prints the bake's whole box,
+    /// estimates and split as JSON and bakes nothing (-o not needed); --local-workers /
+    /// --scheduler hand the run to rockvdb.distributed (Dask), which bakes the chunks as
+    /// tasks and merges them into -o; --chunk-memory, --chunk-dir and --keep-chunks shape it.
+    void addDistribution(CLI::App& where);
     /// @}
 
     /// @brief The values given for @a schema's rows, on the command line or by --params, as
@@ -134,9 +140,18 @@ private:
     std::vector<Bound> mBound;
     BakeOptions mBake;
     uint64_t mSeed = 0;
+    /// @brief exec /usr/bin/python3 -m rockvdb.distributed with this run's arguments.
+    int distribute(const std::vector<std::string>& words);
+
     std::string mOutput;
+    CLI::Option* mOutputOption = nullptr;
     int mThreads = 0;
     bool mQuiet = false;
+    // addDistribution
+    bool mDistributable = false, mPlan = false, mKeepChunks = false;
+    double mChunkMemoryGB = 0;
+    int mLocalWorkers = 0;
+    std::string mScheduler, mChunkDir;
 };
 
 /// @brief Bake with a progress bar, print statistics, stamp provenance and write the

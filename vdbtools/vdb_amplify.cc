@@ -36,6 +36,7 @@ int main(int argc, char** argv)
                    "reads >= 0.5 (PNG: >= 32768)");
     tool.addParams(app, amplifySchema());
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
+    tool.addDistribution(app);
 
     return tool.run(argc, argv, [&] {
         using Clock = std::chrono::steady_clock;

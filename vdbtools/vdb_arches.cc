@@ -37,6 +37,7 @@ int main(int argc, char** argv)
                    "With --rock-tiles: also write the instanced rocks as a VDB points grid 'rocks' (P, rock, tile, "
                    "instance; as vdb_rockpile pile --points) to this .vdb");
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
+    tool.addDistribution(app);
 
     return tool.run(argc, argv, [&] {
         if (!scene.empty() && !stacksIn.empty()) fail<ValueError>("arches: give a scene or --from-stacks, not both");
@@ -47,6 +48,10 @@ int main(int argc, char** argv)
             requireWritable(stacksOut);
         }
         cli::distinctOutputs({{"-o", tool.output()}, {"--stacks", stacksOut}, {"--points", pointsOut}});
+        if (!stacksOut.empty() && tool.givenParams(archesSchema()).value("chunk", "") != "") {
+            fail<ValueError>("arches: --stacks saves the whole scene's stacks; write them from a run "
+                             "without --chunk");
+        }
         if (!pointsOut.empty()) requireWritable(pointsOut);
         // The scene (or the saved stacks' scene), then what the command line gives on top.
         nlohmann::json given = nlohmann::json::object();

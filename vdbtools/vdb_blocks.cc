@@ -31,11 +31,16 @@ int main(int argc, char** argv)
     app.add_option("--up", up, "Up axis of the --meshes file: z (rockvdb) or y (Blender's OBJ "
                                "import default, Houdini)")->capture_default_str();
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
+    tool.addDistribution(app);
 
     return tool.run(argc, argv, [&] {
         const BlocksParams p = blocksSchema().fromJson(tool.givenParams(blocksSchema()));
         const UpAxis upAxis = upAxisFromString(up, "blocks: --up");
         cli::distinctOutputs({{"-o", tool.output()}, {"--tile", tileOut}, {"--meshes", meshes}});
+        if (!p.bake.chunking.chunk.empty() && (!tileOut.empty() || !meshes.empty())) {
+            fail<ValueError>("blocks: --tile and --meshes describe the whole tile; write them from "
+                             "a run without --chunk");
+        }
         for (const auto& path : {tileOut, meshes}) {
             if (!path.empty()) requireWritable(path);
         }

@@ -28,6 +28,7 @@ int main(int argc, char** argv)
     app.add_option("--blend-mask-grid", blendGrid,
                    "Grid name in --blend-mask (default: its only or first float grid)");
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
+    tool.addDistribution(app);
 
     return tool.run(argc, argv, [&] {
         const DetailStageParams p = detailSchema().fromJson(tool.givenParams(detailSchema()));

@@ -55,6 +55,7 @@ int main(int argc, char** argv)
     pile->add_option("--library", pileLibrary,
                      "Also write every library rock's level set (slot offsets in metadata)");
     tool.addOutput(*pile, "Output .vdb: surface (union of the rocks) and rock_id ('-' = stdout)");
+    tool.addDistribution(*pile);
 
     return tool.run(argc, argv, [&] {
         auto bar = tool.taskBar();

@@ -106,6 +106,7 @@ Schema<ArchesParams> makeArchesSchema()
     row(s, param("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0),
                  "Refuse work estimated above this (0 = 75% of RAM)"),
         &P::maxMemoryGB);
+    addChunkRows(s, [](auto& p) -> auto& { return p.chunking; });
     s.rule([](const P& p) {
         if (p.terrain.is_null()) fail<ValueError>("arches: terrain is required (a heightfield, strata, level_set or solid node)");
         const json edits = jsonOrFile(p.edits);
@@ -340,6 +341,47 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
     const MaterialMask groundMask = tiles ? MaterialMask(maskOf(Material::Sand) | maskOf(Material::Bedrock)) : kGroundMask;
     b.halfWidth = p.halfWidth;
     b.maxMemoryBytes = p.maxMemoryGB * 1e9;
+    // A chunk (core/Chunks.h) of the footprint, cut in x and y at multiples of the redistance's
+    // 128-voxel sweep tiles (sweepTiled: a tile's values depend on its own leaves and a halo of
+    // them alone). Everything is baked on the chunk grown by one sweep tile, the sweep halo and
+    // the crossing search (so the tiles next to the chunk are exact too, which the weights'
+    // gradients read), then cut back to the chunk: its voxels are the whole bake's.
+    const ChunkSpec spec = p.chunking.spec("arches");
+    std::optional<openvdb::CoordBBox> core;
+    if (spec.active() || planRequested()) {
+        if (spec.active() && tiles) {
+            fail<ValueError>("arches: rock tiles are instanced over the whole rock layers; bake "
+                             "with rock-tiles without --chunk");
+        }
+        const double dx = b.voxelSize, pad = b.sigma + (b.halfWidth + 2) * dx;
+        const openvdb::CoordBBox whole(
+            openvdb::Coord(int(std::floor((g.x0 - pad) / dx)), int(std::floor((g.y0 - pad) / dx)), 0),
+            openvdb::Coord(int(std::ceil((g.x0 + g.nx * g.cell + pad) / dx)),
+                           int(std::ceil((g.y0 + g.ny * g.cell + pad) / dx)), 0));
+        const ChunkGrid grid{128, false};
+        int grids = 1;
+        for (Material m : {Material::Water, Material::Sand, Material::Bedrock, Material::Rocks}) {
+            grids += stacks.volumeQuanta(m) > 0;
+        }
+        // A ground is about a height field: its xy voxels times the band, per level set (and
+        // the convolution's wider band beside it).
+        reportPlanIfRequested("arches", whole, dx, spec, [&](const openvdb::CoordBBox& box) {
+            const double xy = double(box.dim()[0]) * box.dim()[1];
+            return xy * 2.0 * std::max(b.halfWidth, b.sigma / dx + 2.0) * 2.0 * grids * 12.0;
+        }, grid);
+        if (spec.active()) {
+            core = chunkBox(whole, chunkDims(spec, whole, grid), spec.index, grid);
+            core->min()[2] = -(1 << 29);
+            core->max()[2] = 1 << 29;
+            const int w = int(std::ceil(b.halfWidth));
+            const int halo = 8 * ((w + 2 + 7) / 8);
+            const int grow = (128 + halo + w + 2 + 7) / 8 * 8;
+            openvdb::CoordBBox reach = *core;
+            reach.min() -= openvdb::Coord(grow, grow, 0);
+            reach.max() += openvdb::Coord(grow, grow, 0);
+            b.box = reach;
+        }
+    }
     const auto t1 = std::chrono::steady_clock::now();
     const bool all = output == ArchesOutput::All;
     // §6: the ground is one convolution over the union of sand, bedrock and rocks.
@@ -427,6 +469,25 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
         }
         r.weights = visibleWeights(stacks, present, b.sigma, *r.surface, task);
     }
+    if (core) {
+        // Back to the chunk: level sets clipped (whole leaves: the chunk's faces are leaf
+        // faces); the id and weight grids, which have no tiles and keep leaves without active
+        // voxels (those of the surface's), lose only the leaves outside it (clip would prune
+        // those inactive ones the whole bake keeps).
+        auto keepInside = [&](openvdb::FloatGrid& grid) {
+            std::vector<openvdb::Coord> outside;
+            for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf) {
+                if (!core->isInside(leaf->origin())) outside.push_back(leaf->origin());
+            }
+            for (const auto& o : outside) {
+                delete grid.tree().stealNode<openvdb::FloatTree::LeafNodeType>(o, grid.background(), false);
+            }
+        };
+        if (r.surface) r.surface->tree().clip(*core);
+        for (auto& m : r.materials) m->tree().clip(*core);
+        if (r.material) keepInside(*r.material);
+        for (auto& w : r.weights) keepInside(*w);
+    }
     r.stats.bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     json prov = archesSchema().toJson(p);
     for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
@@ -482,7 +543,7 @@ ArchesResult runArches(const ArchesParams& p, Stacks stacks, Task& task)
 const std::vector<std::string>& bakeOnlyRows()
 {
     static const std::vector<std::string> rows = {"voxel-size", "half-width", "max-memory", "weights",
-                                                  "material-ids"};
+                                                  "material-ids", "chunks", "chunk"};
     return rows;
 }
 

@@ -17,6 +17,7 @@
 #include <rockvdb/arches/Stabilize.h>
 #include <rockvdb/arches/Stacks.h>
 
+#include <rockvdb/core/BakeParams.h>
 #include <rockvdb/core/Schema.h>
 #include <rockvdb/core/Task.h>
 
@@ -56,6 +57,9 @@ struct ArchesParams
     nlohmann::json edits;                       ///< the edits (Edits.h), applied in order after stabilisation
     int seed;
     double maxMemoryGB;
+    /// One chunk of the bake (core/Chunks.h), cut in x and y on the redistance's 128-voxel
+    /// sweep tiles; not with rock tiles (their rocks are chosen over the whole rock layers).
+    ChunkParams chunking;
     std::string baseDir = ".";                  ///< relative paths in terrain (not a row: the scene file's folder)
 };
 

@@ -158,6 +158,8 @@ openvdb::FloatGrid::Ptr sweepTiled(const openvdb::FloatGrid& in, double w, Task&
     std::vector<const std::pair<const std::pair<int, int>, std::vector<uint32_t>>*> order;
     for (const auto& t : tiles) order.push_back(&t);
     std::vector<std::unique_ptr<Leaf>> out(leaves.size());
+    // One tile per chunk: a cancel stops new tiles, the running sweeps finish (~0.1 s) before
+    // Interrupted is thrown (parallelFor lets no exception cut their nested loops short).
     parallelFor(task, order.size(), 1, [&](size_t t) {
         const auto& [key, members] = *order[t];
         auto part = openvdb::FloatGrid::create(in.background());
@@ -207,6 +209,7 @@ openvdb::FloatGrid::Ptr bakeSkeleton(const Skeleton& skeleton, const SkeletonBak
     const double reach = sigma + (w + 1) * dx;
     task.phase("candidates", 0.1);
     auto candidates = candidateLeaves(skeleton, dx, reach, settings.maxMemoryBytes, task);
+    if (settings.box) candidates->tree().clip(*settings.box);
 
     // Share the skeleton without copying it: the field only lives through this bake.
     std::shared_ptr<const Skeleton> shared(&skeleton, [](const Skeleton*) {});

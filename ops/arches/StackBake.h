@@ -10,6 +10,8 @@
 // whole band. The sweeping is ~3/4 of the time (bench `arches`).
 #pragma once
 
+#include <optional>
+
 #include <rockvdb/arches/Stacks.h>
 
 #include <rockvdb/core/Bake.h>
@@ -29,6 +31,8 @@ struct SkeletonBake
     double voxelSize = 1.0;   ///< m
     double halfWidth = 3.0;   ///< voxels
     double maxMemoryBytes = 0; ///< 0: 75% of RAM
+    /// Bake only the candidate leaves inside this box (index space; a chunk with its halo).
+    std::optional<openvdb::CoordBBox> box;
 };
 
 /// @brief The convolution surface of @a skeleton as a narrow-band level set (unnamed; the

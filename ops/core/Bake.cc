@@ -52,6 +52,7 @@ constexpr double kBytesPerLeaf = sizeof(LeafT) + 96;
 struct Domain
 {
     CoordBBox box;      // voxels that may become active (inclusive)
+    CoordBBox whole;    // box of the whole bake (box is one chunk of it, or the same)
     double bandField;   // |f| threshold for candidate leaves (field units)
     const Field* field;
     // ω'(r) = max(r, ω(r)): how far |f| can change over a distance r (Field::modulus).
@@ -122,6 +123,10 @@ Domain makeDomain(const Field& field, const BakeSettings& s)
         box = bounded ? CoordBBox(Coord::maxComponent(box.min(), rbox.min()),
                                   Coord::minComponent(box.max(), rbox.max()))
                       : rbox;
+    }
+    d.whole = box;
+    if (s.chunk.active() && !box.empty()) {
+        box = chunkBox(box, chunkDims(s.chunk, box), s.chunk.index);
     }
     d.box = box;
     return d;
@@ -744,20 +749,36 @@ std::string formatBytes(double bytes)
     return buf;
 }
 
+namespace {
+
+// Active voxels ~ surface area of the domain box (an upper-ish bound for convex shapes)
+// times the band thickness, never more than the voxels of the box itself.
+double estimateActive(const CoordBBox& box, const BakeSettings& s, bool renormalize)
+{
+    if (box.empty()) return 0;
+    const Coord ext = box.extents();
+    const double a = ext[0], b = ext[1], c = ext[2];
+    const double bandVoxels = 2.0 * s.halfWidth * (renormalize ? s.renormBandScale : 1.0);
+    return std::min(2.0 * (a * b + b * c + c * a) * bandVoxels, a * b * c);
+}
+
+double bytesOf(double activeVoxels, const BakeSettings& s)
+{
+    return activeVoxels * kBytesPerActive * (s.withAttribute ? 2.0 : 1.0);
+}
+
+} // namespace
+
 BakeEstimate estimateBake(const Field& field, const BakeSettings& s)
 {
     s.validate();
     const Domain d = makeDomain(field, s);
     BakeEstimate e;
     e.indexBox = d.box;
+    e.wholeBox = d.whole;
     if (d.box.empty()) { e.empty = true; return e; }
-    // Active voxels ~ surface area of the domain box (an upper-ish bound for convex shapes)
-    // times the band thickness, never more than the voxels of the box itself.
-    const Coord ext = d.box.extents();
-    const double a = ext[0], b = ext[1], c = ext[2];
-    const double bandVoxels = 2.0 * s.halfWidth * (d.renormalize ? s.renormBandScale : 1.0);
-    e.activeVoxels = std::min(2.0 * (a * b + b * c + c * a) * bandVoxels, a * b * c);
-    e.bytes = e.activeVoxels * kBytesPerActive * (s.withAttribute ? 2.0 : 1.0);
+    e.activeVoxels = estimateActive(d.box, s, d.renormalize);
+    e.bytes = bytesOf(e.activeVoxels, s);
     return e;
 }
 
@@ -765,6 +786,12 @@ BakeResult bake(const Field& field, const BakeSettings& s,
                 openvdb::util::NullInterrupter* interrupt)
 {
     s.validate();
+    if (planRequested()) {
+        const Domain whole = makeDomain(field, s);
+        reportPlanIfRequested("bake", whole.whole, s.voxelSize, s.chunk, [&](const CoordBBox& b) {
+            return bytesOf(estimateActive(b, s, whole.renormalize), s);
+        });
+    }
     const BakeEstimate est = estimateBake(field, s);
     const double limit = memoryLimitBytes(s.maxMemoryBytes);
     if (est.bytes > limit) {

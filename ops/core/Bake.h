@@ -15,6 +15,7 @@
 // thread count and for any leaf-aligned chunking of the region.
 #pragma once
 
+#include <rockvdb/core/Chunks.h>
 #include <rockvdb/core/Field.h>
 
 #include <openvdb/Grid.h>
@@ -38,6 +39,9 @@ struct BakeSettings
     /// World region to bake, half-open [min, max) on voxel centres; unset = the field's
     /// bounds. Leaf-aligned regions (multiples of 8·voxelSize) chunk a bake exactly.
     std::optional<BBoxd> region;
+    /// Bake one chunk of the whole (core/Chunks.h): the box the bake would fill, cut on leaf
+    /// faces; the chunks merged (core/Merge.h) are the whole bake bit for bit.
+    ChunkSpec chunk;
     /// Auto renormalises fields that are not exact distances (Field::exact() == false).
     Renormalize renormalize = Renormalize::Auto;
     double renormBandScale = 2.0; ///< band widening while renormalising (>= 1)
@@ -78,7 +82,8 @@ struct BakeEstimate
 {
     double bytes = 0;
     double activeVoxels = 0;
-    openvdb::CoordBBox indexBox; ///< voxels that may be evaluated
+    openvdb::CoordBBox indexBox; ///< voxels that may be evaluated (this chunk's)
+    openvdb::CoordBBox wholeBox; ///< the whole bake's (= indexBox unless chunked)
     bool empty = false;
 };
 BakeEstimate estimateBake(const Field& field, const BakeSettings& settings);

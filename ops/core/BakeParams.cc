@@ -14,6 +14,7 @@ BakeSettings BakeParams::settings(double voxelSizeIfUnset, double halfWidthIfUns
         s.region = BBoxd(Vec3d(r[0], r[1], r[2]), Vec3d(r[3], r[4], r[5]));
     }
     s.maxMemoryBytes = maxMemoryGB * 1e9;
+    s.chunk = chunking.spec("bake");
     s.validate();
     return s;
 }

@@ -12,6 +12,19 @@
 
 namespace rockvdb {
 
+/// The `chunks` and `chunk` rows' values (core/Chunks.h: ChunkSpec::parse reads them).
+struct ChunkParams
+{
+    std::string chunks; ///< "AxBxC" split of the whole bake ("" = chosen for chunk's N)
+    std::string chunk;  ///< "i/N": bake chunk i only ("" = the whole)
+
+    /// The rows' names in every table (addChunkRows) and in provenance (wholeBakeParams).
+    static constexpr const char* kChunksRow = "chunks";
+    static constexpr const char* kChunkRow = "chunk";
+
+    ChunkSpec spec(const char* op) const { return ChunkSpec::parse(chunks, chunk, op); }
+};
+
 struct BakeParams
 {
     std::optional<double> voxelSize;  ///< m; unset: the stage's own rule (e.g. the input's)
@@ -20,12 +33,32 @@ struct BakeParams
     int trackerSteps = 0;
     std::optional<std::array<double, 6>> region; ///< xmin,ymin,zmin,xmax,ymax,zmax (m)
     double maxMemoryGB = 0;           ///< 0 = 75% of RAM
+    ChunkParams chunking;             ///< one chunk of the whole bake, or the whole
 
     /// @brief The BakeSettings these give, unset sizes taken from the arguments (stages whose
     /// table gives the sizes a default call it without).
     BakeSettings settings(double voxelSizeIfUnset = std::numeric_limits<double>::quiet_NaN(),
                           double halfWidthIfUnset = std::numeric_limits<double>::quiet_NaN()) const;
 };
+
+/// @brief The `chunks` and `chunk` rows of a stage's table; @a access maps a Params (const or
+/// not) to its ChunkParams (stages that bake without BakeParams use it too).
+template<typename P, typename Access>
+void addChunkRows(Schema<P>& s, Access access)
+{
+    // Defaults: the members' own (a whole bake), which wholeBakeParams puts back.
+    const ChunkParams whole;
+    s.add(param(ChunkParams::kChunksRow, ParamType::Text, "", whole.chunks, Range::any(),
+                "Split of the whole bake into AxBxC chunks on leaf faces, e.g. 4x4x1 (with chunk; "
+                "empty: chosen for chunk's N)"),
+          [access](const P& p) { return nlohmann::json(access(p).chunks); },
+          [access](P& p, const nlohmann::json& j) { access(p).chunks = j.get<std::string>(); });
+    s.add(param(ChunkParams::kChunkRow, ParamType::Text, "", whole.chunk, Range::any(),
+                "Bake only chunk i/N (from 0) of the whole; vdb_merge unites the N chunk files "
+                "into the whole bake, bit for bit (empty: the whole)"),
+          [access](const P& p) { return nlohmann::json(access(p).chunk); },
+          [access](P& p, const nlohmann::json& j) { access(p).chunk = j.get<std::string>(); });
+}
 
 /// @brief The bake rows of a stage's table, bound to member @a m of its Params. @a voxelSize
 /// and @a halfWidth are the stage's defaults (null: "the input's", said in @a sizeNote).
@@ -59,6 +92,7 @@ void addBakeRows(Schema<P>& s, BakeParams P::*m, nlohmann::json voxelSize,
          &BakeParams::region);
     bind(param("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0),
              "Refuse bakes estimated above this (0 = 75% of RAM)"), &BakeParams::maxMemoryGB);
+    addChunkRows(s, [m](auto& p) -> auto& { return (p.*m).chunking; });
 }
 
 } // namespace rockvdb

@@ -8,6 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
+#include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <iterator>
 #include <set>
@@ -102,7 +104,7 @@ private:
             const FieldPtr child = build(field(n, "child", path), path + "/child");
             return warp(child, noiseDisplacement(num(n, "amplitude", path),
                                                  num(n, "frequency", path, 1.0),
-                                                 int(num(n, "octaves", path, 3)), seed(n, path),
+                                                 integer(n, "octaves", path, 3), seed(n, path),
                                                  num(n, "lacunarity", path, 2.0),
                                                  num(n, "gain", path, 0.5)));
         }
@@ -136,7 +138,7 @@ public:
             const auto samples = sampleCount(n, path);
             noise::Fbm fbm;
             fbm.frequency = num(n, "frequency", path, 0.1);
-            fbm.octaves = int(num(n, "octaves", path, 5));
+            fbm.octaves = integer(n, "octaves", path, 5);
             fbm.lacunarity = num(n, "lacunarity", path, 2.0);
             fbm.gain = num(n, "gain", path, 0.5);
             return HeightfieldNode{std::make_shared<Heightfield>(noiseHeightfield(
@@ -174,11 +176,24 @@ private:
     static std::array<int, 2> sampleCount(const json& n, const std::string& path)
     {
         const json& s = field(n, "samples", path);
-        if (!s.is_array() || s.size() != 2 || !s[0].is_number_integer() ||
-            !s[1].is_number_integer()) {
-            bad(path + "/samples", "expected [nx, ny] integers");
+        auto fits = [](const json& v) {
+            return v.is_number_integer() && v.get<int64_t>() >= 0 && v.get<int64_t>() <= INT32_MAX;
+        };
+        if (!s.is_array() || s.size() != 2 || !fits(s[0]) || !fits(s[1])) {
+            bad(path + "/samples", "expected [nx, ny] integers from 0 to 2147483647");
         }
         return {s[0].get<int>(), s[1].get<int>()};
+    }
+
+    /// An integer member, default @a def; its range is the consumer's check (a double past an
+    /// int's range was an undefined conversion: fuzz_json's octaves of 8.9e116).
+    static int integer(const json& n, const char* key, const std::string& path, int def)
+    {
+        const double v = num(n, key, path, double(def));
+        if (!(v >= double(INT32_MIN) && v <= double(INT32_MAX)) || v != std::floor(v)) {
+            bad(path + "/" + key, "expected an integer (got " + json(v).dump() + ")");
+        }
+        return int(v);
     }
 
     [[noreturn]] static void bad(const std::string& path, const std::string& what)

@@ -44,6 +44,9 @@ Heightfield noiseHeightfield(int nx, int ny, double cellSize, double amplitude,
             "between 2x2 and 1e9 samples", std::to_string(nx) + "x" + std::to_string(ny));
     require(std::isfinite(cellSize) && cellSize > 0, "heightfield", "cell size", "> 0", cellSize);
     require(std::isfinite(amplitude), "heightfield", "amplitude", "finite", amplitude);
+    // Samples sit at float positions: past 1e9 m they are no longer distinct (nor finite).
+    const double extent = double(std::max(nx, ny) - 1) * cellSize;
+    require(extent <= 1e9, "heightfield", "extent (samples x cell size)", "<= 1e9 m", extent);
     Heightfield hf;
     hf.nx = nx;
     hf.ny = ny;

@@ -165,7 +165,12 @@ public:
         : Imf::IStream(name.c_str()), mBytes(bytes) {}
     bool read(char c[], int n) override
     {
-        if (mPos + uint64_t(n) > mBytes.size()) throw std::runtime_error("truncated EXR file");
+        // OpenEXR seeks to offsets read from the file (line offset tables): a corrupt table
+        // can put mPos anywhere, so compare without forming mPos + n (found by fuzz_image,
+        // regressions/image/exr-seek-past-end).
+        if (n < 0 || mPos > mBytes.size() || uint64_t(n) > mBytes.size() - mPos) {
+            throw std::runtime_error("truncated EXR file");
+        }
         std::memcpy(c, mBytes.data() + mPos, size_t(n));
         mPos += uint64_t(n);
         return mPos < mBytes.size();

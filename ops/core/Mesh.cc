@@ -7,6 +7,7 @@
 #include <openvdb/tools/VolumeToMesh.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cctype>
 #include <cstring>
 #include <fstream>
@@ -383,7 +384,9 @@ Mesh readPly(const std::string& path, const std::string& bytes)
             int k;
             if (!(in >> k) || k < 0 || k > 1000) fail<ValueError>(path, ": malformed PLY face");
             std::vector<int> idx(size_t(k), 0);
-            for (int& i : idx) in >> i;
+            for (int& i : idx) {
+                if (!(in >> i)) fail<ValueError>(path, ": truncated PLY face list (face ", f, ")");
+            }
             addPolygon(m, idx, path + ": face " + std::to_string(f));
         }
         return m;
@@ -416,9 +419,22 @@ Mesh readPly(const std::string& path, const std::string& bytes)
         m.points.emplace_back(float(v[size_t(ix)]), float(v[size_t(ix) + 1]), float(v[size_t(ix) + 2]));
     }
     for (size_t f = 0; f < nf; ++f) {
-        const int k = int(read(countType, at));
-        std::vector<int> idx(size_t(std::max(k, 0)));
-        for (int& i : idx) i = int(read(indexType, at));
+        // The count is the file's word: check it against what is left before allocating (a
+        // 'uint' count of 2e9 in a 300-byte file asked for 8 GB; fuzz_mesh found it).
+        const double k = read(countType, at);
+        if (!(k >= 0 && k <= 1000)) fail<ValueError>(path, ": malformed PLY face ", f, ": it announces ",
+                                                   std::abs(k) < 1e18 ? std::to_string(int64_t(k)) : std::to_string(k),
+                                                   " vertices (at most 1000)");
+        if (at + size_t(k) * size(indexType) > bytes.size()) fail<ValueError>(path, ": truncated PLY data");
+        std::vector<int> idx(static_cast<size_t>(k));
+        for (int& i : idx) {
+            const double v = read(indexType, at); // a 'uint' index of 4e9 does not fit an int
+            if (!(v >= 0 && v < double(nv))) {
+                fail<ValueError>(path, ": face ", f, ": vertex index ", std::to_string(int64_t(v)), " out of range (",
+                                 nv, " vertices)");
+            }
+            i = int(v);
+        }
         addPolygon(m, idx, path + ": face " + std::to_string(f));
     }
     return m;

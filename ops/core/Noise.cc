@@ -41,10 +41,20 @@ inline uint32_t fmix32(uint32_t h)
     h ^= h >> 16;
     return h;
 }
-inline uint32_t latticeHash(uint32_t s, int32_t i, int32_t j, int32_t k)
+inline uint32_t latticeHash(uint32_t s, uint32_t i, uint32_t j, uint32_t k)
 {
-    return fmix32(s ^ (uint32_t(i) * 0x8da6b343u) ^ (uint32_t(j) * 0xd8163841u) ^
-                  (uint32_t(k) * 0xcb1ab31fu));
+    return fmix32(s ^ (i * 0x8da6b343u) ^ (j * 0xd8163841u) ^ (k * 0xcb1ab31fu));
+}
+
+// The lattice cell of a floored coordinate as 32 bits: int32_t(f) wherever that conversion is
+// defined (|f| < 2^31: every coordinate a bake reaches), wrapped modulo 2^32 beyond, so that
+// a huge finite coordinate (a 4e122 m cell size fuzz_json found) is no undefined conversion.
+// Corners add in unsigned arithmetic (i + 1 at 2^31 - 1 would overflow an int).
+inline uint32_t cell(float f)
+{
+    if (std::fabs(f) < 2147483648.0f) return uint32_t(int32_t(f));
+    if (!std::isfinite(f)) return 0; // (the noise is NaN there: x - floor(x) is)
+    return uint32_t(int64_t(std::fmod(double(f), 4294967296.0)));
 }
 
 inline uint64_t octaveSeed(uint64_t seed, int octave)
@@ -57,11 +67,11 @@ inline uint64_t octaveSeed(uint64_t seed, int octave)
 float gradient3(uint64_t seed, float x, float y, float z)
 {
     const float fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
-    const int32_t i = int32_t(fx), j = int32_t(fy), k = int32_t(fz);
+    const uint32_t i = cell(fx), j = cell(fy), k = cell(fz);
     x -= fx; y -= fy; z -= fz;
     const float u = fade(x), v = fade(y), w = fade(z);
     const uint32_t s = uint32_t(random::mix64(seed ^ 0x3ULL));
-    auto h = [&](int di, int dj, int dk) { return latticeHash(s, i + di, j + dj, k + dk) >> 28; };
+    auto h = [&](int di, int dj, int dk) { return latticeHash(s, i + uint32_t(di), j + uint32_t(dj), k + uint32_t(dk)) >> 28; };
     const float n000 = grad3(h(0, 0, 0), x, y, z);
     const float n100 = grad3(h(1, 0, 0), x - 1, y, z);
     const float n010 = grad3(h(0, 1, 0), x, y - 1, z);
@@ -77,11 +87,11 @@ float gradient3(uint64_t seed, float x, float y, float z)
 float gradient2(uint64_t seed, float x, float y)
 {
     const float fx = std::floor(x), fy = std::floor(y);
-    const int32_t i = int32_t(fx), j = int32_t(fy);
+    const uint32_t i = cell(fx), j = cell(fy);
     x -= fx; y -= fy;
     const float u = fade(x), v = fade(y);
     const uint32_t s = uint32_t(random::mix64(seed ^ 0x2ULL));
-    auto h = [&](int di, int dj) { return latticeHash(s, i + di, j + dj, 0) >> 29; };
+    auto h = [&](int di, int dj) { return latticeHash(s, i + uint32_t(di), j + uint32_t(dj), 0) >> 29; };
     const float n00 = grad2(h(0, 0), x, y);
     const float n10 = grad2(h(1, 0), x - 1, y);
     const float n01 = grad2(h(0, 1), x, y - 1);

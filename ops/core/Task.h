@@ -12,8 +12,8 @@
 //     bake(field, settings, task.interrupter());
 //
 // Progress only goes up: overall = phase start + share · fraction, reported when it grows;
-// done() reports 100%. A cancel throws Interrupted from step() / check() (and from inside
-// parallelFor, which TBB propagates after cancelling the other chunks).
+// done() reports 100%. A cancel throws Interrupted from step() / check(), and from
+// parallelFor once its running chunks have finished (no exception leaves a TBB loop).
 #pragma once
 
 #include <rockvdb/core/Error.h>
@@ -23,7 +23,9 @@
 #include <tbb/parallel_for.h>
 
 #include <atomic>
+#include <mutex>
 #include <cstddef>
+#include <exception>
 #include <string>
 
 namespace rockvdb {
@@ -56,6 +58,9 @@ public:
     /// @brief Progress @a fraction in [0, 1] of the current phase; throws Interrupted when
     /// cancelled. Thread-safe.
     void step(double fraction);
+
+    /// @brief step() without the check: progress only. Thread-safe.
+    void advance(double fraction);
 
     /// @brief Throw Interrupted when cancelled. Thread-safe.
     void check() const
@@ -92,31 +97,59 @@ private:
         Task& mTask;
     };
 
-    void advance(double fraction); ///< step() without the throw
-
     TaskHost* mHost = nullptr;
     const char* mPhase = "";
     double mStart = 0, mShare = 0;
     std::atomic<double> mReported{0.0};
+    std::mutex mReportMutex; ///< one report at a time: the host sees them in rising order
     Adapter mAdapter{*this};
 };
 
 /// @brief tbb::parallel_for over [0, n) in chunks of @a grain, calling @a body(i) for each
-/// index. Between chunks the task is checked (a cancel throws Interrupted out of the loop,
-/// the other chunks are cancelled) and the phase's progress advances with the count done.
-/// Results must not depend on the chunking (write to slot i, never append).
+/// index, and the phase's progress advances with the count done. Results must not depend on
+/// the chunking (write to slot i, never append).
+///
+/// Cooperative: no exception ever leaves the TBB loop. A cancel (checked between chunks) or
+/// an exception from @a body only stops chunks not yet started; the running ones finish, then
+/// the exception of the lowest index that threw is rethrown (of those that ran), or
+/// Interrupted. Letting an exception out of tbb::parallel_for would cancel
+/// the loop's task group, and with it every OpenVDB algorithm the running bodies have nested
+/// inside (they inherit the cancellation): those return half done and their callers read
+/// state that was never filled. That was a segfault on Ctrl-C in the arches redistance.
 template<typename Body>
 void parallelFor(Task& task, size_t n, size_t grain, const Body& body)
 {
     task.check();
+    std::atomic<bool> stop{false}, interrupted{false};
     std::atomic<size_t> finished{0};
+    std::mutex failMutex;
+    std::exception_ptr failure;
+    size_t failedAt = n;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, grain == 0 ? 1 : grain),
         [&](const tbb::blocked_range<size_t>& r) {
-            task.check();
-            for (size_t i = r.begin(); i != r.end(); ++i) body(i);
+            if (stop.load(std::memory_order_relaxed)) return;
+            if (task.cancelled()) {
+                interrupted.store(true);
+                stop.store(true);
+                return;
+            }
+            size_t i = r.begin();
+            try {
+                for (; i != r.end(); ++i) body(i);
+            } catch (...) {
+                std::lock_guard<std::mutex> lock(failMutex);
+                if (!failure || i < failedAt) {
+                    failure = std::current_exception();
+                    failedAt = i;
+                }
+                stop.store(true);
+                return;
+            }
             const size_t now = finished.fetch_add(r.size()) + r.size();
-            task.step(double(now) / double(n));
+            task.advance(double(now) / double(n));
         });
+    if (failure) std::rethrow_exception(failure);
+    if (interrupted.load()) throw Interrupted();
 }
 
 } // namespace rockvdb

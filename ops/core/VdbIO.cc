@@ -6,12 +6,15 @@
 #include <openvdb/io/File.h>
 #include <openvdb/io/Stream.h>
 
+#include <tbb/task_arena.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <csignal>
 #include <cstdlib>
 #include <cstdio>
 #include <atomic>
+#include <chrono>
 #include <cstring>
 #include <fstream>
 #include <iostream>
@@ -20,6 +23,8 @@
 #include <random>
 #include <sstream>
 #include <fcntl.h>
+#include <poll.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -411,6 +416,13 @@ openvdb::GridPtrVecPtr parseVdb(const std::string& bytes, const std::string& nam
 /// expands by well under 64x from disk (blosc / zip of leaf buffers, active-value masks).
 size_t readBudget(size_t bytes) { return std::max<size_t>(size_t(512) << 20, 64 * bytes); }
 
+/// The CPU seconds a read of @a bytes may take before the file counts as corrupt: 10 s, plus
+/// 1 s per 10 MB (reads run at ~100 MB/s; a garbled count can make OpenVDB's reader loop for
+/// ever, which fuzz_vdb found).
+unsigned readSeconds(size_t bytes) { return unsigned(10 + bytes / (10u << 20)); }
+
+std::atomic<bool (*)()> gReadInterrupt{nullptr};
+
 size_t addressSpace()
 {
     std::ifstream f("/proc/self/statm");
@@ -430,6 +442,8 @@ void probeVdb(const std::string& bytes, const std::string& name)
     int pipeFd[2];
     if (::pipe(pipeFd) != 0) return; // no probe possible: read in-process, as before
     const size_t cap = addressSpace() + readBudget(bytes.size());
+    const rlim_t seconds = readSeconds(bytes.size());
+    const pid_t parent = ::getpid();
     std::fflush(nullptr);
     const pid_t pid = ::fork();
     if (pid < 0) {
@@ -443,15 +457,30 @@ void probeVdb(const std::string& bytes, const std::string& name)
         // sanitizer's or libFuzzer's, which would report and write an artifact) are dropped.
         for (const int sig : {SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT}) std::signal(sig, SIG_DFL);
         if (__sanitizer_set_death_callback) __sanitizer_set_death_callback(nullptr);
-        // Quiet: glibc's heap checks print to stderr when a corrupt file trips them.
+        // Quiet: glibc's heap checks print to stderr when a corrupt file trips them, and
+        // OpenVDB's log warns on stdout (a pipeline's data) about a garbled version number.
         const int null = ::open("/dev/null", O_WRONLY);
-        if (null >= 0) ::dup2(null, STDERR_FILENO);
+        if (null >= 0) {
+            ::dup2(null, STDERR_FILENO);
+            ::dup2(null, STDOUT_FILENO);
+        }
+        // Dies with this process (a tool's watchdog exits at once on Ctrl-C), and after
+        // readSeconds of CPU (SIGXCPU; SIGKILL a second later).
+        ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+        if (::getppid() != parent) ::_exit(4);
         struct rlimit lim{cap, cap};
         ::setrlimit(RLIMIT_AS, &lim);
+        struct rlimit cpu{seconds, seconds + 1};
+        ::setrlimit(RLIMIT_CPU, &cpu);
         int code = 0;
         std::string message;
         try {
-            parseVdb(bytes, name);
+            // TBB after fork: this child has only the forking thread, but TBB's state says the
+            // parent's workers exist, and a parallel loop here (OpenVDB frees a tree with
+            // one) waited for them for ever. A fresh one-slot arena asks for no worker; the
+            // grids parsed are never freed either (_exit below).
+            tbb::task_arena alone(1);
+            alone.execute([&] { new openvdb::GridPtrVecPtr(parseVdb(bytes, name)); });
         } catch (const std::bad_alloc&) {
             code = 3;
         } catch (const std::exception& e) {
@@ -470,20 +499,52 @@ void probeVdb(const std::string& bytes, const std::string& name)
     ::close(pipeFd[1]);
     std::string message;
     char buf[512];
+    // Wait for the child's answer, asking the host every 50 ms whether to give up (Python's
+    // Ctrl-C; the tools' watchdog needs no asking). The CPU limit ends a child that loops; one
+    // that waits for ever (a lock that another thread held when this process forked) is ended
+    // by a wall-clock limit of three times its CPU budget, plus 10 s for a loaded machine.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(3 * seconds + 10);
+    bool interrupted = false, stalled = false;
     for (;;) {
+        pollfd pfd{pipeFd[0], POLLIN, 0};
+        const int ready = ::poll(&pfd, 1, 50);
+        if (ready == 0 || (ready < 0 && errno == EINTR)) {
+            bool (*check)() = gReadInterrupt.load();
+            interrupted = check && check();
+            stalled = std::chrono::steady_clock::now() > deadline;
+            if (interrupted || stalled) {
+                ::kill(pid, SIGKILL);
+                break;
+            }
+            continue;
+        }
+        if (ready < 0) break;
         const ssize_t r = ::read(pipeFd[0], buf, sizeof buf);
         if (r > 0) message.append(buf, size_t(r));
         else if (r == 0 || errno != EINTR) break;
     }
     ::close(pipeFd[0]);
     int status = 0;
-    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {}
+    struct rusage usage{};
+    while (::wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {}
+    if (interrupted) throw Interrupted();
+    const double cpu = double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+                       1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
     if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
     if (WIFEXITED(status) && WEXITSTATUS(status) == 1 && !message.empty()) throw IoError(message);
     if (WIFEXITED(status) && WEXITSTATUS(status) == 3) {
         fail<IoError>("cannot read '", name, "': corrupt VDB file (reading its ", bytes.size(),
                       " bytes asked for more than ", readBudget(bytes.size()) >> 20,
                       " MB: a size in it is out of range)");
+    }
+    if (stalled && cpu < double(seconds)) {
+        fail<IoError>("cannot read '", name, "': OpenVDB's reader stopped making progress on its ",
+                      bytes.size(), " bytes (no answer after ", 3 * seconds + 10, " s)");
+    }
+    if (WIFSIGNALED(status) && (WTERMSIG(status) == SIGXCPU ||
+                                (WTERMSIG(status) == SIGKILL && cpu >= double(seconds)))) {
+        fail<IoError>("cannot read '", name, "': corrupt VDB file (OpenVDB's reader was still reading its ",
+                      bytes.size(), " bytes after ", seconds, " s: a count in it is out of range)");
     }
     if (WIFSIGNALED(status)) {
         fail<IoError>("cannot read '", name, "': corrupt VDB file (OpenVDB's reader crashed on it: ",
@@ -493,6 +554,8 @@ void probeVdb(const std::string& bytes, const std::string& name)
 }
 
 } // namespace
+
+void setReadInterrupt(bool (*check)()) { gReadInterrupt.store(check); }
 
 openvdb::GridPtrVecPtr readGrids(const std::string& path)
 {
@@ -534,6 +597,14 @@ openvdb::GridPtrVecPtr readGrids(const std::string& path)
     if (bytes.size() < 8 || std::memcmp(bytes.data(), " BDV\0\0\0\0", 8) != 0) {
         fail<IoError>("cannot read '", name, "': not a VDB file");
     }
+    // The format version follows the magic. OpenVDB reads a newer one anyway, after a warning
+    // that its log prints on stdout (a pipeline's data): refuse it here, in one line.
+    uint32_t format = 0;
+    if (bytes.size() >= 12) std::memcpy(&format, bytes.data() + 8, sizeof format);
+    if (format > openvdb::OPENVDB_FILE_VERSION) {
+        fail<IoError>("cannot read '", name, "': VDB file format version ", format, " is newer than ",
+                      "this OpenVDB reads (", openvdb::OPENVDB_FILE_VERSION, " or earlier)");
+    }
     probeVdb(bytes, name);
     try {
         return parseVdb(bytes, name);
@@ -572,7 +643,13 @@ openvdb::FloatGrid::Ptr findLevelSet(const openvdb::GridPtrVec& grids, const std
                 ++levelSets;
             }
         }
-        if (levelSets == 1) return findLevelSet(grids, only->getName(), source);
+        if (levelSets == 1) {
+            // The grid itself, not a look-up by its name: a nameless level set would recurse
+            // here for ever (fuzz_vdb found the stack overflow), and a name two grids share
+            // could pick the other one.
+            requireLevelSet(*only, "grid '" + only->getName() + "' in '" + source + "'");
+            return openvdb::gridPtrCast<openvdb::FloatGrid>(only);
+        }
         std::string names;
         for (const auto& g : grids) {
             if (g) names += (names.empty() ? "" : ", ") + ("'" + g->getName() + "'");

@@ -33,9 +33,16 @@ std::optional<Provenance> provenance(const openvdb::GridBase& grid);
 /// @throw IoError when the folder is missing or unwritable; nothing is left behind.
 void writeGrids(const std::string& path, const openvdb::GridCPtrVec& grids);
 
-/// @brief Read every grid of @a path ("-" = stdin), fully loaded (no delayed loading).
-/// @throw IoError for a missing, non-VDB, truncated or corrupt file.
+/// @brief Read every grid of @a path ("-" = stdin), fully loaded (no delayed loading). The
+/// bytes are parsed first in a child process capped in memory and CPU time (a corrupt file
+/// can crash OpenVDB's reader, ask it for gigabytes or loop it for ever).
+/// @throw IoError for a missing, non-VDB, truncated or corrupt file; Interrupted when the
+/// check given to setReadInterrupt says so while the child parses.
 openvdb::GridPtrVecPtr readGrids(const std::string& path);
+
+/// @brief A check readGrids polls every 50 ms while its child parses: true gives up (the
+/// child is killed, Interrupted thrown). Python's Ctrl-C; null (the default) never gives up.
+void setReadInterrupt(bool (*check)());
 
 /// @brief Find grid @a name in @a grids and check it is a float level set. An empty @a name
 /// takes 'surface', or else the file's only float level set.

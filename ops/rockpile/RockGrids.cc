@@ -196,6 +196,17 @@ std::vector<LeafT*> rockLeavesShifted(const Rock& rock, double voxelSize, const 
     return rockLeaves(rock, voxelSize, offset, halfWidth);
 }
 
+openvdb::CoordBBox rockLeafBounds(const Rock& rock, const Coord& offset, double halfWidth)
+{
+    if (rock.rho.empty()) return openvdb::CoordBBox();
+    // As rockLeaves: the rock's box padded by the band, shifted, out to whole leaves.
+    const int pad = int(std::ceil(halfWidth)) + 1;
+    const Coord base = rock.origin.offsetBy(-pad, -pad, -pad) + offset;
+    const Coord last = base.offsetBy(rock.dims[0] + 2 * pad - 1, rock.dims[1] + 2 * pad - 1,
+                                     rock.dims[2] + 2 * pad - 1);
+    return openvdb::CoordBBox(base & ~7, (last & ~7).offsetBy(7));
+}
+
 openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize, const Coord& offset,
                                      double halfWidth)
 {

@@ -18,6 +18,7 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <tuple>
 
 namespace rockvdb {
@@ -266,11 +267,50 @@ Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PilePa
     Pile pile;
     pile.instances = std::move(instances);
     const size_t count = pile.instances.size();
+    // A chunk (core/Chunks.h) keeps the leaves inside its box of the whole pile's leaves.
+    const ChunkSpec spec = p.chunking.spec("rockpile");
+    std::optional<openvdb::CoordBBox> keep;
+    if (spec.active() || planRequested()) {
+        std::vector<openvdb::CoordBBox> bounds(count);
+        openvdb::CoordBBox whole;
+        for (size_t i = 0; i < count; ++i) {
+            bounds[i] = rockLeafBounds(set.rocks[pile.instances[i].rock], pile.instances[i].shift,
+                                       p.halfWidth);
+            if (!bounds[i].empty()) whole.expand(bounds[i]);
+        }
+        reportPlanIfRequested("rockpile", whole, dx, spec, [&](const openvdb::CoordBBox& box) {
+            // Each rock's band (its box's area times the band, surface and id leaves) in the
+            // share of its box inside @a box.
+            double bytes = 0;
+            for (const auto& b : bounds) {
+                if (b.empty() || !b.hasOverlap(box)) continue;
+                openvdb::CoordBBox in = b;
+                in.intersect(box);
+                const auto e = b.extents();
+                const double area = 2.0 * (double(e[0]) * e[1] + double(e[1]) * e[2] + double(e[2]) * e[0]);
+                bytes += area * 2.0 * p.halfWidth * 2.0 * sizeof(float) * 1.5 *
+                         double(in.volume()) / double(b.volume());
+            }
+            return bytes;
+        });
+        if (spec.active()) keep = chunkBox(whole, chunkDims(spec, whole), spec.index);
+    }
     std::vector<std::vector<LeafT*>> leaves(count);
     try {
         parallelFor(task, count, 8, [&](size_t i) {
             const Instance& in = pile.instances[i];
-            leaves[i] = rockLeavesShifted(set.rocks[in.rock], dx, in.shift, p.halfWidth);
+            const Rock& rock = set.rocks[in.rock];
+            if (keep && !rockLeafBounds(rock, in.shift, p.halfWidth).hasOverlap(*keep)) return;
+            leaves[i] = rockLeavesShifted(rock, dx, in.shift, p.halfWidth);
+            if (keep) {
+                auto& list = leaves[i];
+                auto end = std::remove_if(list.begin(), list.end(), [&](LeafT* leaf) {
+                    if (keep->isInside(leaf->origin())) return false;
+                    delete leaf;
+                    return true;
+                });
+                list.erase(end, list.end());
+            }
         });
     } catch (...) {
         for (auto& list : leaves)

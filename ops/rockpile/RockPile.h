@@ -10,6 +10,7 @@
 
 #include <rockvdb/rockpile/RockTiles.h>
 
+#include <rockvdb/core/BakeParams.h>
 #include <rockvdb/core/Field.h>
 #include <rockvdb/core/Mesh.h>
 
@@ -42,6 +43,9 @@ struct PileParams
     /// other stages' material grids); −1 = no material grid.
     int material;
     SupportOptions support;  ///< how a support file is read
+    /// One chunk of the pile's level sets (core/Chunks.h): the box of every placed rock's
+    /// leaves, cut on leaf faces; rocks are selected over the whole support in every chunk.
+    ChunkParams chunking;
 
     /// @throw ValueError naming the parameter.
     void validate() const;

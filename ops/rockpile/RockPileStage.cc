@@ -99,6 +99,7 @@ Schema<PileParams> makePileSchema()
           [](P& p, const json& j) { p.support.up = j == "y" ? UpAxis::Y : UpAxis::Z; });
     s.member(param("seed", ParamType::Int, "", 0, Range::atLeast(0),
                  "Lattice colours (and a JSON support's noise)"), &P::seed);
+    addChunkRows(s, [](auto& p) -> auto& { return p.chunking; });
     return s;
 }
 
@@ -186,6 +187,10 @@ PileResult runPile(const TileSet& tiles, const Field& support, const PileParams&
                    const json& inputs, bool points, bool library, Task& task)
 {
     params.validate();
+    if (params.chunking.spec("rockpile").active() && (points || library)) {
+        fail<ValueError>("rockpile: --points and --library describe the whole pile; write them "
+                         "from a bake without --chunk");
+    }
     PileResult r;
     task.phase("select", 0.3);
     auto instances = selectRocks(tiles, support, params, task, &r.stats);

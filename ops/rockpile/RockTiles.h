@@ -205,5 +205,9 @@ openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth = 3.0,
 std::vector<openvdb::FloatTree::LeafNodeType*> rockLeavesShifted(
     const Rock& rock, double voxelSize, const openvdb::Coord& offset, double halfWidth);
 
+/// @brief The voxels of the leaves rockLeavesShifted may return (whole leaves; empty for a
+/// rock without voxels).
+openvdb::CoordBBox rockLeafBounds(const Rock& rock, const openvdb::Coord& offset, double halfWidth);
+
 } // namespace rockpile
 } // namespace rockvdb

@@ -166,11 +166,27 @@ py::tuple amplifyTerrain(py::object terrain, const std::vector<PyTile>& tiles,
 
 } // namespace
 
+// Ctrl-C while a file's bytes are checked in readGrids' child process (a corrupt file can
+// keep it busy for its whole CPU budget): only the thread that imported the module, as the
+// interpreter's main thread, sees Python's signals.
+static std::thread::id gImportThread;
+
+static bool pyReadInterrupt()
+{
+    if (std::this_thread::get_id() != gImportThread || !Py_IsInitialized()) return false;
+    py::gil_scoped_acquire gil;
+    if (PyErr_CheckSignals() == 0) return false;
+    PyErr_Clear(); // raised again as KeyboardInterrupt by the Interrupted translator
+    return true;
+}
+
 PYBIND11_MODULE(_rockvdb, m)
 {
     m.doc() = "rockvdb: procedural rocks as OpenVDB level sets (metres, negative inside)";
     py::module_::import("pyopenvdb");
     initialize();
+    gImportThread = std::this_thread::get_id();
+    setReadInterrupt(&pyReadInterrupt);
 
     py::register_exception_translator([](std::exception_ptr p) {
         try {

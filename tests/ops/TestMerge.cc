@@ -66,3 +66,88 @@ TEST(Merge, ChunksThatDoNotBelongTogetherAreRefused)
     EXPECT_THROW(mergeChunks({a, shifted}), ValueError);
     EXPECT_THROW(mergeChunks({}), ValueError);
 }
+
+namespace {
+
+FloatGrid::Ptr bakeChunk(const Field& f, double dx, const std::string& chunks, const std::string& chunk)
+{
+    BakeSettings s;
+    s.voxelSize = dx;
+    s.chunk = ChunkSpec::parse(chunks, chunk, "test");
+    return bake(f, s).surface;
+}
+
+} // namespace
+
+TEST(Chunks, BoxesPartitionTheWholeOnLeafFaces)
+{
+    const openvdb::CoordBBox whole(openvdb::Coord(-37, -5, 3), openvdb::Coord(250, 99, 60));
+    for (const std::array<int, 3> dims : {std::array<int, 3>{{4, 4, 1}}, {{3, 5, 2}}, {{64, 1, 1}}}) {
+        const int n = dims[0] * dims[1] * dims[2];
+        openvdb::Index64 volume = 0;
+        for (int i = 0; i < n; ++i) {
+            const auto b = chunkBox(whole, dims, i);
+            if (b.empty()) continue;
+            volume += b.volume();
+            EXPECT_TRUE(whole.isInside(b));
+            for (int a = 0; a < 3; ++a) {
+                // Inner faces fall on leaf faces; outer ones are the whole's.
+                if (b.min()[a] != whole.min()[a]) EXPECT_EQ(b.min()[a] % 8, 0);
+                if (b.max()[a] != whole.max()[a]) EXPECT_EQ((b.max()[a] + 1) % 8, 0);
+            }
+            for (int j = 0; j < i; ++j) {
+                EXPECT_FALSE(b.hasOverlap(chunkBox(whole, dims, j))) << i << " " << j;
+            }
+        }
+        EXPECT_EQ(volume, whole.volume());
+    }
+    // 12 chunks of a long box are cut along its length first.
+    const openvdb::CoordBBox slab(openvdb::Coord(0), openvdb::Coord(799, 199, 49));
+    EXPECT_EQ(autoChunkDims(slab, 12), (std::array<int, 3>{{6, 2, 1}}));
+}
+
+TEST(Chunks, ParseRefusesWhatDoesNotNameAChunk)
+{
+    EXPECT_FALSE(ChunkSpec::parse("", "", "t").active());
+    const ChunkSpec s = ChunkSpec::parse("2x3x1", "5/6", "t");
+    EXPECT_TRUE(s.active());
+    EXPECT_EQ(s.index, 5);
+    for (const auto& [chunks, chunk] : std::vector<std::pair<std::string, std::string>>{
+             {"2x2", ""}, {"0x1x1", ""}, {"2x2x-1", ""}, {"", "8/8"}, {"", "1"}, {"", "-1/4"},
+             {"2x2x2", "1/4"}, {"", "0/0"}, {"a", ""}, {"4096x4096x4096", ""}}) {
+        EXPECT_THROW(ChunkSpec::parse(chunks, chunk, "t"), ValueError) << chunks << " " << chunk;
+    }
+}
+
+TEST(Chunks, ASolidStraddlingSixtyFourChunksMergesToTheWholeBake)
+{
+    // A sphere whose inside spans many chunks: each chunk's flood fill sees only its box, so
+    // inside tiles next to the boxes' faces are the merge's to restore.
+    initialize();
+    const double dx = 0.02;
+    auto f = sphere(Vec3d(0.03, -0.01, 0.02), 1.7);
+    BakeSettings s;
+    s.voxelSize = dx;
+    auto whole = bake(*f, s).surface;
+    ChunkMerger merger;
+    for (int i = 0; i < 64; ++i) merger.add(*bakeChunk(*f, dx, "4x4x4", std::to_string(i) + "/64"));
+    auto merged = merger.finish();
+    EXPECT_TRUE(test::bitwiseEqual(*merged, *whole));
+    EXPECT_TRUE(test::bitwiseEqual(*whole, *merged));
+    EXPECT_LT(merged->tree().getValue(openvdb::Coord(0)), 0.0f);
+    // The same split chosen for the count alone (chunk i/N without chunks).
+    ChunkMerger automatic;
+    for (int i = 0; i < 8; ++i) automatic.add(*bakeChunk(*f, dx, "", std::to_string(i) + "/8"));
+    EXPECT_TRUE(test::bitwiseEqual(*automatic.finish(), *whole));
+}
+
+TEST(Chunks, AWholeBakesParametersComeBackFromAChunks)
+{
+    std::string chunk;
+    const nlohmann::json p = {{"voxel-size", 0.1}, {"chunks", "2x2x2"}, {"chunk", "3/8"}};
+    EXPECT_EQ(wholeBakeParams(p, &chunk), (nlohmann::json{{"voxel-size", 0.1}, {"chunks", ""}, {"chunk", ""}}));
+    EXPECT_EQ(chunk, "3/8");
+    const nlohmann::json pile = {{"pile", {{"seed", 1}, {"chunks", ""}, {"chunk", "0/2"}}}};
+    EXPECT_EQ(wholeBakeParams(pile, &chunk)["pile"]["chunk"], "");
+    EXPECT_EQ(chunk, "0/2");
+}

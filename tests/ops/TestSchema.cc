@@ -5,11 +5,14 @@
 #include <rockvdb/core/Task.h>
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <mutex>
 #include <optional>
+#include <thread>
 #include <vector>
 
 using namespace rockvdb;
@@ -194,6 +197,76 @@ TEST(Task, CancelStopsAParallelLoopEarly)
                  Interrupted);
     EXPECT_LT(done.load(), 100000u); // chunks after the cancel never ran
     EXPECT_THROW(task.check(), Interrupted);
+}
+
+// A body that throws must not cut short the nested TBB loops of the bodies still running:
+// an exception out of tbb::parallel_for cancels the loop's task group, nested algorithms
+// inherit that, and OpenVDB tools inside a body then return half done (the arches redistance
+// segfaulted on Ctrl-C that way). parallelFor lets the running bodies finish, then rethrows.
+TEST(Task, AFailingBodyLetsTheRunningNestedLoopsFinish)
+{
+    Task task;
+    constexpr size_t kInner = 20000;
+    std::atomic<bool> nestedStarted{false};
+    std::mutex m;
+    std::vector<size_t> innerCounts; // one per body whose nested loop ran
+    try {
+        parallelFor(task, 4, 1, [&](size_t i) {
+            if (i == 0) {
+                // Throw while another body is inside its nested loop (bounded wait: with one
+                // thread there is none).
+                const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+                while (!nestedStarted.load() && std::chrono::steady_clock::now() < until) std::this_thread::yield();
+                throw ValueError("body 0 failed");
+            }
+            std::atomic<size_t> inner{0};
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, kInner, 64), [&](const tbb::blocked_range<size_t>& r) {
+                nestedStarted.store(true);
+                for (size_t k = r.begin(); k != r.end(); ++k) {
+                    inner.fetch_add(1);
+                    if (k % 64 == 0) std::this_thread::sleep_for(std::chrono::microseconds(20));
+                }
+            });
+            std::lock_guard<std::mutex> lock(m);
+            innerCounts.push_back(inner.load());
+        });
+        FAIL() << "the body's ValueError was not rethrown";
+    } catch (const ValueError& e) {
+        EXPECT_STREQ(e.what(), "body 0 failed");
+    }
+    for (size_t c : innerCounts) EXPECT_EQ(c, kInner); // every nested loop that started, whole
+}
+
+// Of two bodies failing while both run, the lower index's error is the one rethrown, even
+// when the higher one throws first: the message does not depend on the scheduling.
+TEST(Task, TheLowestFailingIndexIsRethrown)
+{
+    if (tbb::this_task_arena::max_concurrency() < 2) GTEST_SKIP() << "needs two threads";
+    Task task;
+    for (int rep = 0; rep < 10; ++rep) {
+        std::atomic<bool> started0{false}, threw1{false};
+        auto waitFor = [](std::atomic<bool>& flag) {
+            const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+            while (!flag.load() && std::chrono::steady_clock::now() < until) std::this_thread::yield();
+            return flag.load();
+        };
+        try {
+            parallelFor(task, 2, 1, [&](size_t i) {
+                if (i == 0) {
+                    started0.store(true);
+                    waitFor(threw1);
+                    throw ValueError("index 0");
+                }
+                waitFor(started0);
+                threw1.store(true);
+                throw ValueError("index 1");
+            });
+            FAIL();
+        } catch (const ValueError& e) {
+            if (!started0.load()) continue; // the two never overlapped (one thread took both)
+            EXPECT_STREQ(e.what(), "index 0");
+        }
+    }
 }
 
 TEST(Task, InterrupterAdapterMapsPercentIntoThePhase)

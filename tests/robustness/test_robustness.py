@@ -9,8 +9,10 @@ import math
 import os
 import random
 import struct
+import signal
 import subprocess
 import sys
+import time
 import zlib
 
 import pytest
@@ -185,6 +187,15 @@ ROWS = {
         {"big.png": png_claiming(60000, 60000)},
         lambda t: [tool("vdb_heightfield"), str(t / "big.png"), "-o", str(t / "out.vdb")], 1,
         "corrupt or truncated image (its header claims 60000x60000 pixels, 7.2 GB"),
+    "a noise terrain 4e122 m across": (  # found by fuzz_json (regressions/json/noise-terrain-huge-cell)
+        {"huge_cell.json": json.dumps({"type": "noise_terrain", "samples": [9, 9], "cell_size": 4e122,
+                                       "amplitude": 2})},
+        lambda t: [tool("vdb_primitive"), "expr", str(t / "huge_cell.json"), "-o", str(t / "out.vdb")], 2,
+        "extent (samples x cell size) must be <= 1e9 m"),
+    "noise octaves of 8.9e116": (  # found by fuzz_json (regressions/json/noise-octaves-huge)
+        {"octaves.json": json.dumps({"type": "noise_terrain", "samples": [9, 9], "octaves": 8.9e116})},
+        lambda t: [tool("vdb_primitive"), "expr", str(t / "octaves.json"), "-o", str(t / "out.vdb")], 2,
+        "at /octaves: expected an integer (got 8.9e+116)"),
     "a polytope of 4000 planes": (
         {"poly.json": json.dumps({"type": "polytope", "planes": [
             [math.cos(k), math.sin(k), math.sin(3 * k), 1.0] for k in range(4000)]})},
@@ -397,6 +408,10 @@ def scene(tmp_path_factory):
         "vdb.write(sys.argv[1], [g])\n"), str(d / "tiles_terrain.vdb")], check=True)
     (d / "far.json").write_text(json.dumps({"type": "sphere", "center": [1e8, 0, 0], "radius": 2}))
     (d / "bad.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n")
+    # Found by fuzz_mesh (regressions/mesh/ply-face-count-huge; its first byte picks the format).
+    src = os.path.join(os.path.dirname(__file__), "..", "fuzz", "regressions", "mesh",
+                       "ply-face-count-huge")
+    (d / "huge_face.ply").write_bytes(open(src, "rb").read()[1:])
     (d / "blend.json").write_text(json.dumps({"gabor_amplitude": 0.04}))
     subprocess.run([sys.executable, "-c", (
         "import json, sys, pyopenvdb as vdb\n"
@@ -449,6 +464,10 @@ ON_SCENE = {
         lambda t, d: [tool("vdb_rockpile"), "pile", "--tiles", str(d / "tiles.vdb"), "--support",
                       str(d / "bad.obj"), "-o", str(t / "out.vdb")], 2,
         "bad.obj:4: vertex index 99 out of range (3 vertices, counted from 1)"),
+    "a PLY face announcing 2e9 vertices": (
+        lambda t, d: [tool("vdb_rockpile"), "pile", "--tiles", str(d / "tiles.vdb"), "--support",
+                      str(d / "huge_face.ply"), "-o", str(t / "out.vdb")], 2,
+        "huge_face.ply: malformed PLY face 0: it announces 1950000000 vertices (at most 1000)"),
     "a blend mask of 5": (
         lambda t, d: [tool("vdb_detail"), str(d / "fine.vdb"), "--blend", str(d / "blend.json"),
                       "--blend-mask", str(d / "mask_five.vdb"), "-o", str(t / "out.vdb")], 2,
@@ -554,3 +573,99 @@ def test_a_file_name_that_is_not_utf8_is_written_and_read(tmp_path):
     assert p.returncode == 0, p.stderr
     info = json.loads(p.stdout)
     assert "caf\ufffd.vdb" in json.dumps(info, ensure_ascii=False)
+
+
+def test_an_exr_whose_offsets_point_past_the_end_is_refused(tmp_path):
+    """Found by fuzz_image (regressions/image/exr-seek-past-end): a corrupt line-offset table
+    made OpenEXR seek to 2^64 - 1 and our in-memory stream's bounds check wrapped around.
+    Now the read fails with one line and the output is untouched."""
+    src = os.path.join(os.path.dirname(__file__), "..", "fuzz", "regressions", "image",
+                       "exr-seek-past-end")
+    h = tmp_path / "h.exr"
+    h.write_bytes(open(src, "rb").read())
+    out = tmp_path / "out.vdb"
+    out.write_bytes(SENTINEL)
+    p = run([tool("vdb_heightfield"), "-q", str(h), "-o", str(out)])
+    lines = [l for l in p.stderr.splitlines() if l.strip()]
+    assert p.returncode != 0 and len(lines) == 1 and "h.exr" in lines[0], p.stderr[-800:]
+    assert out.read_bytes() == SENTINEL
+
+
+def test_a_nameless_level_set_is_found_not_recursed(tmp_path):
+    """Found by fuzz_vdb (regressions/vdb/nameless-level-set): a file whose only level set has
+    no name made the default look-up ('surface', else the only level set) call itself by that
+    empty name for ever: a stack overflow in every tool reading it. Now the grid is used."""
+    import pyopenvdb
+    g = pyopenvdb.createLevelSetSphere(1.0, voxelSize=0.1)
+    g.name = ""
+    pyopenvdb.write(str(tmp_path / "nameless.vdb"), [g])
+    sys.path.insert(0, os.path.join(os.environ["ROCKVDB_BUILD"], "python"))
+    import rockvdb
+    got = rockvdb.read(str(tmp_path / "nameless.vdb"))
+    assert got.activeVoxelCount() == g.activeVoxelCount() > 0
+    assert got.evalActiveVoxelBoundingBox() == g.evalActiveVoxelBoundingBox()
+
+
+def test_a_newer_format_version_is_refused_and_nothing_reaches_stdout(valid, tmp_path):
+    """A flipped bit in the format version (224 -> 480): OpenVDB reads on after a warning that
+    its log prints on stdout, into a pipeline's data. Refused in one line, stdout empty, in a
+    tool writing to stdout and in Python."""
+    f = tmp_path / "v480.vdb"
+    f.write_bytes(flipped(valid.read_bytes(), 9, 0))
+    env = dict(os.environ, PYTHONPATH=os.path.join(os.environ["ROCKVDB_BUILD"], "python"))
+    for argv in ([tool("vdb_csg"), "-q", "union", str(f), str(valid), "-o", "-"],
+                 [sys.executable, "-c", "import rockvdb, sys\ntry:\n    rockvdb.read(sys.argv[1])\n"
+                  "except OSError as e:\n    sys.exit(str(e))\n", str(f)]):
+        p = subprocess.run(argv, capture_output=True, env=env, timeout=60)
+        lines = [l for l in p.stderr.decode().splitlines() if l.strip()]
+        assert p.returncode == 1 and len(lines) == 1 and not p.stdout, (p.stdout[:200], p.stderr)
+        assert "format version 480 is newer than this OpenVDB reads (224 or earlier)" in lines[0]
+
+
+ENDLESS = os.path.join(os.path.dirname(__file__), "..", "fuzz", "regressions", "vdb", "endless-read")
+
+
+def test_a_file_that_loops_the_reader_is_refused_after_its_cpu_budget(tmp_path):
+    """Found by fuzz_vdb (regressions/vdb/endless-read, its format version since set back to
+    224, which newer versions are refused before reading): a garbled count made OpenVDB's
+    reader loop for ever, and every reading tool hung. The check's child process now has a
+    CPU budget (10 s for a small file): one line, nothing on stdout, nothing left running."""
+    t0 = time.monotonic()
+    p = run([tool("vdb_info"), ENDLESS])
+    lines = [l for l in p.stderr.splitlines() if l.strip()]
+    assert p.returncode == 1 and len(lines) == 1, p.stderr
+    assert "was still reading its 1086 bytes after 10 s" in lines[0]
+    assert not p.stdout and time.monotonic() - t0 < 30
+
+
+def test_ctrl_c_stops_a_looping_read_at_once_in_the_cli_and_in_python(tmp_path):
+    """Ctrl-C during that read: the tool exits 130 within a second (its watchdog) and the
+    check's child dies with it; Python raises KeyboardInterrupt within a second (the read
+    asks the interpreter for signals while it waits)."""
+    sys.path.insert(0, os.path.join(os.environ["ROCKVDB_BUILD"], "python"))
+    env = dict(os.environ, PYTHONPATH=os.path.join(os.environ["ROCKVDB_BUILD"], "python"))
+    for argv in ([tool("vdb_info"), ENDLESS],
+                 [sys.executable, "-c", "import rockvdb, sys\n"
+                  "try:\n    rockvdb.read(sys.argv[1])\n"
+                  "except KeyboardInterrupt:\n    sys.exit(42)\n", ENDLESS]):
+        p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True)
+        # Wait for the check's child to be reading (the interpreter and the import first).
+        deadline, kids = time.monotonic() + 60, []
+        while not kids and time.monotonic() < deadline:
+            assert p.poll() is None, p.stderr.read()
+            time.sleep(0.1)
+            kids = [int(c) for c in open(f"/proc/{p.pid}/task/{p.pid}/children").read().split()]
+        assert kids, "no check child is reading"
+        time.sleep(0.3)
+        t0 = time.monotonic()
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=30)
+        assert time.monotonic() - t0 < 1.0, err
+        assert p.returncode == (130 if argv[0] != sys.executable else 42), err
+        time.sleep(0.2)
+        for k in kids:
+            try:
+                state = open(f"/proc/{k}/stat").read().rsplit(")", 1)[1].split()[0]
+            except OSError:
+                continue
+            assert state == "Z", f"the check child {k} outlived its parent ({state})"
