@@ -243,8 +243,12 @@ def bake(tool, args, output, chunks=None, chunk_memory=None, client=None, schedu
                 filter(None, [warn, "ignore::UserWarning:multiprocessing.resource_tracker"]))
             # Dask's own log lines stay off stderr while our cluster runs (a failed chunk is
             # reported once, here; a Ctrl-C kills the workers, which their nannies would log
-            # as "Restarting worker"). Dask configured its loggers when it was imported, so
-            # its configuration can no longer change them: the level is set here.
+            # as "Restarting worker"). The workers configure their logging from Dask's config,
+            # which they are started with; this process configured its loggers when it
+            # imported Dask, so their levels are set here.
+            os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "error")
+            import dask
+            dask.config.refresh()
             dask_logs = [logging.getLogger(n) for n in ("distributed", "distributed.client")]
             dask_levels = [log.level for log in dask_logs]
             for log in dask_logs:
