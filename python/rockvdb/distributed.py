@@ -243,16 +243,18 @@ def bake(tool, args, output, chunks=None, chunk_memory=None, client=None, schedu
                 filter(None, [warn, "ignore::UserWarning:multiprocessing.resource_tracker"]))
             # Dask's own log lines stay off stderr while our cluster runs (a failed chunk is
             # reported once, here; a Ctrl-C kills the workers, which their nannies would log
-            # as "Restarting worker"). The workers configure their logging from Dask's config,
-            # which they are started with; this process configured its loggers when it
-            # imported Dask, so their levels are set here.
-            os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "error")
+            # as "Restarting worker", and a worker closed mid-heartbeat logs an ERROR "Scheduler
+            # was unaware of this worker"; what matters reaches this process as an exception).
+            # The workers configure their logging from Dask's config, which they are started
+            # with; this process configured its loggers when it imported Dask, so their levels
+            # are set here.
+            os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "critical")
             import dask
             dask.config.refresh()
             dask_logs = [logging.getLogger(n) for n in ("distributed", "distributed.client")]
             dask_levels = [log.level for log in dask_logs]
             for log in dask_logs:
-                log.setLevel(logging.ERROR)
+                log.setLevel(logging.CRITICAL)
             space = tempfile.mkdtemp(prefix="rockvdb-dask-")
             own_cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                        dashboard_address=":0", host="127.0.0.1",

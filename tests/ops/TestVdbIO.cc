@@ -17,6 +17,12 @@
 
 using namespace rockvdb;
 
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define SANITIZED_ALLOCATOR 1
+#endif
+#endif
+
 namespace {
 std::string tmp(const std::string& name) { return ::testing::TempDir() + "/" + name; }
 
@@ -103,6 +109,10 @@ TEST(VdbIO, ReadsStayQuickWhileTbbWorkersRun)
     // readGrids checks a file in a forked child. TBB's workers are not in that child, yet a
     // parallel loop there (OpenVDB frees a tree with one) waited for them for ever when they
     // were busy at the fork: here a second thread keeps them busy while this one reads.
+#ifdef SANITIZED_ALLOCATOR
+    GTEST_SKIP() << "clang 14's sanitizer allocators are not fork-safe: a child forked while "
+                    "another thread allocates can wait on the allocator's lock for ever";
+#endif
     writeGrids(tmp("busy.vdb"), {smallSphere()});
     std::atomic<bool> stop{false};
     std::thread busy([&] {
