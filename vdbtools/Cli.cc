@@ -401,6 +401,10 @@ int Tool::distribute(const std::vector<std::string>& words)
             }
             continue;
         }
+        if (w.size() > 2 && w[0] == '-' && w[1] == 'o') { // CLI11's "-oFILE"
+            given["-o"] = w.substr(2);
+            continue;
+        }
         if (flags.count(w)) continue;
         rest.push_back(w);
     }

@@ -267,6 +267,7 @@ def bake(tool, args, output, chunks=None, chunk_memory=None, client=None, schedu
         p = plan(tool, args, chunks=chunks, chunk_memory=chunk_memory, count=count_hint, cwd=cwd)
         dims, count = p["chunks"], int(p["count"])
         key = _job_key(tool, args, dims, count, cwd)
+        made_folder = not os.path.isdir(folder)
         os.makedirs(folder, exist_ok=True)
         done = finished_chunks(folder, key, count)
         todo = [i for i in range(count) if i not in done]
@@ -288,8 +289,11 @@ def bake(tool, args, output, chunks=None, chunk_memory=None, client=None, schedu
                 _kill_local_cluster(own_cluster, local_pids)
                 shutil.rmtree(space, ignore_errors=True)
                 own_cluster = None
-                raise
-            client.cancel(futures)
+            else:
+                client.cancel(futures)
+            if made_folder and not any(n.endswith(".json") for n in os.listdir(folder)):
+                # No finished chunk to keep for a rerun: the new chunk folder goes too.
+                shutil.rmtree(folder, ignore_errors=True)
             raise
         bar.clear()
         bake_seconds = time.monotonic() - t0

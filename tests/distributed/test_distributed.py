@@ -322,12 +322,15 @@ def test_arches_with_rock_tiles_refuses_a_chunk(scene, tmp_path):
 
 def test_a_failing_chunk_is_one_line_with_its_tools_exit_code(tmp_path):
     """Every chunk of vdb_blocks --tile fails (the tile describes the whole run): the cluster
-    run says so once, with the tool's code, and writes nothing."""
+    run says so once, with the tool's code, and writes nothing, not even an empty chunk folder
+    (no chunk finished). The output given as CLI11's -oFILE is the driver's, not the chunks'
+    (each chunk once got it beside its own -o)."""
     out, tile = tmp_path / "b.vdb", tmp_path / "t.tile"
     p = run([tool("vdb_blocks"), "--voxel-size", "0.2", "--tile", str(tile), "--chunks", "2x1x1",
-             "--local-workers", "2", "-o", str(out)])
+             "--local-workers", "2", f"-o{out}"])
     one_line_error(p, 2, "chunk", "--tile and --meshes describe the whole tile")
     assert not out.exists() and not tile.exists()
+    assert os.listdir(tmp_path) == [], os.listdir(tmp_path)
     p = run([tool("vdb_blocks"), "--voxel-size", "0.2", "--chunks", "2x1x1", "--local-workers",
              "2", "-o", str(tmp_path / "no" / "b.vdb")])
     one_line_error(p, 2, "no folder")
