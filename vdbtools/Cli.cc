@@ -1,5 +1,6 @@
 #include "Cli.h"
 
+#include <rockvdb/core/BakeParams.h>
 #include <rockvdb/core/Chunks.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
@@ -20,7 +21,6 @@
 #include <fstream>
 #include <iostream>
 #include <map>
-#include <set>
 #include <mutex>
 #include <unistd.h>
 
@@ -353,10 +353,17 @@ CLI::Option* Tool::addOutput(CLI::App& where, const std::string& help)
     return mOutputOption;
 }
 
+namespace {
+// The option group of addDistribution's options; distribute() finds them by it.
+constexpr const char* kClusterGroup = "Chunked and cluster bakes";
+} // namespace
+
 void Tool::addDistribution(CLI::App& where)
 {
     mDistributable = true;
+    mDistributionApp = &where;
     if (mOutputOption) mOutputOption->required(false); // (--plan writes none; run() checks)
+    const size_t before = where.get_options().size();
     where.add_flag("--plan", mPlan,
                    "Print the bake's plan as JSON on stdout (its whole index box, estimated "
                    "bytes, the split into chunks that --chunk-memory or --chunks gives) and bake "
@@ -378,41 +385,61 @@ void Tool::addDistribution(CLI::App& where)
     where.add_flag("--keep-chunks", mKeepChunks,
                    "Keep the chunk folder after merging (vdb_merge --manifest merges it again; "
                    "DCCs may load the chunks one by one)");
+    const auto options = where.get_options();
+    for (size_t i = before; i < options.size(); ++i) options[i]->group(kClusterGroup);
 }
 
 int Tool::distribute(const std::vector<std::string>& words)
 {
-    // The stage's own arguments go to every chunk as given; the driver's are taken out and
-    // passed to it by name.
-    static const std::set<std::string> valued = {"-o", "--output", "--local-workers", "--scheduler",
-                                                 "--chunk-dir", "--chunk-memory", "--chunks", "--chunk"};
-    static const std::set<std::string> flags = {"--keep-chunks", "--plan"};
-    std::map<std::string, std::string> given;
+    // The stage's own arguments go to every chunk as given. The driver's options (the cluster
+    // group, the chunk rows, -o) are taken out, in each spelling CLI11 accepts (--name value,
+    // --name=value, -o value, -oVALUE), and passed to the driver by their long names.
+    CLI::App& app = *mDistributionApp;
+    std::map<std::string, const CLI::Option*> driver;
+    auto spell = [&](const CLI::Option* o) {
+        if (!o) return;
+        for (const auto& l : o->get_lnames()) driver["--" + l] = o;
+        for (const auto& s : o->get_snames()) driver["-" + s] = o;
+    };
+    for (const CLI::Option* o : app.get_options()) {
+        if (o->get_group() == kClusterGroup) spell(o);
+    }
+    spell(mOutputOption);
+    const CLI::Option* chunkRow = app.get_option_no_throw(std::string("--") + ChunkParams::kChunkRow);
+    spell(chunkRow);
+    spell(app.get_option_no_throw(std::string("--") + ChunkParams::kChunksRow));
+    std::vector<std::pair<const CLI::Option*, std::string>> given;
     std::vector<std::string> rest;
     for (size_t i = 1; i < words.size(); ++i) {
         const std::string& w = words[i];
-        const size_t eq = w.find('=');
-        const std::string key = w.rfind("--", 0) == 0 && eq != std::string::npos ? w.substr(0, eq) : w;
-        if (valued.count(key)) {
-            if (key != w) {
-                given[key] = w.substr(eq + 1);
-            } else if (i + 1 < words.size()) {
-                given[key] = words[++i];
-            }
+        std::string key = w, value;
+        bool glued = false;
+        if (w.rfind("--", 0) == 0 && w.find('=') != std::string::npos) {
+            key = w.substr(0, w.find('='));
+            value = w.substr(key.size() + 1);
+            glued = true;
+        } else if (w.size() > 2 && w[0] == '-' && w[1] != '-') {
+            key = w.substr(0, 2);
+            value = w.substr(2);
+            glued = true;
+        }
+        const auto it = driver.find(key);
+        if (it == driver.end()) {
+            rest.push_back(w);
             continue;
         }
-        if (w.size() > 2 && w[0] == '-' && w[1] == 'o') { // CLI11's "-oFILE"
-            given["-o"] = w.substr(2);
-            continue;
-        }
-        if (flags.count(w)) continue;
-        rest.push_back(w);
+        if (it->second->get_expected_min() == 0) continue; // a flag: the driver has its member
+        if (!glued) value = i + 1 < words.size() ? words[++i] : "";
+        given.emplace_back(it->second, value);
     }
+    auto isGiven = [&](const CLI::Option* o) {
+        return std::any_of(given.begin(), given.end(), [&](const auto& g) { return g.first == o; });
+    };
     if (mOutput.empty()) fail<ValueError>("--output is required");
     if (std::count(rest.begin(), rest.end(), "-")) {
         fail<ValueError>("a cluster run reads its inputs from files every worker can open, not stdin");
     }
-    if (given.count("--chunk")) {
+    if (isGiven(chunkRow)) {
         fail<ValueError>("--chunk names one chunk of a farm job; a cluster run (--local-workers, "
                          "--scheduler) bakes them all");
     }
@@ -433,10 +460,8 @@ int Tool::distribute(const std::vector<std::string>& words)
     }
     std::vector<std::string> argv = {ROCKVDB_PYTHON, "-m", "rockvdb.distributed", "--tool", exe,
                                      "--output", mOutput};
-    if (mLocalWorkers > 0) argv.insert(argv.end(), {"--local-workers", std::to_string(mLocalWorkers)});
-    if (!mScheduler.empty()) argv.insert(argv.end(), {"--scheduler", mScheduler});
-    for (const char* k : {"--chunk-dir", "--chunk-memory", "--chunks"}) {
-        if (given.count(k)) argv.insert(argv.end(), {k, given[k]});
+    for (const auto& [option, value] : given) {
+        if (option != mOutputOption) argv.insert(argv.end(), {"--" + option->get_lnames().front(), value});
     }
     if (mKeepChunks) argv.push_back("--keep-chunks");
     if (mQuiet) argv.push_back("--quiet");

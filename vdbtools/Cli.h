@@ -147,7 +147,8 @@ private:
     CLI::Option* mOutputOption = nullptr;
     int mThreads = 0;
     bool mQuiet = false;
-    // addDistribution
+    // addDistribution: its options sit in one CLI11 group of mDistributionApp
+    CLI::App* mDistributionApp = nullptr;
     bool mDistributable = false, mPlan = false, mKeepChunks = false;
     double mChunkMemoryGB = 0;
     int mLocalWorkers = 0;
