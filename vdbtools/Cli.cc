@@ -1,5 +1,6 @@
 #include "Cli.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/core/BakeParams.h>
 #include <rockvdb/core/Chunks.h>
 #include <rockvdb/core/Error.h>
@@ -75,7 +76,7 @@ std::string cliText(const nlohmann::json& v)
         for (const auto& x : v) s += (s.empty() ? "" : ",") + cliText(x);
         return s;
     }
-    return v.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    return jsonText(v);
 }
 
 // A command-line word as the JSON value its row expects; what does not parse stays a string
@@ -210,7 +211,7 @@ private:
     {
         if (v.is_string()) return v.get<std::string>();
         if (v.is_boolean()) return v.get<bool>() ? "true" : "false";
-        return v.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+        return jsonText(v);
     }
 
     static bool isSubcommand(const CLI::App* app, const std::string& name)
@@ -572,12 +573,24 @@ std::unique_ptr<TaskBar> Tool::taskBar() const
 
 std::string Tool::paramsJson() const
 {
-    return ConfigJson::toJson(&mApp, true).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    return jsonText(ConfigJson::toJson(&mApp, true));
 }
 
 std::unique_ptr<Progress> Tool::progress(const std::string& label) const
 {
     return std::make_unique<Progress>(mName + ": " + label, !mQuiet && ::isatty(STDERR_FILENO));
+}
+
+void Tool::addStats(CLI::App& where)
+{
+    where.add_option("--stats", mStatsPath, "Also write the run's statistics (counts, times, "
+                                            "phases) as JSON to this file ('-' = stdout)");
+}
+
+void Tool::finish(const StageResult& result) const
+{
+    for (const auto& line : result.report) info(line);
+    if (!mStatsPath.empty()) writeFileAtomic(mStatsPath, result.stats.dump(2) + "\n");
 }
 
 void Tool::info(const std::string& line) const
@@ -728,7 +741,7 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
         cancelWatchdog(); // a signal after the last write: the outputs are complete
         return 0;
     } catch (const PlanReady& plan) {
-        std::cout << plan.plan().dump(-1, ' ', false, json::error_handler_t::replace) << "\n";
+        std::cout << jsonText(plan.plan()) << "\n";
         std::cout.flush();
         return std::cout ? 0 : 1;
     } catch (const ValueError& e) {
@@ -771,6 +784,17 @@ BakeResult bakeAndWrite(const Tool& tool, const Field& field, const BakeSettings
     }
     writeGrids(tool.output(), grids);
     return r;
+}
+
+bool hasExtension(const std::string& path, std::initializer_list<const char*> extensions)
+{
+    for (const char* ext : extensions) {
+        const std::string e(ext);
+        if (path.size() >= e.size() && path.compare(path.size() - e.size(), e.size(), e) == 0) {
+            return true;
+        }
+    }
+    return false;
 }
 
 Vec3d toVec3(const std::vector<double>& v, const char* what)

@@ -11,6 +11,7 @@
 
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Schema.h>
+#include <rockvdb/core/StageResult.h>
 #include <rockvdb/core/Task.h>
 
 #include <CLI/CLI.hpp>
@@ -99,7 +100,14 @@ public:
     /// --scheduler hand the run to rockvdb.distributed (Dask), which bakes the chunks as
     /// tasks and merges them into -o; --chunk-memory, --chunk-dir and --keep-chunks shape it.
     void addDistribution(CLI::App& where);
+    /// @brief --stats FILE: the run's statistics (a stage result's stats: counts, times,
+    /// phases) as JSON, written with the other outputs.
+    void addStats(CLI::App& where);
     /// @}
+
+    /// @brief A stage's result, told: its report lines on stderr (unless --quiet) and its
+    /// stats to --stats FILE. The main writes the grids.
+    void finish(const StageResult& result) const;
 
     /// @brief The values given for @a schema's rows, on the command line or by --params, as
     /// JSON for Schema::fromJson (which fills in the defaults and checks everything).
@@ -143,7 +151,7 @@ private:
     /// @brief exec /usr/bin/python3 -m rockvdb.distributed with this run's arguments.
     int distribute(const std::vector<std::string>& words);
 
-    std::string mOutput;
+    std::string mOutput, mStatsPath;
     CLI::Option* mOutputOption = nullptr;
     int mThreads = 0;
     bool mQuiet = false;
@@ -167,6 +175,9 @@ void distinctOutputs(const std::vector<std::pair<std::string, std::string>>& out
 /// @brief ValueError "the result is empty (no active voxels): <why>" when @a grid holds nothing:
 /// an empty file with exit 0 would pass for a result down a pipeline.
 void refuseEmpty(const openvdb::GridBase& grid, const std::string& why);
+
+/// @brief True when @a path ends in one of @a extensions (as given, e.g. ".obj").
+bool hasExtension(const std::string& path, std::initializer_list<const char*> extensions);
 
 /// @brief Parse "x,y,z" style option values already split by CLI11 into a Vec3d.
 Vec3d toVec3(const std::vector<double>& v, const char* what);

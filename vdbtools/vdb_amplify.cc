@@ -36,6 +36,7 @@ int main(int argc, char** argv)
                    "reads >= 0.5 (PNG: >= 32768)");
     tool.addParams(app, amplifySchema());
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
+    tool.addStats(app);
     tool.addDistribution(app);
 
     return tool.run(argc, argv, [&] {
@@ -59,13 +60,9 @@ int main(int argc, char** argv)
         Task task(bar.get());
         const AmplifyRun r = runAmplify(p, in, task);
         bar->clear();
-        if (r.stats.replicated == 0) {
-            tool.info("no block qualifies (flat terrain or rules too strict): wrote the bare "
-                      "terrain");
-        }
+        tool.finish(r);
         const auto tw = Clock::now();
-        writeGrids(tool.output(), {r.grids.surface, r.grids.blockId, r.grids.material});
-        for (const auto& line : describe(r.stats)) tool.info(line);
+        writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
         char line[160];
         std::snprintf(line, sizeof line, "io: load %.3f s (tiles, mask), write %.3f s; total %.3f s",
                       loadSeconds, std::chrono::duration<double>(Clock::now() - tw).count(),

@@ -1,13 +1,11 @@
 // vdb_blocks — fractured block tiles (implicit-blocks-rocky-scenery.txt §4). Options from the
-// stage's table, work in runBlocks / bakeTile (BlocksStage.h).
+// stage's table, the work in runBlocks (BlocksStage.h), which rockvdb.block_tile runs too.
 #include "Cli.h"
 
 #include <rockvdb/blocks/BlocksStage.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Mesh.h>
 #include <rockvdb/core/VdbIO.h>
-
-#include <cstdio>
 
 using namespace rockvdb;
 using namespace rockvdb::blocks;
@@ -31,69 +29,34 @@ int main(int argc, char** argv)
     app.add_option("--up", up, "Up axis of the --meshes file: z (rockvdb) or y (Blender's OBJ "
                                "import default, Houdini)")->capture_default_str();
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
+    tool.addStats(app);
     tool.addDistribution(app);
 
     return tool.run(argc, argv, [&] {
         const BlocksParams p = blocksSchema().fromJson(tool.givenParams(blocksSchema()));
         const UpAxis upAxis = upAxisFromString(up, "blocks: --up");
         cli::distinctOutputs({{"-o", tool.output()}, {"--tile", tileOut}, {"--meshes", meshes}});
-        if (!p.bake.chunking.chunk.empty() && (!tileOut.empty() || !meshes.empty())) {
-            fail<ValueError>("blocks: --tile and --meshes describe the whole tile; write them from "
-                             "a run without --chunk");
+        if (!p.bake.chunking.chunk.empty() && !tileOut.empty()) {
+            fail<ValueError>("blocks: --tile describes the whole tile; write it from a run "
+                             "without --chunk");
         }
         for (const auto& path : {tileOut, meshes}) {
             if (!path.empty()) requireWritable(path);
         }
+        BlocksInputs in;
+        if (!fromTile.empty()) {
+            in.tile = std::make_shared<const BlockTile>(readTile(fromTile));
+            in.source = {{"from-tile", fromTile}};
+        }
+        in.meshes = !meshes.empty();
         auto bar = tool.taskBar();
         Task task(bar.get());
-        BlocksResult r;
-        if (!fromTile.empty()) {
-            task.phase("bake", 1.0);
-            r = bakeTile(std::make_shared<const BlockTile>(readTile(fromTile)), p,
-                         {{"from-tile", fromTile}}, task);
-            task.done();
-        } else {
-            r = runBlocks(p, task);
-        }
+        const BlocksResult r = runBlocks(p, in, task);
         bar->clear();
-        if (fromTile.empty()) {
-            const BlockTileStats& s = r.tile->stats;
-            char line[512];
-            std::snprintf(line, sizeof line,
-                          "%s tile %g m: #P %zu points, #D %zu discs, #B %zu blocks, mean #Pi %.1f "
-                          "(%zu edges, %zu cut; %zu visibility splits, %zu wrap cuts; dropped %zu "
-                          "clusters, %zu points; merged %zu, %zu small blocks)",
-                          blockTypeName(r.tile->params.type), r.tile->size(), s.points, s.discs,
-                          s.blocks, s.meanPoints, s.edges, s.cutEdges, s.visibilitySplits,
-                          s.wrapCuts, s.droppedClusters, s.droppedPoints, s.mergedClusters,
-                          s.smallBlocks);
-            tool.info(line);
-            std::snprintf(line, sizeof line,
-                          "sampling %.3f s, graph %.3f s, fracturing %.3f s, clustering %.3f s, "
-                          "hulls %.3f s", s.sampling, s.graph, s.fracturing, s.clustering, s.hulls);
-            tool.info(line);
-            std::snprintf(line, sizeof line, "generation: %.3f s", s.generation);
-            tool.info(line);
-        }
-        const BakeStats& b = r.bake.stats;
-        char line[256];
-        std::snprintf(line, sizeof line, "bake: %zu active voxels, cull %.3f s, fill %.3f s, "
-                      "finish %.3f s", b.activeVoxels, b.cullSeconds, b.fillSeconds, b.finishSeconds);
-        tool.info(line);
-        writeGrids(tool.output(), {r.bake.surface, r.bake.attribute});
+        tool.finish(r);
+        writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
         // The tile file after the grids: a failed bake leaves no file at all.
         if (!tileOut.empty()) writeTile(*r.tile, tileOut);
-        if (!meshes.empty()) {
-            Mesh all;
-            all.groupName = "block";
-            const BakeSettings one = p.bake.settings();
-            for (size_t j = 0; j < r.tile->blocks.size(); ++j) {
-                task.check();
-                auto g = bake(*blockField(r.tile, j), one).surface;
-                appendMesh(all, meshLevelSet(*g), int(j));
-            }
-            writeMesh(all, meshes, upAxis);
-            tool.info("wrote " + std::to_string(r.tile->blocks.size()) + " block meshes to " + meshes);
-        }
+        if (!meshes.empty()) writeMesh(r.meshes, meshes, upAxis);
     });
 }

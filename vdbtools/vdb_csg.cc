@@ -1,6 +1,7 @@
 // vdb_csg — union / intersection / difference of level-set files.
 #include "Cli.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
 #include <rockvdb/core/GridCsg.h>
@@ -79,7 +80,7 @@ int main(int argc, char** argv)
         auto result = csgGrids(csgOpFromString(op), grids, smooth, maxMemoryGB * 1e9);
         nlohmann::json params = nlohmann::json::parse(tool.paramsJson());
         params["sources"] = sources;
-        stampProvenance(*result, tool.name(), params.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+        stampProvenance(*result, tool.name(), jsonText(params));
         openvdb::GridCPtrVec out{result};
         for (const auto& name : idNames) {
             std::vector<openvdb::FloatGrid::ConstPtr> ids;
@@ -88,7 +89,7 @@ int main(int argc, char** argv)
                 ids.push_back(it == m.end() ? nullptr : it->second);
             }
             auto carried = csgAttribute(csgOpFromString(op), grids, ids, *result, name);
-            stampProvenance(*carried, tool.name(), params.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+            stampProvenance(*carried, tool.name(), jsonText(params));
             out.push_back(carried);
         }
         tool.info(std::to_string(result->activeVoxelCount()) + " active voxels" +

@@ -28,6 +28,7 @@ int main(int argc, char** argv)
     app.add_option("--blend-mask-grid", blendGrid,
                    "Grid name in --blend-mask (default: its only or first float grid)");
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
+    tool.addStats(app);
     tool.addDistribution(app);
 
     return tool.run(argc, argv, [&] {
@@ -61,16 +62,7 @@ int main(int argc, char** argv)
         Task task(bar.get());
         const DetailResult r = runDetail(p, in, task);
         bar->clear();
-        const BakeStats& st = r.bake.stats;
-        char line[200];
-        std::snprintf(line, sizeof line, "bake: %zu active voxels in %zu leaves (%zu candidates, "
-                      "%.1f M evaluations), cull %.3f s, fill %.3f s, finish %.3f s",
-                      st.activeVoxels, st.leaves, st.candidateLeaves,
-                      double(st.fieldEvaluations) / 1e6, st.cullSeconds, st.fillSeconds,
-                      st.finishSeconds);
-        tool.info(line);
-        openvdb::GridCPtrVec out{r.bake.surface};
-        for (const auto& ids : r.ids) out.push_back(ids);
-        writeGrids(tool.output(), out);
+        tool.finish(r);
+        writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
     });
 }

@@ -1,5 +1,6 @@
 // vdb_fractal_rock — fractal rocks from an icosahedron (fractal-rocks-midpoint-displacement.txt):
-// options from the stage's table, work in runRock (FractalStage.h).
+// options from the stage's table, the work in runFractal (FractalStage.h), which
+// rockvdb.fractal_rock / fractal_scatter / fractal_carve run too.
 #include "Cli.h"
 
 #include <rockvdb/core/Error.h>
@@ -8,7 +9,6 @@
 #include <rockvdb/core/VdbIO.h>
 #include <rockvdb/fractal/FractalStage.h>
 
-#include <cstdio>
 
 using namespace rockvdb;
 using namespace rockvdb::fractal;
@@ -51,96 +51,42 @@ int main(int argc, char** argv)
     app.add_option("--points", pointsPath, "Scatter: also write the instances as a VDB points "
                                            "grid 'rocks' (P, orient, pscale, rock) to this .vdb");
     tool.addOutput(app, "Output .vdb: level set 'surface' ('-' = stdout)");
+    tool.addStats(app);
 
     return tool.run(argc, argv, [&] {
         const FractalRockParams p = rockSchema().fromJson(tool.givenParams(rockSchema()));
         const UpAxis upAxis = upAxisFromString(up, "--mesh-up");
         cli::distinctOutputs({{"-o", tool.output()}, {"--mesh", meshPath}, {"--normal-map", mapPath},
                               {"--points", pointsPath}});
-        for (const auto& path : {meshPath, mapPath}) {
+        for (const auto& path : {meshPath, mapPath, pointsPath}) {
             if (!path.empty()) requireWritable(path);
         }
         // Wrong extensions are refused before any work, so no output is written half.
-        auto ends = [](const std::string& s, const char* ext) {
-            const std::string e(ext);
-            return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
-        };
-        if (!mapPath.empty() && !ends(mapPath, ".exr")) {
+        if (!mapPath.empty() && !cli::hasExtension(mapPath, {".exr"})) {
             fail<ValueError>("fractal: --normal-map '", mapPath, "' must end in .exr");
         }
-        if (!meshPath.empty() && meshPath != "-" && !ends(meshPath, ".obj") && !ends(meshPath, ".ply")) {
+        if (!meshPath.empty() && meshPath != "-" && !cli::hasExtension(meshPath, {".obj", ".ply"})) {
             fail<ValueError>("fractal: --mesh '", meshPath, "' must end in .obj or .ply");
         }
-        if (!mapPath.empty() && ends(meshPath, ".ply")) {
+        if (!mapPath.empty() && cli::hasExtension(meshPath, {".ply"})) {
             fail<ValueError>("fractal: a normal map needs the OBJ's UVs; write --mesh as .obj");
         }
-        if (!carvePath.empty()) {
-            if (!mapPath.empty() || !groundPath.empty() || !pointsPath.empty() || !meshPath.empty()) {
-                fail<ValueError>("fractal: --carve writes the carved solid only (no --normal-map, "
-                                 "--ground, --points or --mesh)");
-            }
-            const openvdb::GridPtrVecPtr grids = readGrids(carvePath);
-            const auto solid = findLevelSet(*grids, "", carvePath);
-            auto bar = tool.taskBar();
-            Task task(bar.get());
-            const CarveResult r = runCarve(p, *solid, {{"carve", carvePath}}, task);
-            bar->clear();
-            char line[200];
-            std::snprintf(line, sizeof line, "carved a chain of %zu rocks (%zu cave voxels)",
-                          r.rocks.size(), size_t(r.cave->activeVoxelCount()));
-            tool.info(line);
-            writeGrids(tool.output(), {r.surface, r.cave});
-            return;
-        }
-        if (p.count > 0) {
-            if (!mapPath.empty()) fail<ValueError>("fractal: --normal-map is for a single rock (count 0)");
-            if (!pointsPath.empty()) requireWritable(pointsPath);
-            const auto ground = loadGround(groundPath, p);
-            auto bar = tool.taskBar();
-            Task task(bar.get());
-            nlohmann::json inputs = nlohmann::json::object();
-            if (!groundPath.empty()) inputs["ground"] = groundPath;
-            const ScatterResult r = runScatter(p, *ground, inputs, !pointsPath.empty(), !meshPath.empty(), task);
-            bar->clear();
-            char line[300];
-            std::snprintf(line, sizeof line,
-                          "placed %zu of %zu rocks (%zu candidates: %zu by density, %zu by overlap); "
-                          "place %.3f s, meshes %.3f s, level set %.3f s (%.0f rocks/s)",
-                          r.stats.placed, r.stats.asked, r.stats.candidates, r.stats.rejectedDensity,
-                          r.stats.rejectedOverlap, r.stats.placeSeconds, r.stats.meshSeconds,
-                          r.stats.levelSetSeconds,
-                          double(r.stats.placed) / std::max(1e-9, r.stats.placeSeconds + r.stats.meshSeconds + r.stats.levelSetSeconds));
-            tool.info(line);
-            if (r.stats.placed < r.stats.asked) {
-                std::snprintf(line, sizeof line, "warning: only %zu of %zu rocks fit (raise --attempts or "
-                              "--area, lower --size or --density-contrast)", r.stats.placed, r.stats.asked);
-                tool.info(line);
-            }
-            if (!meshPath.empty()) writeMesh(r.mesh, meshPath, upAxis);
-            if (r.points) writeGrids(pointsPath, {r.points});
-            openvdb::GridCPtrVec out{r.rockId};
-            if (r.material) out.push_back(r.material);
-            out.push_back(r.surface);
-            writeGrids(tool.output(), out);
-            return;
-        }
-        if (!groundPath.empty() || !pointsPath.empty()) {
-            fail<ValueError>("fractal: --ground and --points are for a scatter (--count N)");
-        }
+        FractalInputs in;
+        in.groundPath = groundPath;
+        in.carvePath = carvePath;
+        in.normalMap = !mapPath.empty();
+        in.mesh = !meshPath.empty();
+        in.points = !pointsPath.empty();
         auto bar = tool.taskBar();
         Task task(bar.get());
-        const RockResult r = runRock(p, true, !mapPath.empty(), task);
+        const FractalResult r = runFractal(p, in, task);
         bar->clear();
-        char line[300];
-        std::snprintf(line, sizeof line,
-                      "%zu triangles, %zu vertices, volume %.4f m3; mesh %.4f s, level set %.4f s "
-                      "(%zu active voxels)%s",
-                      r.stats.triangles, r.stats.vertices, r.stats.volume, r.stats.meshSeconds,
-                      r.stats.levelSetSeconds, r.stats.activeVoxels,
-                      mapPath.empty() ? "" : (", normal map " + std::to_string(r.stats.normalMapSeconds) + " s").c_str());
-        tool.info(line);
-        if (!meshPath.empty()) writeMesh(r.mesh, meshPath, upAxis);
-        if (!mapPath.empty()) writeRgbExr(mapPath, r.normalMapWidth, r.normalMapHeight, r.normalMap);
-        writeGrids(tool.output(), {r.surface});
+        tool.finish(r);
+        if (!meshPath.empty()) writeMesh(r.mesh(), meshPath, upAxis);
+        if (!mapPath.empty()) {
+            writeRgbExr(mapPath, r.rock.normalMapWidth, r.rock.normalMapHeight, r.rock.normalMap);
+        }
+        if (r.scatter.points) writeGrids(pointsPath, {r.scatter.points});
+        writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
     });
 }

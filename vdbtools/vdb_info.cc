@@ -1,6 +1,7 @@
 // vdb_info — what is in a .vdb: grids, voxel size, active voxels, bounds, memory, provenance.
 #include "Cli.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/core/Expression.h>
 #include <rockvdb/core/VdbIO.h>
 
@@ -93,7 +94,7 @@ int main(int argc, char** argv)
                 }
                 if (jg.contains("rockvdb")) {
                     const auto& r = jg["rockvdb"];
-                    std::string params = r["params"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+                    std::string params = jsonText(r["params"]);
                     if (params.size() > 160) params = params.substr(0, 157) + "...";
                     std::cout << "    rockvdb " << r["version"].get<std::string>() << " "
                               << r["generator"].get<std::string>() << " " << params << "\n";

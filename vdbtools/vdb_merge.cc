@@ -1,6 +1,7 @@
 // vdb_merge — merge the chunks of one bake (--region or --chunk, leaf aligned) into one file.
 #include "Cli.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/core/Chunks.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
@@ -208,12 +209,12 @@ int main(int argc, char** argv)
                                      int(w.count - w.chunks.size()) > 8 ? ", ..." : "");
                 }
                 stampProvenance(*merged, w.generator,
-                                w.params.dump(-1, ' ', false, json::error_handler_t::replace));
+                                jsonText(w.params));
             } else {
                 json params = base;
                 params["sources"] = sources[name];
                 stampProvenance(*merged, tool.name(),
-                                params.dump(-1, ' ', false, json::error_handler_t::replace));
+                                jsonText(params));
             }
             tool.info(name + ": " + std::to_string(merged->activeVoxelCount()) + " active voxels");
             out.push_back(merged);

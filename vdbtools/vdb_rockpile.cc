@@ -6,7 +6,7 @@
 #include <rockvdb/core/VdbIO.h>
 #include <rockvdb/rockpile/RockPileStage.h>
 
-#include <cstdio>
+#include <cmath>
 
 using namespace rockvdb;
 using namespace rockvdb::rockpile;
@@ -40,6 +40,7 @@ int main(int argc, char** argv)
                       "Refuse a tile set estimated above this before any work (GB; 0 = 75% of RAM)")
         ->capture_default_str();
     tool.addOutput(*tiles, "Output tile set (.vdb; '-' = stdout)");
+    tool.addStats(*tiles);
 
     auto* pile = app.add_subcommand("pile", pileSchema().summary());
     std::string tilesPath, supportPath, pointsPath, pileLibrary;
@@ -55,12 +56,12 @@ int main(int argc, char** argv)
     pile->add_option("--library", pileLibrary,
                      "Also write every library rock's level set (slot offsets in metadata)");
     tool.addOutput(*pile, "Output .vdb: surface (union of the rocks) and rock_id ('-' = stdout)");
+    tool.addStats(*pile);
     tool.addDistribution(*pile);
 
     return tool.run(argc, argv, [&] {
         auto bar = tool.taskBar();
         Task task(bar.get());
-        char line[300];
         if (tiles->parsed()) {
             const RockTileParams p = tilesSchema().fromJson(tool.givenParams(tilesSchema()));
             cli::distinctOutputs({{"-o", tool.output()}, {"--library", library}});
@@ -69,17 +70,9 @@ int main(int argc, char** argv)
                     "--max-memory", ">= 0 GB", tilesMaxMemoryGB);
             const TilesResult r = runTiles(p, !library.empty(), task, tilesMaxMemoryGB * 1e9);
             bar->clear();
-            const RockTileStats& st = r.set.stats;
-            std::snprintf(line, sizeof line, "%zu stones (%zu regions, %zu seeds, %zu contacts); "
-                          "seeds %.3f s, voronoi + erosion %.3f s", st.stones, st.regions,
-                          st.seeds, st.contacts, st.seedSeconds, st.voronoiSeconds);
-            tool.info(line);
-            if (r.library) {
-                std::snprintf(line, sizeof line, "level sets %.3f s", r.librarySeconds);
-                tool.info(line);
-                writeGrids(library, {r.library});
-            }
-            writeGrids(tool.output(), {r.rho});
+            tool.finish(r);
+            if (r.library) writeGrids(library, {r.library});
+            writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
             return;
         }
         const PileParams p = pileSchema().fromJson(tool.givenParams(pileSchema()));
@@ -87,24 +80,16 @@ int main(int argc, char** argv)
         for (const auto& path : {pointsPath, pileLibrary}) {
             if (!path.empty()) requireWritable(path);
         }
-        const TileSet set = readTileSet(tilesPath);
-        const FieldPtr support = loadSupport(supportPath, set, p.seed, p.support);
-        const PileResult r = runPile(set, *support, p, {{"tiles", tilesPath}, {"support", supportPath}},
-                                     !pointsPath.empty(), !pileLibrary.empty(), task);
+        PileInputs in;
+        in.tilesPath = tilesPath;
+        in.supportPath = supportPath;
+        in.points = !pointsPath.empty();
+        in.library = !pileLibrary.empty();
+        const PileResult r = runPile(p, in, task);
         bar->clear();
-        std::snprintf(line, sizeof line,
-                      "placed %zu rocks (%zu candidates in %zu tile features, %zu too deep); "
-                      "select %.3f s, level sets %.3f s (%.0f rocks/s)",
-                      r.stats.placed, r.stats.candidates, r.stats.features, r.stats.droppedDeep,
-                      r.stats.selectSeconds, r.stats.levelSetSeconds,
-                      double(r.stats.placed) / std::max(1e-9, r.stats.selectSeconds + r.stats.levelSetSeconds));
-        tool.info(line);
-        cli::refuseEmpty(*r.pile.surface, "no rock of the tile set lies in the support (is it "
-                         "smaller than a rock, or only a thin shell?)");
+        tool.finish(r);
         if (r.points) writeGrids(pointsPath, {r.points});
         if (r.library) writeGrids(pileLibrary, {r.library});
-        openvdb::GridCPtrVec out{r.pile.surface, r.pile.rockId};
-        if (r.pile.material) out.push_back(r.pile.material);
-        writeGrids(tool.output(), out);
+        writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
     });
 }

@@ -1,5 +1,6 @@
 #include "AmplifyStage.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
 #include <rockvdb/core/VdbIO.h>
@@ -65,7 +66,7 @@ Schema<AmplifyParams> makeSchema()
               "Share of anchors that must pass (more than)"),
           [](const P& p) { return json(p.rules.fraction); },
           [](P& p, const json& j) { p.rules.fraction = j.get<double>(); });
-    addBakeRows(s, &P::bake, 0.05, 3.0);
+    addBakeRows(s, &P::bake, defaultVoxelSize(), defaultHalfWidth());
     s.rule([](const P& p) {
         if (p.rules.distanceMin > p.rules.distanceMax) {
             fail<ValueError>("amplify: distance-range needs va <= vb (got ", p.rules.distanceMin,
@@ -150,19 +151,24 @@ AmplifyRun runAmplify(const AmplifyParams& params, const AmplifyInputs& in, Task
 
     AmplifyRun r;
     task.phase("presence", 0.3);
-    auto field = amplifiedTerrain(ground, in.tiles, rules, r.stats, strata.get(), params.carve,
+    auto field = amplifiedTerrain(ground, in.tiles, rules, r.counts, strata.get(), params.carve,
                                   &task);
     task.phase("bake", 0.7);
-    r.grids = bakeAmplified(*field, settings, r.stats, task.interrupter());
+    r.amplified = bakeAmplified(*field, settings, r.counts, task.interrupter());
     task.check();
-
-    json prov = amplifySchema().toJson(params);
-    for (auto it = in.names.begin(); it != in.names.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = prov.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-    for (const auto& g : {r.grids.surface, r.grids.blockId, r.grids.material}) {
-        stampProvenance(*g, kAmplifyTool, text);
-    }
+    stampResult(r, kAmplifyTool, {r.amplified.surface, r.amplified.blockId, r.amplified.material},
+                stageProvenance(amplifySchema().toJson(params), in.names));
     task.done();
+    const AmplifyStats& s = r.counts;
+    if (s.replicated == 0) {
+        r.report.push_back("no block qualifies (flat terrain or rules too strict): wrote the "
+                           "bare terrain");
+    }
+    for (const auto& line : describe(s)) r.report.push_back(line);
+    r.stats = {{"replicated", s.replicated}, {"cells", s.cells}, {"block_field_bytes", s.blockBytes},
+               {"active_voxels", s.bake.activeVoxels}, {"presence_seconds", s.presenceSeconds},
+               {"bake_seconds", s.bakeSeconds}, {"split_seconds", s.splitSeconds},
+               {"bake", bakeStatsJson(s.bake)}, {"phases", phasesJson(task)}};
     return r;
 }
 

@@ -6,6 +6,7 @@
 
 #include <rockvdb/core/BakeParams.h>
 #include <rockvdb/core/Schema.h>
+#include <rockvdb/core/StageResult.h>
 #include <rockvdb/core/Task.h>
 
 #include <nlohmann/json.hpp>
@@ -55,13 +56,15 @@ struct AmplifyInputs
     nlohmann::json names = nlohmann::json::object(); ///< e.g. {"terrain": path, "tiles": [...]}
 };
 
-struct AmplifyRun
+struct AmplifyRun : StageResult
 {
-    AmplifyResult grids; ///< surface, block_id, material (provenance stamped)
-    AmplifyStats stats;
+    AmplifyResult amplified; ///< surface, block_id, material (provenance stamped; also in grids)
+    AmplifyStats counts;     ///< as StageResult::stats (JSON) holds them
 };
 
 /// @brief Amplify the terrain (phases: presence, bake). Every guard of the stage is here.
+/// Stats: replicated (#R), cells, block_field_bytes, active_voxels, presence_seconds,
+/// bake_seconds, split_seconds, phases.
 /// @throw ValueError / IoError for bad parameters or inputs; Interrupted when cancelled.
 AmplifyRun runAmplify(const AmplifyParams& params, const AmplifyInputs& inputs, Task& task);
 

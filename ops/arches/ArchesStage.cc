@@ -1,7 +1,9 @@
 // The material-stack stage (see ArchesStage.h).
 #include "ArchesStage.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/arches/StackBuild.h>
+#include <rockvdb/arches/StackFile.h>
 #include <rockvdb/arches/Weights.h>
 #include <rockvdb/rockpile/RockPileStage.h>
 
@@ -15,6 +17,7 @@
 #include <rockvdb/core/VdbIO.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -25,6 +28,13 @@ namespace rockvdb {
 namespace arches {
 
 using json = nlohmann::json;
+
+namespace {
+
+// σ of the convolution surfaces and the edits: the sigma row, unset half the cell size.
+double sigmaOf(const ArchesParams& p, const StackGeometry& g) { return p.sigma.value_or(0.5 * g.cell); }
+
+} // namespace
 
 namespace {
 
@@ -336,7 +346,7 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
         tiles = rockpile::readTileSet(file);
     }
     SkeletonBake b;
-    b.sigma = p.sigma.value_or(0.5 * g.cell);
+    b.sigma = sigmaOf(p, g);
     b.voxelSize = p.voxelSize.value_or(tiles ? tiles->params.voxelSize() : g.cell);
     const MaterialMask groundMask = tiles ? MaterialMask(maskOf(Material::Sand) | maskOf(Material::Bedrock)) : kGroundMask;
     b.halfWidth = p.halfWidth;
@@ -435,7 +445,7 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
         pp.material = p.materialIds[2];
         pp.halfWidth = p.halfWidth;
         const FieldPtr support = rockpile::levelSetSupport(rockLayers, *tiles);
-        rockpile::PileResult pile = rockpile::runPile(*tiles, *support, pp, json::object(), false, false, task);
+        rockpile::PileResult pile = rockpile::pileRocks(*tiles, *support, pp, json::object(), false, false, task);
         r.rocksPlaced = pile.pile.instances.size();
         r.points = rockpile::instancePoints(pile.pile.instances, tiles->params.voxelSize());
         openvdb::FloatGrid::Ptr rocks = pile.pile.surface;
@@ -491,7 +501,7 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
     r.stats.bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
     json prov = archesSchema().toJson(p);
     for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = prov.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    const std::string text = jsonText(prov);
     for (auto* grid : {&r.surface, &r.material}) {
         if (*grid) stampProvenance(**grid, kToolName, text);
     }
@@ -509,7 +519,7 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
 EditContext editContext(const ArchesParams& p, const StackGeometry& g)
 {
     EditContext c;
-    c.sigma = p.sigma.value_or(0.5 * g.cell);
+    c.sigma = sigmaOf(p, g);
     c.angles.sand = p.reposeSand;
     c.angles.rocks = p.reposeRocks;
     return c;
@@ -528,7 +538,7 @@ std::vector<EditStats> applyEdits(const ArchesParams& p, Stacks& stacks, const j
     return out;
 }
 
-ArchesResult runArches(const ArchesParams& p, Stacks stacks, Task& task)
+ArchesResult runStacks(const ArchesParams& p, Stacks stacks, Task& task)
 {
     archesSchema().validate(p);
     const StabilizeStats st = stabilizeIfAsked(p, stacks, task);
@@ -537,6 +547,175 @@ ArchesResult runArches(const ArchesParams& p, Stacks stacks, Task& task)
     r.stats.stabilize = st;
     r.stats.edits = std::move(edits);
     r.stacks = std::move(stacks);
+    return r;
+}
+
+namespace {
+
+void requirePointsSource(const ArchesParams& p)
+{
+    if (p.rockTiles.empty()) {
+        fail<ValueError>("arches: points need rock-tiles (the points are the rocks instanced "
+                         "in rock layers)");
+    }
+}
+
+// The rule of saved stacks (vdb_arches --from-stacks, Stacks.bake): a row that made the
+// stacks cannot change; the bake's rows can, and edits can be added.
+void requireBakeOnly(const std::string& row)
+{
+    const auto& rows = bakeOnlyRows();
+    if (std::find(rows.begin(), rows.end(), row) == rows.end()) {
+        fail<ValueError>("arches: ", row, " made the stacks; a bake of them may change only ",
+                         bakeOnlyRowsText(), " (and add edits)");
+    }
+}
+
+} // namespace
+
+Scene openScene(const SceneInputs& in, Task& task)
+{
+    if (!in.scenePath.empty() && !in.stacksPath.empty()) {
+        fail<ValueError>("arches: give a scene or saved stacks, not both");
+    }
+    // The scene (or the saved stacks' scene), then the rows given on top.
+    json scene = json::object();
+    std::string baseDir = ".";
+    std::optional<Stacks> saved;
+    if (!in.scenePath.empty()) {
+        scene = readScene(in.scenePath, baseDir);
+    } else if (!in.stacksPath.empty()) {
+        StackFile f = readStackFile(in.stacksPath);
+        scene = parseJsonOrDiscarded(f.params);
+        if (!scene.is_object()) fail<IoError>("arches: ", in.stacksPath, " holds no scene parameters");
+        saved = std::move(f.stacks);
+    }
+    json given = in.given;
+    if (in.anchorGiven) anchorGivenPaths(given); // the scene's own keys name files from its folder
+    // Saved stacks were made by their scene: only the bake's rows may differ, and edits given
+    // here come after the saved ones (the record lists both, so it replays).
+    json more = json::array();
+    for (auto it = given.begin(); it != given.end(); ++it) {
+        if (saved && it.key() == "edits") {
+            more = jsonOrFile(it.value());
+            if (!more.is_array()) fail<ValueError>("arches: edits must be a list of edits");
+            json all = jsonOrFile(scene.value("edits", json::array()));
+            for (const auto& e : more) all.push_back(e);
+            scene["edits"] = all;
+            continue;
+        }
+        if (saved) requireBakeOnly(it.key());
+        scene[it.key()] = it.value();
+    }
+    Scene out;
+    out.params = archesSchema().fromJson(scene);
+    out.params.baseDir = baseDir;
+    out.params.edits = jsonOrFile(out.params.edits); // recorded as content, not a path
+    const ArchesParams& p = out.params;
+    if (in.points) requirePointsSource(p);
+    if (in.terrainGrid) {
+        out.inputs["terrain"] = jsonOrFile(p.terrain);
+        out.inputs["terrain"]["source"] = gridSource(*in.terrainGrid);
+    }
+    if (saved) {
+        out.stacks = std::move(*saved);
+        out.edits = applyEdits(p, out.stacks, more, p.edits.size() - more.size(), task);
+    } else {
+        out.stacks = buildStacks(p, task, in.terrainGrid);
+        out.stabilize = stabilizeIfAsked(p, out.stacks, task);
+        out.edits = applyEdits(p, out.stacks, p.edits, 0, task);
+    }
+    return out;
+}
+
+ArchesResult bakeScene(const ArchesParams& params, const Stacks& stacks, const json& inputs,
+                       const json& overrides, ArchesOutput output, bool points, Task& task)
+{
+    json rows = archesSchema().toJson(params);
+    for (auto it = overrides.begin(); it != overrides.end(); ++it) {
+        requireBakeOnly(it.key());
+        rows[it.key()] = it.value();
+    }
+    ArchesParams p = archesSchema().fromJson(rows);
+    p.baseDir = params.baseDir;
+    if (points) requirePointsSource(p);
+    if (points && (output == ArchesOutput::Sand || output == ArchesOutput::Bedrock ||
+                   output == ArchesOutput::Water)) {
+        fail<ValueError>("arches: points need a bake that instances the rocks (all, surface, "
+                         "material, weights or rocks)");
+    }
+    ArchesResult r = bakeStacks(p, stacks, output, inputs, task);
+    r.provenance = stageProvenance(archesSchema().toJson(p), inputs);
+    return r;
+}
+
+json stabilizeStatsJson(const StabilizeStats& s)
+{
+    return {{"visits", s.visits}, {"moves", s.moves}, {"moved_quanta", s.movedQuanta},
+            {"seconds", s.seconds}};
+}
+
+json editStatsJson(const EditStats& e)
+{
+    return {{"tool", e.tool}, {"stacks", e.stacks}, {"window", {e.i0, e.j0, e.i1, e.j1}},
+            {"bedrock_quanta", e.bedrock}, {"sand_quanta", e.sand}, {"rocks_quanta", e.rocks},
+            {"stabilize", stabilizeStatsJson(e.stabilize)}, {"seconds", e.seconds}};
+}
+
+namespace {
+
+// vdb_arches' lines on stderr and its --stats.
+void tell(ArchesResult& r)
+{
+    const ArchesStats& s = r.stats;
+    char line[240];
+    std::snprintf(line, sizeof line, "%zu stacks, %zu layers in %.2f MB; stabilised in %.2f s "
+                  "(%zu moves); baked in %.2f s, %zu active voxels",
+                  s.stacks, s.layers, double(s.bytes) / 1e6, s.stabilize.seconds,
+                  s.stabilize.moves, s.bakeSeconds, s.activeVoxels);
+    r.report.push_back(line);
+    if (r.rockId) {
+        std::snprintf(line, sizeof line, "%zu rocks instanced in the rock layers in %.2f s",
+                      r.rocksPlaced, r.rockSeconds);
+        r.report.push_back(line);
+    }
+    const StackGeometry& g = r.stacks.geometry();
+    const double m3 = g.quantum * g.cell * g.cell;
+    json edits = json::array();
+    for (size_t k = 0; k < s.edits.size(); ++k) {
+        const EditStats& e = s.edits[k];
+        std::snprintf(line, sizeof line, "edit %zu (%s): %zu stacks changed, bedrock %+.3g m3, "
+                      "sand %+.3g m3, rocks %+.3g m3; %.3f s with its stabilisation (%zu moves)",
+                      k, e.tool.c_str(), e.stacks, double(e.bedrock) * m3, double(e.sand) * m3,
+                      double(e.rocks) * m3, e.seconds, e.stabilize.moves);
+        r.report.push_back(line);
+        edits.push_back(editStatsJson(e));
+    }
+    r.statsJson() = {{"stacks", s.stacks}, {"layers", s.layers}, {"bytes", s.bytes},
+                      {"stabilize", stabilizeStatsJson(s.stabilize)}, {"edits", edits},
+                      {"active_voxels", s.activeVoxels}, {"bake_seconds", s.bakeSeconds},
+                      {"rocks_placed", r.rocksPlaced}};
+}
+
+} // namespace
+
+ArchesResult runArches(const SceneInputs& inputs, Task& task)
+{
+    Scene scene = openScene(inputs, task);
+    ArchesResult r = bakeScene(scene.params, scene.stacks, scene.inputs, json::object(),
+                               ArchesOutput::All, inputs.points, task);
+    r.stats.stabilize = scene.stabilize;
+    r.stats.edits = std::move(scene.edits);
+    r.stacks = std::move(scene.stacks);
+    // The ids first and the ground last (vdb_tool acts on the last grid read).
+    r.grids = {r.material};
+    if (r.rockId) r.grids.push_back(r.rockId);
+    for (const auto& g : r.weights) r.grids.push_back(g);
+    for (const auto& g : r.materials) r.grids.push_back(g);
+    r.grids.push_back(r.surface);
+    tell(r);
+    task.done();
+    r.statsJson()["phases"] = phasesJson(task);
     return r;
 }
 

@@ -19,6 +19,7 @@
 
 #include <rockvdb/core/BakeParams.h>
 #include <rockvdb/core/Schema.h>
+#include <rockvdb/core/StageResult.h>
 #include <rockvdb/core/Task.h>
 
 #include <nlohmann/json.hpp>
@@ -75,7 +76,7 @@ struct ArchesStats
     double bakeSeconds = 0; ///< every level set and 'material' (stabilisation: stabilize.seconds)
 };
 
-struct ArchesResult
+struct ArchesResult : StageResult
 {
     Stacks stacks;
     openvdb::FloatGrid::Ptr surface;               ///< the ground (sand ∪ bedrock ∪ rocks), 'surface'
@@ -87,7 +88,9 @@ struct ArchesResult
                                                    ///< (P, rock, tile, instance; as vdb_rockpile pile --points)
     size_t rocksPlaced = 0;                        ///< with rock-tiles: rocks instanced
     double rockSeconds = 0;                        ///< with rock-tiles: instancing time
-    ArchesStats stats;
+    ArchesStats stats;                             ///< (StageResult's JSON: statsJson())
+
+    nlohmann::json& statsJson() { return StageResult::stats; }
 };
 
 /// @brief A scene file: its JSON object of the table's keys, and in @a baseDir its folder (what
@@ -139,9 +142,62 @@ EditContext editContext(const ArchesParams& params, const StackGeometry& geometr
 std::vector<EditStats> applyEdits(const ArchesParams& params, Stacks& stacks, const nlohmann::json& edits,
                                   size_t first, Task& task);
 
-/// @brief stabilizeIfAsked, the scene's edits, then bakeStacks(All): what `vdb_arches` writes
-/// from a scene's initial stacks.
-ArchesResult runArches(const ArchesParams& params, Stacks stacks, Task& task);
+/// @brief stabilizeIfAsked, the scene's edits, then bakeStacks(All) on a scene's initial
+/// stacks (the steps of runArches, for tests that build stacks themselves).
+ArchesResult runStacks(const ArchesParams& params, Stacks stacks, Task& task);
+
+/// What a scene's stacks are made from: a scene file, or saved stacks, or neither (the rows
+/// alone), and rows given on top (command-line options, Python keywords).
+struct SceneInputs
+{
+    std::string scenePath;  ///< a scene file; its folder resolves its own relative paths
+    std::string stacksPath; ///< or saved stacks (.stacks): given rows may only be the bake's
+                            ///< (bakeOnlyRows) and more edits, applied after the saved ones
+    nlohmann::json given = nlohmann::json::object(); ///< rows on top, the table's names
+    /// Path rows in @a given name files from the working folder (anchorGivenPaths). vdb_arches
+    /// always anchors; rockvdb.Stacks only beside a scene file (its provenance then keeps
+    /// relative paths as given).
+    bool anchorGiven = true;
+    /// The level set of a {"type": "level_set"} terrain given in memory (Python), named in
+    /// provenance by its own provenance.
+    openvdb::FloatGrid::ConstPtr terrainGrid;
+    /// The scene will be baked with its rocks as points (vdb_arches --points): refused without
+    /// rock-tiles before any work.
+    bool points = false;
+};
+
+/// A scene's stacks, ready to bake or edit further.
+struct Scene
+{
+    ArchesParams params;        ///< resolved: edits as content, the saved and the new ones
+    Stacks stacks;
+    nlohmann::json inputs = nlohmann::json::object(); ///< provenance keys besides the table's
+    StabilizeStats stabilize;   ///< the scene's stabilisation (none for saved stacks)
+    std::vector<EditStats> edits; ///< the edits applied here (for saved stacks: the new ones)
+};
+
+/// @brief The scene of vdb_arches and rockvdb.Stacks alike: read the scene file or the saved
+/// stacks, merge the given rows on top (saved stacks: only the bake's rows and more edits),
+/// build the stacks, stabilise them when the scene says so, apply its edits.
+/// @throw ValueError naming the row at fault; IoError for unreadable files; Interrupted.
+Scene openScene(const SceneInputs& inputs, Task& task);
+
+/// @brief Bake the stacks of a scene (bakeStacks; @a params, @a inputs as openScene gave them)
+/// with @a overrides on top of its rows: only the bake's (bakeOnlyRows); the other rows made
+/// the stacks. @a points: the rocks instanced in rock layers as VDB points (needs rock-tiles
+/// and an output that instances them).
+ArchesResult bakeScene(const ArchesParams& params, const Stacks& stacks,
+                       const nlohmann::json& inputs, const nlohmann::json& overrides,
+                       ArchesOutput output, bool points, Task& task);
+
+/// @brief vdb_arches: openScene, then bakeScene(All); the result's stats and report say what
+/// the stacks, the stabilisation, each edit and the bake did.
+ArchesResult runArches(const SceneInputs& inputs, Task& task);
+
+/// @brief An edit's stats as JSON (quanta, window, time) and as the CLI's line; and a
+/// stabilisation's.
+nlohmann::json editStatsJson(const EditStats& e);
+nlohmann::json stabilizeStatsJson(const StabilizeStats& s);
 
 /// @brief The rows a saved .stacks file may be baked with differently (the bake's own:
 /// voxel-size, half-width, max-memory, weights, material-ids) besides more edits; every other

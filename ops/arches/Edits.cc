@@ -2,6 +2,7 @@
 #include "Edits.h"
 #include "Sweep.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Schema.h>
 
@@ -713,7 +714,7 @@ void validateEdit(const json& e, size_t index)
     }
     auto positive = [&](const char* name) {
         if (e.contains(name) && !(e.at(name).get<double>() > 0)) {
-            bad(index, tool, std::string(name) + " must be > 0 (got " + e.at(name).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ")");
+            bad(index, tool, std::string(name) + " must be > 0 (got " + jsonText(e.at(name)) + ")");
         }
     };
     auto oneOf = [&](const char* name, std::initializer_list<const char*> values) {
@@ -733,7 +734,7 @@ void validateEdit(const json& e, size_t index)
         positive("strength");
         if (e.contains("depth")) {
             const double d = e.at("depth").get<double>(), R = e.at("radius").get<double>();
-            if (!(d >= 0 && d <= R)) bad(index, tool, "depth must be in [0, radius] (got " + e.at("depth").dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ")");
+            if (!(d >= 0 && d <= R)) bad(index, tool, "depth must be in [0, radius] (got " + jsonText(e.at("depth")) + ")");
             if (e.value("at", std::string("surface")) == "center") bad(index, tool, "depth applies to at = surface");
         }
     } else if (tool == "deposit") {
@@ -783,7 +784,7 @@ void validateEdit(const json& e, size_t index)
         if (e.contains("rho")) {
             if (!collapse) bad(index, tool, "rho applies to mode collapse");
             const double r = e.at("rho").get<double>();
-            if (!(r >= 0 && r <= 1)) bad(index, tool, "rho must be in [0, 1] (got " + e.at("rho").dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ")");
+            if (!(r >= 0 && r <= 1)) bad(index, tool, "rho must be in [0, 1] (got " + jsonText(e.at("rho")) + ")");
         }
         if (e.contains("depth")) {
             if (collapse) bad(index, tool, "depth applies to mode surface");

@@ -1,11 +1,14 @@
 #include "BlocksStage.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
 #include <rockvdb/core/Image.h>
+#include <rockvdb/core/Json.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <algorithm>
+#include <cstdio>
 
 namespace rockvdb {
 namespace blocks {
@@ -150,7 +153,7 @@ Schema<BlocksParams> makeBlocksSchema()
     addTileRows(s, [](auto& p) -> auto& { return p.tile; });
     s.member(param("periods", ParamType::Ints, "", json::array({1, 1, 1}), Range::closed(1, 1024),
                  "Tile periods baked along x,y,z", 3), &BlocksParams::periods);
-    addBakeRows(s, &BlocksParams::bake, 0.05, 3.0);
+    addBakeRows(s, &BlocksParams::bake, defaultVoxelSize(), defaultHalfWidth());
     return s;
 }
 
@@ -212,9 +215,10 @@ BlockTileParams BlockTileParams::fromJson(const json& j) { return tileSchema().f
 
 BlocksParams::BlocksParams() { blocksSchema().reset(*this); }
 
+namespace {
+
 std::shared_ptr<const BlockTile> makeTile(const BlockTileParams& params, Task& task)
 {
-    tileSchema().validate(params);
     if (!params.relief.image.empty() && params.relief.amplitude > 0) {
         // Fail before generating: unreadable or multi-channel reliefs are errors.
         readGrayImage(params.relief.image, "relief");
@@ -222,42 +226,105 @@ std::shared_ptr<const BlockTile> makeTile(const BlockTileParams& params, Task& t
     return std::make_shared<const BlockTile>(generateTile(params, task));
 }
 
-BlocksResult bakeTile(std::shared_ptr<const BlockTile> tile, const BlocksParams& params,
-                      const json& inputs, Task& task)
+BakeResult bakeTile(const std::shared_ptr<const BlockTile>& tile, const BlocksParams& params,
+                    Task& task)
 {
-    if (!tile) fail<ValueError>("blocks: no tile");
     BakeSettings s = params.bake.settings();
-    checkVoxel(tile->size(), tile->params.relief.amplitude, s);
     s.withAttribute = true;
     s.attributeName = "block_id";
     TileFieldOptions opt;
     opt.periods = params.periods;
-    BlocksResult r;
-    r.tile = tile;
-    r.bake = bake(*tileField(tile, opt), s, task.interrupter());
+    BakeResult r = bake(*tileField(tile, opt), s, task.interrupter());
     task.check();
-    // Provenance: the table with the tile's own (resolved) parameters, and the inputs.
-    BlocksParams used = params;
-    used.tile = tile->params;
-    json prov = blocksSchema().toJson(used);
-    for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = prov.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-    stampProvenance(*r.bake.surface, kBlocksTool, text);
-    stampProvenance(*r.bake.attribute, kBlocksTool, text);
-    r.bake.surface->insertMeta("rockvdb:tile", openvdb::StringMetadata(tileToJson(*tile).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)));
+    r.surface->insertMeta("rockvdb:tile", openvdb::StringMetadata(jsonText(tileToJson(*tile))));
     return r;
 }
 
-BlocksResult runBlocks(const BlocksParams& params, Task& task)
+// Every block's own level set, meshed in its home frame: one triangle group per block.
+Mesh blockMeshes(const std::shared_ptr<const BlockTile>& tile, const BakeSettings& one, Task& task)
+{
+    Mesh all;
+    all.groupName = "block";
+    const size_t n = tile->blocks.size();
+    for (size_t j = 0; j < n; ++j) {
+        task.step(double(j) / double(std::max<size_t>(n, 1)));
+        appendMesh(all, meshLevelSet(*bake(*blockField(tile, j), one).surface), int(j));
+    }
+    return all;
+}
+
+// Table 1 of the paper, as vdb_blocks prints it.
+std::vector<std::string> tileReport(const BlockTile& tile)
+{
+    const BlockTileStats& s = tile.stats;
+    char line[512];
+    std::vector<std::string> out;
+    std::snprintf(line, sizeof line,
+                  "%s tile %g m: #P %zu points, #D %zu discs, #B %zu blocks, mean #Pi %.1f "
+                  "(%zu edges, %zu cut; %zu visibility splits, %zu wrap cuts; dropped %zu "
+                  "clusters, %zu points; merged %zu, %zu small blocks)",
+                  blockTypeName(tile.params.type), tile.size(), s.points, s.discs, s.blocks,
+                  s.meanPoints, s.edges, s.cutEdges, s.visibilitySplits, s.wrapCuts,
+                  s.droppedClusters, s.droppedPoints, s.mergedClusters, s.smallBlocks);
+    out.push_back(line);
+    std::snprintf(line, sizeof line,
+                  "sampling %.3f s, graph %.3f s, fracturing %.3f s, clustering %.3f s, "
+                  "hulls %.3f s", s.sampling, s.graph, s.fracturing, s.clustering, s.hulls);
+    out.push_back(line);
+    std::snprintf(line, sizeof line, "generation: %.3f s", s.generation);
+    out.push_back(line);
+    return out;
+}
+
+json tileTimes(const BlockTileStats& s)
+{
+    return {{"sampling", s.sampling}, {"graph", s.graph}, {"fracturing", s.fracturing},
+            {"clustering", s.clustering}, {"hulls", s.hulls}, {"generation", s.generation}};
+}
+
+} // namespace
+
+BlocksResult runBlocks(const BlocksParams& params, const BlocksInputs& inputs, Task& task)
 {
     blocksSchema().validate(params);
+    if (inputs.meshes && !params.bake.chunking.chunk.empty()) {
+        fail<ValueError>("blocks: block meshes describe the whole tile; mesh them from a run "
+                         "without chunk");
+    }
+    const double tileSize = inputs.tile ? inputs.tile->size() : params.tile.tileSize;
+    const double amplitude =
+        inputs.tile ? inputs.tile->params.relief.amplitude : params.tile.relief.amplitude;
     // The bake settings are checked before generating: a bad voxel size fails at once.
-    checkVoxel(params.tile.tileSize, params.tile.relief.amplitude, params.bake.settings());
-    task.phase("generation", 0.3);
-    auto tile = makeTile(params.tile, task);
-    task.phase("bake", 0.7);
-    BlocksResult r = bakeTile(tile, params, json::object(), task);
+    if (inputs.bake) checkVoxel(tileSize, amplitude, params.bake.settings());
+
+    BlocksResult r;
+    if (inputs.tile) {
+        r.tile = inputs.tile;
+    } else {
+        task.phase("generation", inputs.bake ? 0.3 : 1.0);
+        r.tile = makeTile(params.tile, task);
+        r.report = tileReport(*r.tile);
+        r.stats["tile_seconds"] = tileTimes(r.tile->stats);
+    }
+    r.stats["tile"] = r.tile->stats.toJson();
+    if (inputs.bake) {
+        task.phase("bake", inputs.meshes ? 0.5 : 0.7);
+        r.bake = bakeTile(r.tile, params, task);
+        r.stats["bake"] = bakeStatsJson(r.bake.stats);
+        r.report.push_back(bakeReport(r.bake.stats));
+        // Provenance: the table with the tile's own (resolved) parameters, and the inputs.
+        BlocksParams used = params;
+        used.tile = r.tile->params;
+        stampResult(r, kBlocksTool, {r.bake.surface, r.bake.attribute},
+                    stageProvenance(blocksSchema().toJson(used), inputs.source));
+    }
+    if (inputs.meshes) {
+        task.phase("meshes", 0.2);
+        r.meshes = blockMeshes(r.tile, params.bake.settings(), task);
+        r.report.push_back("meshed " + std::to_string(r.tile->blocks.size()) + " blocks");
+    }
     task.done();
+    r.stats["phases"] = phasesJson(task);
     return r;
 }
 

@@ -1,12 +1,14 @@
 // rockvdb — the block-tile stage's front door: its parameter tables and its entry points
-// (vdb_blocks, rockvdb.block_tile and BlockTile.bake are thin wrappers over them).
+// (vdb_blocks, rockvdb.block_tile and BlockTile.bake are thin wrappers over runBlocks).
 #pragma once
 
 #include <rockvdb/blocks/BlockTile.h>
 
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/BakeParams.h>
+#include <rockvdb/core/Mesh.h>
 #include <rockvdb/core/Schema.h>
+#include <rockvdb/core/StageResult.h>
 #include <rockvdb/core/Task.h>
 
 #include <nlohmann/json.hpp>
@@ -37,25 +39,36 @@ struct BlocksParams
 /// @brief The table of BlocksParams (tileSchema()'s rows, periods, the bake's rows).
 const Schema<BlocksParams>& blocksSchema();
 
-struct BlocksResult
+/// What runBlocks works on besides the table's values.
+struct BlocksInputs
+{
+    /// A tile to bake (a .tile file read, a BlockTile from Python); null: generate the tile
+    /// of params.tile. A given tile's own parameters replace the tile rows (provenance too).
+    std::shared_ptr<const BlockTile> tile;
+    /// Provenance keys naming the given tile, e.g. {"from-tile": path}.
+    nlohmann::json source = nlohmann::json::object();
+    bool bake = true;    ///< false: generate (or take) the tile only, no grids
+    bool meshes = false; ///< also mesh every block in its home frame (result.meshes)
+};
+
+struct BlocksResult : StageResult
 {
     std::shared_ptr<const BlockTile> tile;
     BakeResult bake; ///< surface and block_id (bake.attribute), metadata stamped
+    Mesh meshes;     ///< with inputs.meshes: one triangle group per block, named "block"
 };
 
-/// @brief Generate a tile (the task checked between phases).
-std::shared_ptr<const BlockTile> makeTile(const BlockTileParams& params, Task& task);
-
-/// @brief Bake @a tile over params.periods at params.bake: 'surface' and 'block_id', the tile
-/// description as metadata rockvdb:tile, provenance = the table's values (the tile's own
-/// parameters) and @a inputs (e.g. {"from-tile": path}).
-/// @throw ValueError when the voxel is too coarse for the tile (the tile field is exact to
-/// tile size / 4), or for bad settings; Interrupted when cancelled.
-BlocksResult bakeTile(std::shared_ptr<const BlockTile> tile, const BlocksParams& params,
-                      const nlohmann::json& inputs, Task& task);
-
-/// @brief vdb_blocks: generate the tile of params.tile, then bakeTile.
-BlocksResult runBlocks(const BlocksParams& params, Task& task);
+/// @brief The block-tile stage, vdb_blocks and rockvdb.block_tile / BlockTile.bake alike:
+/// generate the tile of params.tile (or take inputs.tile), bake it over params.periods at the
+/// bake rows ('surface' and 'block_id', the tile description as metadata rockvdb:tile,
+/// provenance = the table with the tile's own parameters and inputs.source), and mesh its
+/// blocks when asked. Phases: generation (when generating), bake, meshes (when asked).
+/// Stats: the tile's (Table 1: points, discs, blocks, mean_points, seconds per step) and the
+/// bake's.
+/// @throw ValueError for bad values, a voxel too coarse for the tile (checked before
+/// generating: the tile field is exact to tile size / 4), or meshes asked of one chunk;
+/// Interrupted when cancelled.
+BlocksResult runBlocks(const BlocksParams& params, const BlocksInputs& inputs, Task& task);
 
 } // namespace blocks
 } // namespace rockvdb

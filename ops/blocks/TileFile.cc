@@ -1,4 +1,5 @@
 // Block tiles: the tile file (JSON "rockvdb-tile", version 1).
+#include <rockvdb/core/Json.h>
 #include <rockvdb/blocks/BlockTile.h>
 
 #include <rockvdb/core/Error.h>
@@ -152,7 +153,7 @@ BlockTile tileFromJson(const json& j)
 
 void writeTile(const BlockTile& tile, const std::string& path)
 {
-    writeFileAtomic(path, tileToJson(tile).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+    writeFileAtomic(path, jsonText(tileToJson(tile)) + "\n");
 }
 
 BlockTile readTile(const std::string& path)

@@ -19,4 +19,14 @@ BakeSettings BakeParams::settings(double voxelSizeIfUnset, double halfWidthIfUns
     return s;
 }
 
+const Schema<FieldBakeParams>& fieldBakeSchema()
+{
+    static const Schema<FieldBakeParams> s = [] {
+        Schema<FieldBakeParams> t("bake", "Bake a field into a narrow-band level set.");
+        addBakeRows(t, &FieldBakeParams::bake, defaultVoxelSize(), defaultHalfWidth());
+        return t;
+    }();
+    return s;
+}
+
 } // namespace rockvdb

@@ -41,6 +41,11 @@ struct BakeParams
                           double halfWidthIfUnset = std::numeric_limits<double>::quiet_NaN()) const;
 };
 
+/// The rockvdb defaults of a bake's sizes: BakeSettings' own, which every table that gives
+/// its bake rows a default reads (addBakeRows' voxelSize / halfWidth).
+inline double defaultVoxelSize() { return BakeSettings().voxelSize; }
+inline double defaultHalfWidth() { return BakeSettings().halfWidth; }
+
 /// @brief The `chunks` and `chunk` rows of a stage's table; @a access maps a Params (const or
 /// not) to its ChunkParams (stages that bake without BakeParams use it too).
 template<typename P, typename Access>
@@ -94,5 +99,14 @@ void addBakeRows(Schema<P>& s, BakeParams P::*m, nlohmann::json voxelSize,
              "Refuse bakes estimated above this (0 = 75% of RAM)"), &BakeParams::maxMemoryGB);
     addChunkRows(s, [m](auto& p) -> auto& { return (p.*m).chunking; });
 }
+
+/// The bake's rows alone, with the default sizes: what baking a field takes (rockvdb.Field.bake).
+struct FieldBakeParams
+{
+    BakeParams bake;
+};
+
+/// @brief The table of FieldBakeParams (op "bake").
+const Schema<FieldBakeParams>& fieldBakeSchema();
 
 } // namespace rockvdb

@@ -23,6 +23,7 @@
 #pragma once
 
 #include <rockvdb/core/Field.h>
+#include <rockvdb/core/Json.h>
 
 #include <nlohmann/json_fwd.hpp>
 
@@ -60,24 +61,5 @@ std::optional<HeightfieldNode> heightfieldFromJson(const nlohmann::json& node,
 
 /// @brief Parse text then build. @throw ValueError for malformed JSON (with line/column).
 FieldPtr fieldFromJsonText(const std::string& text, const ExpressionContext& ctx);
-
-/// @brief Read a JSON file (parseJson). @throw IoError / ValueError.
-nlohmann::json readJsonFile(const std::string& path);
-
-/// Deepest nesting of objects and arrays accepted in any JSON we read: whatever walks a
-/// value recursively (expressions, dump(), the schema) stays far from the stack's end.
-constexpr int kMaxJsonDepth = 200;
-
-/// @brief Parse JSON text with nesting limited to kMaxJsonDepth.
-/// @throw ValueError "<what>: malformed JSON (...)" or "<what>: JSON nested deeper than 200
-/// levels", one line, without nlohmann's "[json.exception...]" prefix.
-nlohmann::json parseJson(const std::string& text, const std::string& what);
-
-/// @brief As parseJson, but malformed or too deep text gives a discarded value.
-nlohmann::json parseJsonOrDiscarded(const std::string& text);
-
-/// @brief Text that should hold JSON (a file's provenance), parsed; the text itself (a JSON
-/// string) when it is malformed or too deep, so what embeds it stays valid JSON.
-nlohmann::json jsonOrText(const std::string& text);
 
 } // namespace rockvdb

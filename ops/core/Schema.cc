@@ -1,5 +1,6 @@
 #include "Schema.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/core/Expression.h>
 
 #include <algorithm>
@@ -138,7 +139,7 @@ json SchemaBase::coerce(const ParamInfo& info, const json& v) const
 {
     auto wrongType = [&]() {
         fail<ParamTypeError>(mOp, ": ", info.name, " must be ", typeWord(info), " (got ",
-                             v.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), ")");
+                             jsonText(v), ")");
     };
     auto number = [&](const json& x, bool integer) -> json {
         if (!x.is_number() || x.is_boolean()) wrongType();
@@ -147,7 +148,7 @@ json SchemaBase::coerce(const ParamInfo& info, const json& v) const
         if (!info.range.contains(d) || !std::isfinite(d)) {
             // A NaN dumps as JSON null: say what it is.
             fail<ValueError>(mOp, ": ", info.name, " must be ", info.range.text(), " (got ",
-                             std::isnan(d) ? std::string("nan") : x.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), ")");
+                             std::isnan(d) ? std::string("nan") : jsonText(x), ")");
         }
         if (!integer) return d;
         if (x.is_number_unsigned()) return x.get<uint64_t>();
@@ -187,7 +188,7 @@ json SchemaBase::coerce(const ParamInfo& info, const json& v) const
 
 json SchemaBase::resolve(const json& j) const
 {
-    if (!j.is_object()) fail<ValueError>(mOp, ": parameters must be a JSON object (got ", j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), ")");
+    if (!j.is_object()) fail<ValueError>(mOp, ": parameters must be a JSON object (got ", jsonText(j), ")");
     std::vector<std::string> names;
     for (const auto& p : mInfo) names.push_back(p.name);
     for (auto it = j.begin(); it != j.end(); ++it) {

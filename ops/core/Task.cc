@@ -9,6 +9,7 @@ void Task::phase(const char* name, double share)
     mStart = std::min(1.0, mStart + mShare);
     mShare = std::clamp(share, 0.0, 1.0 - mStart);
     mPhase = name;
+    mStarted.emplace_back(name, Clock::now());
     report(mStart);
     check();
 }
@@ -26,9 +27,22 @@ void Task::step(double fraction)
 
 void Task::done()
 {
+    if (mDone == Clock::time_point{}) mDone = Clock::now();
     mStart = 1.0;
     mShare = 0.0;
     report(1.0);
+}
+
+std::vector<std::pair<std::string, double>> Task::phases() const
+{
+    std::vector<std::pair<std::string, double>> out;
+    const Clock::time_point end = mDone == Clock::time_point{} ? Clock::now() : mDone;
+    for (size_t i = 0; i < mStarted.size(); ++i) {
+        const Clock::time_point until = i + 1 < mStarted.size() ? mStarted[i + 1].second : end;
+        out.emplace_back(mStarted[i].first,
+                         std::chrono::duration<double>(until - mStarted[i].second).count());
+    }
+    return out;
 }
 
 void Task::report(double overall)

@@ -23,10 +23,13 @@
 #include <tbb/parallel_for.h>
 
 #include <atomic>
-#include <mutex>
+#include <chrono>
 #include <cstddef>
 #include <exception>
+#include <mutex>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace rockvdb {
 
@@ -80,6 +83,11 @@ public:
     /// @brief Overall progress reported so far, in [0, 1].
     double reported() const { return mReported.load(); }
 
+    /// @brief The phases started so far, in order, with their wall-clock seconds (the last one
+    /// until done(), or until now while it runs): an entry point's structure, reported in
+    /// its stats whichever front-end called it.
+    std::vector<std::pair<std::string, double>> phases() const;
+
 private:
     void report(double overall);
 
@@ -97,8 +105,12 @@ private:
         Task& mTask;
     };
 
+    using Clock = std::chrono::steady_clock;
+
     TaskHost* mHost = nullptr;
     const char* mPhase = "";
+    std::vector<std::pair<std::string, Clock::time_point>> mStarted; ///< phase() calls
+    Clock::time_point mDone{};                                        ///< set by done()
     double mStart = 0, mShare = 0;
     std::atomic<double> mReported{0.0};
     std::mutex mReportMutex; ///< one report at a time: the host sees them in rising order

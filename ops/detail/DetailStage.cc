@@ -1,10 +1,12 @@
 #include "DetailStage.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <algorithm>
+#include <cstdio>
 
 namespace rockvdb {
 namespace detailing {
@@ -223,18 +225,26 @@ DetailResult runDetail(const DetailStageParams& params, const DetailInputs& in, 
         prov["sources"] = json::array({{{"generator", src->generator},
                                         {"params", jsonOrText(src->params)}}});
     }
-    const std::string text = prov.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-    stampProvenance(*r.bake.surface, kDetailTool, text);
     if (!in.ids.empty()) {
         task.phase("ids", 0.1);
         for (size_t i = 0; i < in.ids.size(); ++i) {
             task.step(double(i) / double(in.ids.size()));
-            auto carried = carryAttribute(*in.grid, *r.bake.surface, *in.ids[i]);
-            stampProvenance(*carried, kDetailTool, text);
-            r.ids.push_back(carried);
+            r.ids.push_back(carryAttribute(*in.grid, *r.bake.surface, *in.ids[i]));
         }
     }
+    openvdb::GridPtrVec grids{r.bake.surface};
+    grids.insert(grids.end(), r.ids.begin(), r.ids.end());
+    stampResult(r, kDetailTool, grids, prov);
     task.done();
+    const BakeStats& st = r.bake.stats;
+    char line[200];
+    std::snprintf(line, sizeof line, "bake: %zu active voxels in %zu leaves (%zu candidates, "
+                  "%.1f M evaluations), cull %.3f s, fill %.3f s, finish %.3f s",
+                  st.activeVoxels, st.leaves, st.candidateLeaves,
+                  double(st.fieldEvaluations) / 1e6, st.cullSeconds, st.fillSeconds,
+                  st.finishSeconds);
+    r.report.push_back(line);
+    r.stats = {{"bake", bakeStatsJson(st)}, {"phases", phasesJson(task)}};
     return r;
 }
 

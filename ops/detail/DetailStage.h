@@ -9,6 +9,7 @@
 
 #include <rockvdb/core/BakeParams.h>
 #include <rockvdb/core/Schema.h>
+#include <rockvdb/core/StageResult.h>
 #include <rockvdb/core/Task.h>
 
 #include <nlohmann/json.hpp>
@@ -64,7 +65,7 @@ struct DetailInputs
     nlohmann::json names = nlohmann::json::object(); ///< e.g. {"input": path, "grid": name}
 };
 
-struct DetailResult
+struct DetailResult : StageResult
 {
     BakeResult bake;                           ///< bake.surface: the detailed level set
     std::vector<openvdb::FloatGrid::Ptr> ids;  ///< inputs.ids carried onto it

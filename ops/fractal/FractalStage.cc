@@ -1,5 +1,6 @@
 #include "FractalStage.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/fractal/MeshBake.h>
 
 #include <rockvdb/core/Bake.h>
@@ -18,6 +19,7 @@
 #include <cctype>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 
@@ -352,7 +354,7 @@ RockResult runRock(const FractalRockParams& p, bool withLevelSet, bool withNorma
         task.check();
         r.stats.levelSetSeconds = since(t0);
         r.stats.activeVoxels = size_t(r.surface->activeVoxelCount());
-        stampProvenance(*r.surface, kToolName, rockSchema().toJson(p).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+        stampProvenance(*r.surface, kToolName, jsonText(rockSchema().toJson(p)));
     }
     task.done();
     return r;
@@ -463,7 +465,7 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
     r.stats.levelSetSeconds = since(t0);
     json prov = rockSchema().toJson(p);
     for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = prov.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    const std::string text = jsonText(prov);
     stampProvenance(*r.surface, kToolName, text);
     stampProvenance(*r.rockId, kToolName, text);
     if (p.material >= 0) {
@@ -620,11 +622,126 @@ CarveResult runCarve(const FractalRockParams& p, const openvdb::FloatGrid& solid
     r.surface->setGridClass(openvdb::GRID_LEVEL_SET);
     json prov = rockSchema().toJson(p);
     for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = prov.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    const std::string text = jsonText(prov);
     stampProvenance(*r.surface, kToolName, text);
     stampProvenance(*r.cave, kToolName, text);
     task.done();
     return r;
+}
+
+namespace {
+
+FractalMode chooseMode(const FractalRockParams& p, const FractalInputs& in)
+{
+    const bool carve = !in.carvePath.empty() || in.carveGrid;
+    const bool ground = !in.groundPath.empty() || in.groundGrid;
+    FractalMode mode = in.mode;
+    if (mode == FractalMode::Auto) {
+        mode = carve ? FractalMode::Carve : p.count > 0 ? FractalMode::Scatter : FractalMode::Rock;
+    }
+    if (mode == FractalMode::Carve) {
+        if (!carve) fail<ValueError>("fractal: a carve needs a solid (a level set .vdb or grid)");
+        if (in.normalMap || ground || in.points || in.mesh) {
+            fail<ValueError>("fractal: --carve writes the carved solid only (no --normal-map, "
+                             "--ground, --points or --mesh)");
+        }
+    } else if (mode == FractalMode::Scatter) {
+        if (in.normalMap) fail<ValueError>("fractal: --normal-map is for a single rock (count 0)");
+    } else if (ground || in.points) {
+        // (only the CLI reaches these: each Python function takes what its mode reads)
+        fail<ValueError>("fractal: --ground and --points are for a scatter (--count N)");
+    }
+    return mode;
+}
+
+json scatterStats(const ScatterStats& s)
+{
+    return {{"asked", s.asked}, {"placed", s.placed}, {"candidates", s.candidates},
+            {"rejected_density", s.rejectedDensity}, {"rejected_overlap", s.rejectedOverlap},
+            {"place_seconds", s.placeSeconds}, {"mesh_seconds", s.meshSeconds},
+            {"level_set_seconds", s.levelSetSeconds}};
+}
+
+void tellScatter(FractalResult& out)
+{
+    const ScatterStats& s = out.scatter.stats;
+    char line[300];
+    std::snprintf(line, sizeof line,
+                  "placed %zu of %zu rocks (%zu candidates: %zu by density, %zu by overlap); "
+                  "place %.3f s, meshes %.3f s, level set %.3f s (%.0f rocks/s)",
+                  s.placed, s.asked, s.candidates, s.rejectedDensity, s.rejectedOverlap,
+                  s.placeSeconds, s.meshSeconds, s.levelSetSeconds,
+                  double(s.placed) / std::max(1e-9, s.placeSeconds + s.meshSeconds + s.levelSetSeconds));
+    out.report.push_back(line);
+    if (s.placed < s.asked) {
+        std::snprintf(line, sizeof line, "warning: only %zu of %zu rocks fit (raise --attempts or "
+                      "--area, lower --size or --density-contrast)", s.placed, s.asked);
+        out.report.push_back(line);
+    }
+    out.stats = scatterStats(s);
+    openvdb::GridPtrVec grids{out.scatter.rockId};
+    if (out.scatter.material) grids.push_back(out.scatter.material);
+    grids.push_back(out.scatter.surface);
+    out.grids = grids;
+}
+
+void tellRock(FractalResult& out, bool normalMap)
+{
+    const RockStats& s = out.rock.stats;
+    char line[300];
+    std::snprintf(line, sizeof line,
+                  "%zu triangles, %zu vertices, volume %.4f m3; mesh %.4f s, level set %.4f s "
+                  "(%zu active voxels)%s",
+                  s.triangles, s.vertices, s.volume, s.meshSeconds, s.levelSetSeconds,
+                  s.activeVoxels,
+                  normalMap ? (", normal map " + std::to_string(s.normalMapSeconds) + " s").c_str() : "");
+    out.report.push_back(line);
+    out.stats = {{"triangles", s.triangles}, {"vertices", s.vertices}, {"volume", s.volume},
+                 {"active_voxels", s.activeVoxels}, {"mesh_seconds", s.meshSeconds},
+                 {"level_set_seconds", s.levelSetSeconds},
+                 {"normal_map_seconds", s.normalMapSeconds}};
+    if (out.rock.surface) out.grids = {out.rock.surface};
+}
+
+} // namespace
+
+FractalResult runFractal(const FractalRockParams& p, const FractalInputs& in, Task& task)
+{
+    FractalResult out;
+    out.mode = chooseMode(p, in);
+    json source = in.source;
+    if (out.mode == FractalMode::Carve) {
+        openvdb::FloatGrid::ConstPtr solid = in.carveGrid;
+        if (!solid) {
+            solid = findLevelSet(*readGrids(in.carvePath), "", in.carvePath);
+            source["carve"] = in.carvePath;
+        }
+        out.carve = runCarve(p, *solid, source, task);
+        char line[200];
+        std::snprintf(line, sizeof line, "carved a chain of %zu rocks (%zu cave voxels)",
+                      out.carve.rocks.size(), size_t(out.carve.cave->activeVoxelCount()));
+        out.report.push_back(line);
+        out.stats = {{"rocks", out.carve.rocks.size()},
+                     {"cave_voxels", size_t(out.carve.cave->activeVoxelCount())}};
+        out.grids = {out.carve.surface, out.carve.cave};
+    } else if (out.mode == FractalMode::Scatter) {
+        std::shared_ptr<const Ground> ground;
+        if (in.groundGrid) {
+            requireLevelSet(*in.groundGrid, "fractal ground");
+            ground = levelSetGround(*in.groundGrid);
+        } else {
+            ground = loadGround(in.groundPath, p);
+            if (!in.groundPath.empty()) source["ground"] = in.groundPath;
+        }
+        out.scatter = runScatter(p, *ground, source, in.points, in.mesh, task);
+        tellScatter(out);
+    } else {
+        out.rock = runRock(p, in.levelSet, in.normalMap, task);
+        tellRock(out, in.normalMap);
+    }
+    out.provenance = out.grids.empty() ? json() : jsonOrText(provenance(*out.grids.back())->params);
+    out.stats["phases"] = phasesJson(task);
+    return out;
 }
 
 } // namespace fractal

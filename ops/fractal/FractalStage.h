@@ -11,6 +11,7 @@
 
 #include <rockvdb/core/Image.h>
 #include <rockvdb/core/Schema.h>
+#include <rockvdb/core/StageResult.h>
 #include <rockvdb/core/Task.h>
 
 #include <nlohmann/json.hpp>
@@ -134,6 +135,52 @@ struct CarveResult
 /// the solid's voxels.
 CarveResult runCarve(const FractalRockParams& params, const openvdb::FloatGrid& solid,
                      const nlohmann::json& inputs, Task& task);
+
+/// The three things the stage makes.
+enum class FractalMode
+{
+    Auto,    ///< chosen from the inputs: a carve solid -> Carve, count > 0 -> Scatter, else Rock
+    Rock,    ///< one rock (count 0): vdb_fractal_rock, rockvdb.fractal_rock
+    Scatter, ///< count rocks on a ground: --count N, rockvdb.fractal_scatter
+    Carve,   ///< a cave: --carve SOLID --count N, rockvdb.fractal_carve
+};
+
+/// What runFractal works on besides the table's values.
+struct FractalInputs
+{
+    FractalMode mode = FractalMode::Auto;
+    /// Scatter ground: a path (a heightfield image or a level set .vdb, read by loadGround
+    /// with the table's ground rows), or a level set grid; neither: the plane z = 0.
+    std::string groundPath;
+    openvdb::FloatGrid::ConstPtr groundGrid;
+    /// Carve: the solid, a level set .vdb path or a grid.
+    std::string carvePath;
+    openvdb::FloatGrid::ConstPtr carveGrid;
+    /// Provenance names of grids given in memory ({"ground": ...} / {"carve": ...}); paths
+    /// name themselves.
+    nlohmann::json source = nlohmann::json::object();
+    bool levelSet = true;   ///< rock: bake its level set (false: the mesh only)
+    bool normalMap = false; ///< rock: its normal map (§7)
+    bool mesh = false;      ///< scatter: every rock's mesh (a rock's mesh is always made)
+    bool points = false;    ///< scatter: the instances as VDB points
+};
+
+struct FractalResult : StageResult
+{
+    FractalMode mode = FractalMode::Rock;
+    RockResult rock;       ///< mode Rock
+    ScatterResult scatter; ///< mode Scatter
+    CarveResult carve;     ///< mode Carve
+    /// The mesh a --mesh file gets: the rock's, or every scattered rock's (groups = rock).
+    const Mesh& mesh() const { return mode == FractalMode::Scatter ? scatter.mesh : rock.mesh; }
+};
+
+/// @brief The fractal-rock stage, vdb_fractal_rock and rockvdb.fractal_rock / fractal_scatter
+/// / fractal_carve alike: choose the mode (FractalMode), refuse inputs the mode does not
+/// read, load the ground or the solid, run it (runRock, runScatter or runCarve). grids: the
+/// rock's 'surface'; the scatter's 'rock_id' ('material') and 'surface'; the carve's solid
+/// and 'cave'. Stats: counts and times per mode, and the phases.
+FractalResult runFractal(const FractalRockParams& params, const FractalInputs& inputs, Task& task);
 
 } // namespace fractal
 } // namespace rockvdb

@@ -1,5 +1,6 @@
 // Rock tiles as grids: each rock's level set (from its density ρ), the library of every rock's
 // level set in its own slot, and the tile set file (the ρ atlas with its description).
+#include <rockvdb/core/Json.h>
 #include <rockvdb/rockpile/RockTiles.h>
 
 #include <rockvdb/core/Error.h>
@@ -268,7 +269,7 @@ openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, Task& task, double halfW
         for (LeafT* leaf : list) library->tree().addLeaf(leaf);
     nlohmann::json slots = nlohmann::json::array();
     for (size_t i = 0; i < count; ++i) slots.push_back({offsets[i][0], offsets[i][1], offsets[i][2]});
-    library->insertMeta("rockvdb:library_offsets", openvdb::StringMetadata(slots.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)));
+    library->insertMeta("rockvdb:library_offsets", openvdb::StringMetadata(jsonText(slots)));
     if (seconds) *seconds = std::chrono::duration<double>(Clock::now() - t0).count();
     return library;
 }
@@ -325,7 +326,7 @@ openvdb::FloatGrid::Ptr tileGrid(const TileSet& set, Task& task)
                    {"contacts", st.contacts}}},
         {"regions", regions},
         {"rocks", rocks}};
-    rho->insertMeta("rockvdb:tiles", openvdb::StringMetadata(meta.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace)));
+    rho->insertMeta("rockvdb:tiles", openvdb::StringMetadata(jsonText(meta)));
     return rho;
 }
 

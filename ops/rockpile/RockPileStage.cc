@@ -1,7 +1,11 @@
 #include "RockPileStage.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/VdbIO.h>
+
+#include <algorithm>
+#include <cstdio>
 
 namespace rockvdb {
 namespace rockpile {
@@ -162,14 +166,26 @@ TilesResult runTiles(const RockTileParams& params, bool library, Task& task, dou
     r.set = generateTiles(params, task);
     task.phase("tile grid", library ? 0.05 : 0.1);
     r.rho = tileGrid(r.set, task);
-    const std::string prov = json{{"tiles", params.toJson()}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-    stampProvenance(*r.rho, kToolName, prov);
+    const json prov = {{"tiles", params.toJson()}};
+    stampResult(r, kToolName, {r.rho}, prov);
+    const RockTileStats& st = r.set.stats;
+    char line[300];
+    std::snprintf(line, sizeof line, "%zu stones (%zu regions, %zu seeds, %zu contacts); "
+                  "seeds %.3f s, voronoi + erosion %.3f s", st.stones, st.regions, st.seeds,
+                  st.contacts, st.seedSeconds, st.voronoiSeconds);
+    r.report.push_back(line);
     if (library) {
         task.phase("level sets", 0.5);
         r.library = libraryGrid(r.set, task, 3.0, &r.librarySeconds);
-        stampProvenance(*r.library, kToolName, prov);
+        stampProvenance(*r.library, kToolName, jsonText(prov));
+        std::snprintf(line, sizeof line, "level sets %.3f s", r.librarySeconds);
+        r.report.push_back(line);
     }
     task.done();
+    r.stats = {{"stones", st.stones}, {"regions", st.regions}, {"seeds", st.seeds},
+               {"contacts", st.contacts}, {"seed_seconds", st.seedSeconds},
+               {"voronoi_seconds", st.voronoiSeconds}, {"library_seconds", r.librarySeconds},
+               {"phases", phasesJson(task)}};
     return r;
 }
 
@@ -183,8 +199,8 @@ TileSet readTileSet(const std::string& path)
     fail<ValueError>("rockpile: ", path, " holds no tile set (grid 'rho')");
 }
 
-PileResult runPile(const TileSet& tiles, const Field& support, const PileParams& params,
-                   const json& inputs, bool points, bool library, Task& task)
+PileResult pileRocks(const TileSet& tiles, const Field& support, const PileParams& params,
+                     const json& inputs, bool points, bool library, Task& task)
 {
     params.validate();
     if (params.chunking.spec("rockpile").active() && (points || library)) {
@@ -193,16 +209,15 @@ PileResult runPile(const TileSet& tiles, const Field& support, const PileParams&
     }
     PileResult r;
     task.phase("select", 0.3);
-    auto instances = selectRocks(tiles, support, params, task, &r.stats);
+    auto instances = selectRocks(tiles, support, params, task, &r.counts);
     task.phase("level sets", library ? 0.5 : 0.7);
     r.pile = buildPile(tiles, std::move(instances), params, task);
-    r.stats.levelSetSeconds = r.pile.stats.levelSetSeconds;
-    json p = pileSchema().toJson(params);
-    for (auto it = inputs.begin(); it != inputs.end(); ++it) p[it.key()] = it.value();
-    const std::string text = json{{"pile", p}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-    for (const auto& g : {r.pile.surface, r.pile.rockId, r.pile.material}) {
-        if (g) stampProvenance(*g, kToolName, text);
-    }
+    r.counts.levelSetSeconds = r.pile.stats.levelSetSeconds;
+    const json prov = {{"pile", stageProvenance(pileSchema().toJson(params), inputs)}};
+    const std::string text = jsonText(prov);
+    openvdb::GridPtrVec grids{r.pile.surface, r.pile.rockId};
+    if (r.pile.material) grids.push_back(r.pile.material);
+    stampResult(r, kToolName, grids, prov);
     if (points) {
         r.points = instancePoints(r.pile.instances, tiles.params.voxelSize());
         stampProvenance(*r.points, kToolName, text);
@@ -213,6 +228,51 @@ PileResult runPile(const TileSet& tiles, const Field& support, const PileParams&
         stampProvenance(*r.library, kToolName, text);
     }
     task.done();
+    return r;
+}
+
+PileResult runPile(const PileParams& params, const PileInputs& in, Task& task)
+{
+    params.validate();
+    json inputs = json::object();
+    TileSet set;
+    if (in.tilesGrid) {
+        inputs["tiles"] = gridSource(*in.tilesGrid);
+        set = tilesFromGrid(*in.tilesGrid);
+    } else {
+        inputs["tiles"] = in.tilesPath;
+        set = readTileSet(in.tilesPath);
+    }
+    FieldPtr support;
+    if (in.supportField) {
+        support = in.supportField;
+        inputs["support"] = in.supportExpression;
+    } else if (in.supportGrid) {
+        requireLevelSet(*in.supportGrid, "rockpile support");
+        support = levelSetSupport(in.supportGrid, set);
+        inputs["support"] = gridSource(*in.supportGrid);
+    } else {
+        support = loadSupport(in.supportPath, set, params.seed, params.support);
+        inputs["support"] = in.supportPath;
+    }
+    PileResult r = pileRocks(set, *support, params, inputs, in.points, in.library, task);
+    if (r.pile.surface->activeVoxelCount() == 0) {
+        fail<ValueError>("rockpile: the result is empty (no active voxels): no rock of the tile "
+                         "set lies in the support (is it smaller than a rock, or only a thin "
+                         "shell?)");
+    }
+    const PileStats& s = r.counts;
+    char line[300];
+    std::snprintf(line, sizeof line,
+                  "placed %zu rocks (%zu candidates in %zu tile features, %zu too deep); "
+                  "select %.3f s, level sets %.3f s (%.0f rocks/s)",
+                  s.placed, s.candidates, s.features, s.droppedDeep, s.selectSeconds,
+                  s.levelSetSeconds,
+                  double(s.placed) / std::max(1e-9, s.selectSeconds + s.levelSetSeconds));
+    r.report.push_back(line);
+    r.stats = {{"placed", s.placed}, {"candidates", s.candidates}, {"features", s.features},
+               {"dropped_deep", s.droppedDeep}, {"select_seconds", s.selectSeconds},
+               {"level_set_seconds", s.levelSetSeconds}, {"phases", phasesJson(task)}};
     return r;
 }
 

@@ -11,6 +11,7 @@
 #include <rockvdb/rockpile/RockTiles.h>
 
 #include <rockvdb/core/Schema.h>
+#include <rockvdb/core/StageResult.h>
 #include <rockvdb/core/Task.h>
 
 #include <nlohmann/json.hpp>
@@ -26,7 +27,7 @@ const Schema<RockTileParams>& tilesSchema();
 /// @brief The table of PileParams (`vdb_rockpile pile`, rockvdb.rock_pile).
 const Schema<PileParams>& pileSchema();
 
-struct TilesResult
+struct TilesResult : StageResult
 {
     TileSet set;
     openvdb::FloatGrid::Ptr rho;     ///< the tile set grid (tileGrid)
@@ -51,19 +52,42 @@ double tilesBytes(const RockTileParams& params, bool library);
 /// @throw IoError for unreadable files, ValueError when the file holds no tile set.
 TileSet readTileSet(const std::string& path);
 
-struct PileResult
+struct PileResult : StageResult
 {
     Pile pile;
-    PileStats stats;
+    PileStats counts;                ///< as StageResult::stats (JSON) holds them
     openvdb::GridBase::Ptr points;   ///< instance points 'rocks' (when asked), else null
     openvdb::FloatGrid::Ptr library; ///< the tile set's library (when asked), else null
 };
 
 /// @brief Fill @a support with the rocks of @a tiles (phases: select, level sets), every
 /// grid stamped with provenance {"pile": params + @a inputs}, where @a inputs names the tile
-/// set and the support ({"tiles": path, "support": path} for a replayable file).
-PileResult runPile(const TileSet& tiles, const Field& support, const PileParams& params,
-                   const nlohmann::json& inputs, bool points, bool library, Task& task);
+/// set and the support: the step runPile and the arches' rock layers (§5) share.
+PileResult pileRocks(const TileSet& tiles, const Field& support, const PileParams& params,
+                     const nlohmann::json& inputs, bool points, bool library, Task& task);
+
+/// What runPile fills, and with what.
+struct PileInputs
+{
+    /// The tile set: a file written by `tiles` (its grid 'rho'), or that grid.
+    std::string tilesPath;
+    openvdb::FloatGrid::ConstPtr tilesGrid;
+    /// The support: a path (level set .vdb, JSON expression, closed .obj / .stl / .ply, read
+    /// with the support rows), a field with the expression that rebuilds it, or a level set.
+    std::string supportPath;
+    FieldPtr supportField;
+    nlohmann::json supportExpression;
+    openvdb::FloatGrid::ConstPtr supportGrid;
+    bool points = false;  ///< also the instances as VDB points
+    bool library = false; ///< also the tile set's library
+};
+
+/// @brief `vdb_rockpile pile` and rockvdb.rock_pile: load the tile set and the support,
+/// fill it (pileRocks), refuse an empty pile. grids: 'surface', 'rock_id' (and 'material').
+/// Stats: placed, candidates, features, dropped_deep, select / level set seconds, phases.
+/// @throw ValueError for bad parameters, a support no rock fits in, points or a library
+/// asked of one chunk; IoError for unreadable files; Interrupted.
+PileResult runPile(const PileParams& params, const PileInputs& inputs, Task& task);
 
 } // namespace rockpile
 } // namespace rockvdb

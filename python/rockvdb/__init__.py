@@ -324,26 +324,26 @@ class Field:
         """Tag with an integer id, baked into an attribute grid (bake(attribute=...))."""
         return Field(self._f.tag(_int(id, "id", "Field.tag")))
 
-    def bake(self, voxel_size=0.05, half_width=3.0, renormalize="auto", tracker_steps=0,
-             region=None, attribute=None):
-        """Bake to a narrow-band level set named 'surface' (pyopenvdb.FloatGrid).
-
-        voxel_size: metres (default 0.05); half_width: band half width in voxels (default 3);
-        renormalize: 'auto' (default: only fields that are not exact distances), 'first-order',
-        'tracker' or 'none'; tracker_steps: extra LevelSetTracker normalise steps (default 0);
-        region: (xmin, ymin, zmin, xmax, ymax, zmax) in metres to bake only that box (default:
-        the field's bounds); attribute: a grid name (e.g. 'block_id') to also bake the ids set
-        with tag(), returned as (surface, ids)."""
-        fn = "Field.bake"
-        return self._f.bake(_float(voxel_size, "voxel_size", fn),
-                            _float(half_width, "half_width", fn),
-                            _str(renormalize, "renormalize", fn),
-                            _int(tracker_steps, "tracker_steps", fn),
-                            _opt(region, _floats, 6, "region", fn),
-                            _opt(attribute, _str, "attribute", fn))
-
     def __repr__(self):
         return f"<rockvdb.Field {self._f.expression[:60]}>"
+
+
+_BAKE = _table("bake")
+
+
+def _field_bake(self, attribute=None, **params):
+    fn = "Field.bake"
+    return self._f.bake(_stage_params(_BAKE, fn, params), _opt(attribute, _str, "attribute", fn))
+
+
+Field.bake = _stage_function(
+    _BAKE, _field_bake, "bake",
+    "Bake to a narrow-band level set named 'surface' (pyopenvdb.FloatGrid).",
+    "attribute: a grid name (e.g. 'block_id') to also bake the ids set with tag(), returned "
+    "as (surface, ids). Fields that are not exact distances (warps, smooth blends) are "
+    "renormalised by default (renormalize 'auto').",
+    before=["self"], after=[("attribute", None)])
+Field.bake.__qualname__ = "Field.bake"
 
 
 def sphere(radius=1.0, center=(0, 0, 0)):
@@ -517,18 +517,23 @@ class BlockTile:
         self.surface = None
         self.block_id = None
 
-    def bake(self, **params):
-        """Bake the tile (the same bake as vdb_blocks'); sets and returns (surface, block_id).
-        Keywords: periods (tiles along x, y, z) and the bake's rows of vdb_blocks' table:
-        voxel_size (m), half_width (voxels), renormalize, tracker_steps, region, max_memory;
-        left out, each takes the table's default (vdb_blocks --help)."""
+    def bake(self, stats=None, **params):
+        """Bake the tile (vdb_blocks --from-tile's bake, through the same entry point); sets
+        and returns (surface, block_id). Keywords: the rows of vdb_blocks' table that bake
+        (BlockTile.BAKE_ROWS: periods, voxel_size, half_width, renormalize, tracker_steps,
+        region, max_memory, chunks, chunk); left out, each takes the table's default
+        (vdb_blocks --help). stats (a dict) receives the bake's counts, times and phases."""
         fn = "BlockTile.bake"
-        allowed = {"periods", "voxel_size", "half_width", "renormalize", "tracker_steps",
-                   "region", "max_memory"}
         for key in params:
-            if key not in allowed:
-                raise TypeError(f"rockvdb.{fn}() got an unexpected keyword argument '{key}'")
-        self.surface, self.block_id = self._tile.bake(_stage_params(_BLOCK_TILE, fn, params))
+            if key not in BlockTile.BAKE_ROWS:
+                raise TypeError(f"rockvdb.{fn}() got an unexpected keyword argument '{key}' "
+                                f"(it takes {', '.join(BlockTile.BAKE_ROWS)})")
+        if stats is not None and not isinstance(stats, dict):
+            raise _type_error(fn, "stats", "a dict", stats)
+        _, self.surface, self.block_id, st = _rockvdb.run_blocks(
+            _stage_params(_BLOCK_TILE, fn, params), self._tile, True)
+        if stats is not None:
+            stats.update(st)
         return self.surface, self.block_id
 
     def field(self, periods=(1, 1, 1), periodic=False):
@@ -547,18 +552,22 @@ class BlockTile:
                 f"{len(self.blocks)} blocks>")
 
 
-_BAKE_KEYS = ("periods", "voxel-size", "half-width", "renormalize", "tracker-steps", "region",
-              "max-memory")
+# vdb_blocks' rows that bake a tile (the others define it), from the C++ tables.
+_TILE_ROWS = frozenset(r["name"] for r in _table("tile")["params"])
+BlockTile.BAKE_ROWS = tuple(r["python"] for r in _BLOCK_TILE["params"]
+                            if r["name"] not in _TILE_ROWS)
 
 
-def _block_tile(bake=True, **params):
+def _block_tile(bake=True, stats=None, **params):
     fn = "block_tile"
-    spec = _json.loads(_stage_params(_BLOCK_TILE, fn, params))
-    tile = BlockTile(_rockvdb.generate_tile(_json.dumps(
-        {k: v for k, v in spec.items() if k not in _BAKE_KEYS})))
-    if _bool(bake, "bake", fn):
-        tile.surface, tile.block_id = tile._tile.bake(_json.dumps(
-            {k: v for k, v in spec.items() if k in _BAKE_KEYS}))
+    if stats is not None and not isinstance(stats, dict):
+        raise _type_error(fn, "stats", "a dict", stats)
+    native, surface, block_id, st = _rockvdb.run_blocks(_stage_params(_BLOCK_TILE, fn, params),
+                                                        None, _bool(bake, "bake", fn))
+    tile = BlockTile(native)
+    tile.surface, tile.block_id = surface, block_id
+    if stats is not None:
+        stats.update(st)
     return tile
 
 
@@ -566,9 +575,11 @@ block_tile = _stage_function(
     _BLOCK_TILE, _block_tile, "block_tile",
     "Generate a fractured block tile (vdb_blocks from Python; implicit-blocks §4).",
     "fractures and authored take a list or a JSON file path. With bake=True (default) the "
-    "tile is baked as vdb_blocks bakes it (the same grids); bake=False only generates. Returns "
-    "a BlockTile. Ctrl-C raises KeyboardInterrupt.",
-    after=[("bake", True)])
+    "tile is baked as vdb_blocks bakes it (the same entry point, the same grids); bake=False "
+    "only generates. Returns a BlockTile. stats (a dict) receives the tile's counts (Table 1), "
+    "the bake's and the phases' times, as vdb_blocks --stats writes them. Ctrl-C raises "
+    "KeyboardInterrupt.",
+    after=[("bake", True), ("stats", None)])
 
 
 def load_tile(path):
@@ -680,11 +691,16 @@ def coverage(surface, ids, max_nz=0.6, region=None):
 # ---------------------------------------------------------------------------------------------
 # Surface detail (implicit-blocks §4.2, gabor-details-implicit-surfaces §3-§4)
 
-def _detail(grid, blend_mask=None, **params):
+def _detail(grid, blend_mask=None, stats=None, **params):
     fn = "detail"
     _grid(grid, "grid", fn)
-    return _rockvdb.detail(grid, _stage_params(_DETAIL, fn, params),
-                           _opt(blend_mask, _grid, "blend_mask", fn))
+    if stats is not None and not isinstance(stats, dict):
+        raise _type_error(fn, "stats", "a dict", stats)
+    surface, info = _rockvdb.detail(grid, _stage_params(_DETAIL, fn, params),
+                                    _opt(blend_mask, _grid, "blend_mask", fn))
+    if stats is not None:
+        stats.update(info)
+    return surface
 
 
 detail = _stage_function(
@@ -694,9 +710,10 @@ detail = _stage_function(
     "named like the input ('surface' when the input has no name).",
     "direction_skeleton and blend take a dict or a JSON file path; blend needs blend_mask (a "
     "pyopenvdb.FloatGrid of weights in [0, 1]): the parameters are interpolated (gabor §4), so "
-    "blends do not blur the details. voxel_size and half_width default to the input's. Ctrl-C "
-    "raises KeyboardInterrupt.",
-    before=["grid"], after=[("blend_mask", None)])
+    "blends do not blur the details. voxel_size and half_width default to the input's. stats "
+    "(a dict) receives the bake's counts and the phases, as vdb_detail --stats writes them. "
+    "Ctrl-C raises KeyboardInterrupt.",
+    before=["grid"], after=[("blend_mask", None), ("stats", None)])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -786,8 +803,9 @@ def _fractal_rock(path=None, mesh_path=None, mesh_up="z", normal_map=False,
     want_map = normal_map or map_target is not None
     if target is not None and not level_set:
         raise ValueError(f"{fn}: path needs level_set=True")
-    surface, mesh = _rockvdb.fractal_rock(_stage_params(_FRACTAL_ROCK, fn, params), level_set,
-                                          want_map)
+    grids, _, mesh = _rockvdb.run_fractal("rock", _stage_params(_FRACTAL_ROCK, fn, params), None,
+                                          level_set, want_map)
+    surface = grids[0] if grids else None
     if mesh_target is not None:
         _rockvdb.write_mesh(mesh["points"], mesh["triangles"], mesh["normals"], mesh.get("uvs"),
                             mesh.get("triangle_uvs"), mesh_target, mesh_up)
@@ -826,13 +844,14 @@ def _fractal_scatter(ground=None, path=None, stats=None, mesh=False, **params):
         raise _type_error(fn, "stats", "a dict", stats)
     if not isinstance(mesh, bool):
         raise _type_error(fn, "mesh", "a bool", mesh)
-    surface, rock_id, info, meshes, mat = _rockvdb.fractal_scatter(
-        ground, _stage_params(_FRACTAL_ROCK, fn, params), mesh)
+    written, info, meshes = _rockvdb.run_fractal(
+        "scatter", _stage_params(_FRACTAL_ROCK, fn, params), ground, mesh=mesh)
     if stats is not None:
         stats.update(info)
-    grids = (surface, rock_id) if mat is None else (surface, rock_id, mat)
+    surface, rock_id = written[-1], written[0]
+    grids = (surface, rock_id) if len(written) == 2 else (surface, rock_id, written[1])
     if target is not None:
-        _rockvdb.write(target, [g for g in grids[1:]] + [surface])
+        _rockvdb.write(target, written)
     return grids + (meshes,) if mesh else grids
 
 
@@ -858,7 +877,8 @@ def _fractal_carve(solid, path=None, **params):
         solid = _os.fspath(solid)
     elif not isinstance(solid, pyopenvdb.FloatGrid):
         raise _type_error(fn, "solid", "a level set .vdb path or a pyopenvdb.FloatGrid", solid)
-    surface, cave = _rockvdb.fractal_carve(solid, _stage_params(_FRACTAL_ROCK, fn, params))
+    (surface, cave), _, _ = _rockvdb.run_fractal("carve", _stage_params(_FRACTAL_ROCK, fn, params),
+                                                 solid)
     if target is not None:
         _rockvdb.write(target, [surface, cave])
     return surface, cave
@@ -880,8 +900,6 @@ fractal_carve = _stage_function(
 # Material stacks (arches-material-stacks-terrain §3, §6)
 
 _ARCHES = _table("arches")
-# The rows a bake may change (the rest make the stacks, so they stay as built).
-_ARCHES_BAKE_ROWS = ("voxel-size", "half-width", "sigma", "max-memory")
 _ARCHES_GROUND = ("sand", "bedrock", "rocks")
 _IMAGE_EXTENSIONS = (".exr", ".png")
 

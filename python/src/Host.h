@@ -2,8 +2,11 @@
 // cancellation, parameter JSON from the Python wrappers, and how provenance names a grid input.
 #pragma once
 
+#include <rockvdb/blocks/BlockTile.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
+#include <rockvdb/core/Json.h>
+#include <rockvdb/core/StageResult.h>
 #include <rockvdb/core/Task.h>
 #include <rockvdb/core/VdbIO.h>
 
@@ -48,6 +51,25 @@ private:
     std::atomic<bool> mCancelled{false};
 };
 
+/// A field plus the expression that rebuilds it (its provenance): rockvdb.Field's native half.
+struct PyField
+{
+    FieldPtr field;
+    nlohmann::json expr;
+};
+
+/// A generated or loaded block tile: rockvdb.BlockTile's native half.
+struct PyTile
+{
+    std::shared_ptr<const blocks::BlockTile> tile;
+};
+
+/// A stage result's stats (JSON) as a Python dict.
+inline pybind11::object pyJson(const nlohmann::json& j)
+{
+    return pybind11::module_::import("json").attr("loads")(jsonText(j));
+}
+
 /// The JSON text of a Python call's parameters (the wrapper spells keys as the CLI does).
 inline nlohmann::json parseParams(const std::string& text, const char* op)
 {
@@ -55,14 +77,16 @@ inline nlohmann::json parseParams(const std::string& text, const char* op)
     return j;
 }
 
-/// What provenance records of a grid input: its own generator and parameters.
-inline nlohmann::json gridSource(const openvdb::GridBase& g)
-{
-    auto p = provenance(g);
-    if (!p) return {{"grid", g.getName()}};
-    return {{"grid", g.getName()}, {"generator", p->generator},
-            {"params", jsonOrText(p->params)}};
-}
+/// The bindings, one file per part; module.cc calls them in this order.
+void bindFields(pybind11::module_& m);   ///< rockvdb.Field, primitives, heightfield (fields.cc)
+void bindGrids(pybind11::module_& m);    ///< CSG, read / write, mesh, preview, images (grids.cc)
+void bindBlocks(pybind11::module_& m);   ///< rockvdb.BlockTile, the block-tile stage (blocks.cc)
+void bindAmplify(pybind11::module_& m);  ///< the amplify stage (amplify.cc)
+void bindDetail(pybind11::module_& m);   ///< the detail stage (detail.cc)
+void bindRockpile(pybind11::module_& m); ///< rock tiles and piles (rockpile.cc)
+
+/// rockvdb.fractal_rock / fractal_scatter / fractal_carve's native half (fractal.cc).
+void bindFractal(pybind11::module_& m);
 
 /// rockvdb.Stacks' native half (arches.cc) and the arches table's description.
 void bindArches(pybind11::module_& m);

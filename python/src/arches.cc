@@ -5,6 +5,7 @@
 #include "GridCaster.h"
 #include "Host.h"
 
+#include <rockvdb/core/Json.h>
 #include <rockvdb/arches/ArchesStage.h>
 #include <rockvdb/arches/StackFile.h>
 #include <rockvdb/core/Expression.h>
@@ -35,33 +36,13 @@ struct PyStacks
     Stacks stacks;
     json params;
     json inputs = json::object(); ///< provenance on top of params (a grid terrain's source)
+    std::string baseDir = ".";    ///< the scene file's folder (its relative paths)
 };
 
 ArchesParams paramsOf(const json& j) { return archesSchema().fromJson(j); }
 
-py::dict stabilizeStats(const StabilizeStats& st)
-{
-    py::dict d;
-    d["visits"] = st.visits;
-    d["moves"] = st.moves;
-    d["moved_quanta"] = st.movedQuanta;
-    d["seconds"] = st.seconds;
-    return d;
-}
-
-py::dict editStats(const EditStats& e)
-{
-    py::dict d;
-    d["tool"] = e.tool;
-    d["stacks"] = e.stacks;
-    d["window"] = py::make_tuple(e.i0, e.j0, e.i1, e.j1);
-    d["bedrock_quanta"] = e.bedrock;
-    d["sand_quanta"] = e.sand;
-    d["rocks_quanta"] = e.rocks;
-    d["stabilize"] = stabilizeStats(e.stabilize);
-    d["seconds"] = e.seconds;
-    return d;
-}
+py::dict stabilizeStats(const StabilizeStats& st) { return pyJson(stabilizeStatsJson(st)); }
+py::dict editStats(const EditStats& e) { return pyJson(editStatsJson(e)); }
 
 /// Every stack's layers, runs merged, bottom first: the walk the numpy views share.
 template<typename Visit>
@@ -91,32 +72,16 @@ py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::s
                         const std::optional<std::string>& pointsPath)
 {
     const ArchesOutput output = archesOutputFromString(what, "Stacks.bake: material");
-    json j = s.params;
-    const json o = parseParams(overrides, "arches");
-    for (auto it = o.begin(); it != o.end(); ++it) {
-        const auto& rows = bakeOnlyRows();
-        if (std::find(rows.begin(), rows.end(), it.key()) == rows.end()) {
-            fail<ValueError>("Stacks.bake: ", it.key(), " made the stacks; a bake may change ", bakeOnlyRowsText());
-        }
-        j[it.key()] = it.value();
-    }
-    const ArchesParams p = paramsOf(j);
-    if (pointsPath && p.rockTiles.empty()) {
-        fail<ValueError>("Stacks.bake: points_path needs rock_tiles (the points are the rocks instanced in rock layers)");
-    }
-    if (pointsPath) {
-        if (output == ArchesOutput::Sand || output == ArchesOutput::Bedrock || output == ArchesOutput::Water) {
-            fail<ValueError>("Stacks.bake: points_path needs a bake that instances the rocks (all, surface, material, "
-                             "weights or rocks; got '", what, "')");
-        }
-        requireWritable(*pointsPath);
-    }
+    ArchesParams p = paramsOf(s.params);
+    p.baseDir = s.baseDir;
+    if (pointsPath) requireWritable(*pointsPath);
     ArchesResult r;
     {
         py::gil_scoped_release release;
         PyTaskHost host;
         Task task(&host);
-        r = bakeStacks(p, s.stacks, output, s.inputs, task);
+        r = bakeScene(p, s.stacks, s.inputs, parseParams(overrides, "arches"), output,
+                      bool(pointsPath), task);
         // As vdb_arches --points writes them (no rock layers: no points).
         if (pointsPath) writeGrids(*pointsPath, {r.points});
     }
@@ -146,8 +111,8 @@ py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::s
 
 } // namespace
 
-std::string archesSchemaText() { return archesSchema().describe().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
-std::string archesEditTools() { return editTools().dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
+std::string archesSchemaText() { return jsonText(archesSchema().describe()); }
+std::string archesEditTools() { return jsonText(editTools()); }
 
 void bindArches(py::module_& m)
 {
@@ -163,7 +128,7 @@ void bindArches(py::module_& m)
         .def_property_readonly("quantum", [](const PyStacks& s) { return s.stacks.geometry().quantum; })
         .def_property_readonly("bytes", [](const PyStacks& s) { return s.stacks.bytes(); })
         .def_property_readonly("layer_count", [](const PyStacks& s) { return s.stacks.layerCount(); })
-        .def_property_readonly("params", [](const PyStacks& s) { return s.params.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); })
+        .def_property_readonly("params", [](const PyStacks& s) { return jsonText(s.params); })
         .def("volume_quanta", [](const PyStacks& s, const std::string& name) {
             return s.stacks.volumeQuanta(materialFromName(name, "Stacks.volume: material"));
         }, py::arg("material"))
@@ -273,7 +238,7 @@ void bindArches(py::module_& m)
         }, py::arg("edit"))
         .def("bake", &bakeStacksPy, py::arg("material"), py::arg("overrides"), py::arg("points_path"))
         .def("save", [](const PyStacks& s, const std::string& path) {
-            writeStackFile(path, s.stacks, s.params.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+            writeStackFile(path, s.stacks, jsonText(s.params));
         }, py::arg("path"))
         .def("__eq__", [](const PyStacks& a, const PyStacks& b) { return a.stacks == b.stacks; });
 
@@ -282,33 +247,26 @@ void bindArches(py::module_& m)
     // scene: a scene file read first (its folder resolves relative paths), params on top.
     m.def("arches_build", [](const std::string& params, std::optional<std::string> scene,
                              std::optional<openvdb::FloatGrid::Ptr> grid) {
-        PyStacks s;
-        std::string baseDir = ".";
-        json j = scene ? readScene(*scene, baseDir) : json::object();
-        json given = parseParams(params, "arches");
-        if (scene) anchorGivenPaths(given); // keywords name files from here, the scene's keys from its folder
-        for (auto it = given.begin(); it != given.end(); ++it) j[it.key()] = it.value();
-        ArchesParams p = paramsOf(j);
-        p.baseDir = baseDir;
-        if (grid) {
-            s.inputs["terrain"] = jsonOrFile(p.terrain);
-            s.inputs["terrain"]["source"] = gridSource(**grid);
-        }
-        p.edits = jsonOrFile(p.edits); // recorded as content, not a path
-        StabilizeStats st;
-        std::vector<EditStats> edits;
+        SceneInputs in;
+        in.scenePath = scene.value_or("");
+        in.given = parseParams(params, "arches");
+        in.anchorGiven = bool(scene);
+        if (grid) in.terrainGrid = *grid;
+        Scene sc;
         {
             py::gil_scoped_release release;
             PyTaskHost host;
             Task task(&host);
-            s.stacks = buildStacks(p, task, grid ? *grid : nullptr);
-            st = stabilizeIfAsked(p, s.stacks, task);
-            edits = applyEdits(p, s.stacks, p.edits, 0, task);
+            sc = openScene(in, task);
         }
-        s.params = archesSchema().toJson(p);
+        PyStacks s;
+        s.stacks = std::move(sc.stacks);
+        s.params = archesSchema().toJson(sc.params);
+        s.inputs = sc.inputs;
+        s.baseDir = sc.params.baseDir;
         py::list es;
-        for (const auto& e : edits) es.append(editStats(e));
-        return py::make_tuple(std::move(s), stabilizeStats(st), es);
+        for (const auto& e : sc.edits) es.append(editStats(e));
+        return py::make_tuple(std::move(s), stabilizeStats(sc.stabilize), es);
     }, py::arg("params"), py::arg("scene") = std::nullopt, py::arg("grid") = std::nullopt);
 
     m.def("arches_edit_tools", &archesEditTools);

@@ -1,7 +1,7 @@
-"""Every command in the README runs as written: each ```sh and ```python block (except those
-marked `norun`, the two set-up commands and the install lines) runs in README order from a
-scratch folder laid out like the repository root (build/ and samples/ linked in), sharing the
-files it writes in out/."""
+"""Every command in the README and its pages (docs/*.md) runs as written: each ```sh and
+```python block (except those marked `norun`, the two set-up commands and the install lines)
+runs in reading order (the README, then PAGES) from a scratch folder laid out like the
+repository root (build/ and samples/ linked in), sharing the files it writes in out/."""
 import os
 import re
 import subprocess
@@ -14,15 +14,38 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 FENCE = re.compile(r"^```(\w+)([^\n]*)\n(.*?)^```", re.M | re.S)
 
 
+# The pages in the order the README's table leads to them (later pages read files earlier
+# ones wrote in out/).
+PAGES = ["README.md"] + [f"docs/{p}.md" for p in (
+    "tools", "blocks", "amplify", "detail", "rockpile", "fractal", "arches", "distributed",
+    "conventions", "benchmarks")]
+
+
 def blocks():
-    text = open(os.path.join(ROOT, "README.md")).read()
     out = []
-    for m in FENCE.finditer(text):
-        lang, info, body = m[1], m[2], m[3]
-        if lang in ("sh", "python") and "norun" not in info:
-            line = text[:m.start()].count("\n") + 1
-            out.append(pytest.param(lang, body, id=f"line{line}-{lang}"))
+    for page in PAGES:
+        text = open(os.path.join(ROOT, page)).read()
+        for m in FENCE.finditer(text):
+            lang, info, body = m[1], m[2], m[3]
+            if lang in ("sh", "python") and "norun" not in info:
+                line = text[:m.start()].count("\n") + 1
+                out.append(pytest.param(lang, body, id=f"{page}:{line}-{lang}"))
     return out
+
+
+def test_every_page_is_read_and_the_readme_stays_short():
+    pages = {f"docs/{f}" for f in os.listdir(os.path.join(ROOT, "docs")) if f.endswith(".md")}
+    assert pages == set(PAGES[1:])
+    readme = open(os.path.join(ROOT, "README.md")).read()
+    assert readme.count("\n") <= 250
+    for page in PAGES[1:]:
+        assert f"({page})" in readme, f"the README links no {page}"
+    # Every relative link of every page leads to a file.
+    for page in PAGES:
+        text = open(os.path.join(ROOT, page)).read()
+        for target in re.findall(r"\]\(([^)#:]+)\)", text):
+            path = os.path.normpath(os.path.join(ROOT, os.path.dirname(page), target))
+            assert os.path.exists(path), f"{page}: broken link {target}"
 
 
 @pytest.fixture(scope="module")

@@ -574,7 +574,7 @@ TEST(ArchesStage, TheTableDrivesDefaultsChecksAndReplay)
     // A run: the ground, a level set per material present, material ids, provenance that
     // replays bit for bit.
     const ArchesParams p = archesSchema().fromJson({{"terrain", strata}, {"cell-size", 0.5}});
-    ArchesResult r = runArches(p, buildStacks(p, task), task);
+    ArchesResult r = runStacks(p, buildStacks(p, task), task);
     ASSERT_TRUE(r.surface);
     EXPECT_EQ(r.surface->getName(), "surface");
     std::vector<std::string> names;
@@ -586,7 +586,7 @@ TEST(ArchesStage, TheTableDrivesDefaultsChecksAndReplay)
     ASSERT_TRUE(prov);
     EXPECT_EQ(prov->generator, "vdb_arches");
     const ArchesParams replayed = archesSchema().fromJson(nlohmann::json::parse(prov->params));
-    ArchesResult again = runArches(replayed, buildStacks(replayed, task), task);
+    ArchesResult again = runStacks(replayed, buildStacks(replayed, task), task);
     EXPECT_TRUE(test::bitwiseEqual(*r.surface, *again.surface));
     EXPECT_TRUE(test::bitwiseEqual(*r.material, *again.material));
     EXPECT_TRUE(r.stacks == again.stacks);
@@ -606,7 +606,7 @@ TEST(ArchesStage, HeightfieldAndSolidTerrains)
     EXPECT_EQ(hs.geometry().ny, 25);
     EXPECT_DOUBLE_EQ(hs.geometry().cell, 0.5);
     EXPECT_EQ(hs.volumeQuanta(Material::Sand), 30u * 25u * 40u);
-    const ArchesResult hr = runArches(hp, hs, task);
+    const ArchesResult hr = runStacks(hp, hs, task);
     EXPECT_EQ(hr.stacks.volumeQuanta(Material::Sand), 30u * 25u * 40u);
     EXPECT_LE(largestExcess(hr.stacks, Material::Sand, 33.0), 1.0);
     // A solid: an arch (a box minus a cylinder-like capsule) keeps its opening as air.

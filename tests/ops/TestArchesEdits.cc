@@ -289,7 +289,7 @@ TEST(Edits, TheSameAtAnyThreadCountAndThroughTheScene)
         p.sandDepth = 0.2;
         p.edits = edits;
         p.voxelSize = 0.5;
-        return runArches(p, buildStacks(p, task), task);
+        return runStacks(p, buildStacks(p, task), task);
     };
     const ArchesResult a = run(1), b = run(2);
     EXPECT_TRUE(a.stacks == b.stacks);

@@ -2,6 +2,8 @@
 // carries progress and the cancel.
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Schema.h>
+#include <rockvdb/core/StageResult.h>
+#include <rockvdb/core/VdbIO.h>
 #include <rockvdb/core/Task.h>
 
 #include <gtest/gtest.h>
@@ -182,6 +184,43 @@ TEST(Task, ProgressOnlyGoesUpAcrossPhasesAndEndsAtOne)
     EXPECT_DOUBLE_EQ(host.seen.back(), 1.0);
     EXPECT_NEAR(task.reported(), 1.0, 0.0);
     for (size_t i = 0; i < out.size(); ++i) ASSERT_EQ(out[i], int(i));
+}
+
+TEST(Task, PhasesAreTimedInTheOrderTheyRan)
+{
+    Task task;
+    task.phase("first", 0.5);
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    task.phase("second", 0.5);
+    task.done();
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    const auto phases = task.phases();
+    ASSERT_EQ(phases.size(), 2u);
+    EXPECT_EQ(phases[0].first, "first");
+    EXPECT_EQ(phases[1].first, "second");
+    EXPECT_GE(phases[0].second, 0.025);
+    EXPECT_LT(phases[1].second, 0.025); // ends at done(), not when asked
+    const nlohmann::json j = phasesJson(task);
+    ASSERT_EQ(j.size(), 2u);
+    EXPECT_EQ(j[1]["name"], "second");
+}
+
+TEST(StageResult, OneProvenanceOnEveryGridWithTheInputsMerged)
+{
+    initialize();
+    StageResult r;
+    auto a = openvdb::FloatGrid::create(), b = openvdb::FloatGrid::create();
+    const nlohmann::json prov = stageProvenance({{"seed", 3}, {"size", 2.5}}, {{"from-tile", "t.tile"}});
+    EXPECT_EQ(prov, (nlohmann::json{{"seed", 3}, {"size", 2.5}, {"from-tile", "t.tile"}}));
+    stampResult(r, "vdb_test", {a, b}, prov);
+    ASSERT_EQ(r.grids.size(), 2u);
+    for (const auto& g : {a, b}) {
+        const auto p = provenance(*g);
+        ASSERT_TRUE(p);
+        EXPECT_EQ(p->generator, "vdb_test");
+        EXPECT_EQ(nlohmann::json::parse(p->params), prov);
+    }
+    EXPECT_EQ(r.provenance, prov);
 }
 
 TEST(Task, CancelStopsAParallelLoopEarly)

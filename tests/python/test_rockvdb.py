@@ -146,9 +146,9 @@ def test_heightfield_exact_band_follows_the_bake(tmp_path):
 def test_errors_are_python_exceptions(tmp_path):
     with pytest.raises(ValueError, match="sphere: radius must be > 0"):
         rockvdb.sphere(-1)
-    with pytest.raises(ValueError, match="voxel size"):
+    with pytest.raises(ValueError, match="bake: voxel-size must be in"):
         rockvdb.sphere(1).bake(voxel_size=0)
-    with pytest.raises(ValueError, match="voxel size"):
+    with pytest.raises(ValueError, match="voxel_size must be finite"):
         rockvdb.sphere(1).bake(voxel_size=float("nan"))
     with pytest.raises(ValueError, match="refusing"):
         rockvdb.sphere(100).bake(voxel_size=1e-4)

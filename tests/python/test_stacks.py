@@ -312,7 +312,7 @@ def test_bad_edits_are_one_line_naming_the_edit_and_change_nothing(tmp_path):
     assert s.params["edits"] == []
     with pytest.raises(TypeError, match="radius"):
         s.sculpt([(1, 1, 5)])
-    with pytest.raises(ValueError, match="a bake may change voxel-size"):
+    with pytest.raises(ValueError, match="sigma made the stacks; a bake of them may change only voxel-size"):
         s.bake("surface", sigma=1.0)
 
 
@@ -415,7 +415,7 @@ def test_rock_instances_as_points_and_material_ids_agree_between_cli_and_python(
     assert default.activeVoxelCount() == grids["material"].activeVoxelCount()
     # Bad uses: points without rock tiles, a material that instances nothing, an id out of range.
     bare = rockvdb.Stacks(terrain, cell_size=0.25, quantum=0.005)
-    with pytest.raises(ValueError, match="points_path needs rock_tiles"):
+    with pytest.raises(ValueError, match="points need rock-tiles"):
         bare.bake(points_path=tmp_path / "x.vdb")
     with pytest.raises(ValueError, match="instances the rocks"):
         s.bake("sand", points_path=tmp_path / "x.vdb")
@@ -424,5 +424,5 @@ def test_rock_instances_as_points_and_material_ids_agree_between_cli_and_python(
     assert not (tmp_path / "x.vdb").exists()
     r = run([AR, str(tmp_path / "scene.json"), "--rock-tiles", "", "--points", str(tmp_path / "x.vdb"),
              "-o", str(tmp_path / "y.vdb")])
-    assert r.returncode == 2 and "--points needs --rock-tiles" in r.stderr and "\n" not in r.stderr.strip()
+    assert r.returncode == 2 and "points need rock-tiles" in r.stderr and "\n" not in r.stderr.strip()
     assert not (tmp_path / "x.vdb").exists() and not (tmp_path / "y.vdb").exists()

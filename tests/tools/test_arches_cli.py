@@ -125,7 +125,7 @@ def test_from_stacks_refuses_rows_that_made_the_stacks_and_bad_edits_name_their_
     stacks, out = tmp_path / "t.stacks", tmp_path / "o.vdb"
     run([AR, "-q", str(scene), "-o", str(tmp_path / "a.vdb"), "--stacks", str(stacks)], check=True)
     p = run([AR, "-q", "--from-stacks", str(stacks), "--repose-sand", "30", "-o", str(out)])
-    one_line_error(p, 2, "--repose-sand made the saved stacks")
+    one_line_error(p, 2, "repose-sand made the stacks; a bake of them may change only")
     edits = tmp_path / "e.json"
     edits.write_text(json.dumps([{"tool": "deposit", "center": [3, 3], "radius": 2, "amount": 1},
                                  {"tool": "erode", "center": [3, 3, 12], "radius": -1}]))

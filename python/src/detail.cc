@@ -1,0 +1,37 @@
+// rockvdb.detail's native half: the detail stage's entry point, runDetail (DetailStage.h).
+#include "GridCaster.h"
+#include "Host.h"
+
+#include <rockvdb/detail/DetailStage.h>
+
+#include <pybind11/stl.h>
+
+namespace py = pybind11;
+using nlohmann::json;
+using Grid = openvdb::FloatGrid::Ptr;
+
+namespace rockvdb {
+namespace pyhost {
+
+void bindDetail(py::module_& m)
+{
+    m.def("detail", [](Grid grid, const std::string& params, std::optional<Grid> blendMask) {
+        if (!grid) throw py::type_error("detail: the input grid is None");
+        const detailing::DetailStageParams p =
+            detailing::detailSchema().fromJson(parseParams(params, "detail"));
+        detailing::DetailInputs in;
+        in.grid = grid;
+        if (blendMask) in.blendMask = *blendMask;
+        detailing::DetailResult r;
+        {
+            py::gil_scoped_release release;
+            PyTaskHost host;
+            Task task(&host);
+            r = detailing::runDetail(p, in, task);
+        }
+        return py::make_tuple(r.bake.surface, pyJson(r.stats));
+    }, py::arg("grid"), py::arg("params"), py::arg("blend_mask") = std::nullopt);
+}
+
+} // namespace pyhost
+} // namespace rockvdb

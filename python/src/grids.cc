@@ -1,0 +1,206 @@
+// The grid and file helpers of rockvdb: CSG of level-set grids, reading and writing .vdb files,
+// meshes, previews, heightfield and RGB images, provenance.
+#include "GridCaster.h"
+#include "Host.h"
+
+#include <rockvdb/core/GridCsg.h>
+#include <rockvdb/core/Image.h>
+#include <rockvdb/core/Mesh.h>
+#include <rockvdb/core/Preview.h>
+#include <rockvdb/core/VdbIO.h>
+
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace py = pybind11;
+using nlohmann::json;
+using Grid = openvdb::FloatGrid::Ptr;
+
+namespace rockvdb {
+namespace pyhost {
+
+void bindGrids(py::module_& m)
+{
+    m.def("write_heightfield", [](const std::string& path, py::array_t<float, py::array::c_style | py::array::forcecast> a) {
+        if (a.ndim() != 2) throw ValueError("write_heightfield: expected a 2D array (rows, columns)");
+        GrayImage img;
+        img.height = int(a.shape(0));
+        img.width = int(a.shape(1));
+        img.pixels.assign(a.data(), a.data() + a.size());
+        writeGrayImage(path, img);
+    }, py::arg("path"), py::arg("array"), "Write a 2D array as float EXR or 16-bit PNG (row 0 first)");
+
+    m.def("write_mesh", [](py::array_t<float, py::array::c_style | py::array::forcecast> points,
+                           py::array_t<int32_t, py::array::c_style | py::array::forcecast> triangles,
+                           std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>> normals,
+                           std::optional<py::array_t<float, py::array::c_style | py::array::forcecast>> uvs,
+                           std::optional<py::array_t<int32_t, py::array::c_style | py::array::forcecast>> triangleUvs,
+                           const std::string& path, const std::string& up) {
+        Mesh m;
+        auto check = [](const auto& a, py::ssize_t cols, const char* what) {
+            if (a.ndim() != 2 || a.shape(1) != cols) {
+                throw ValueError(std::string("write_mesh: ") + what + " must be an N x " + std::to_string(cols) + " array");
+            }
+        };
+        check(points, 3, "points");
+        check(triangles, 3, "triangles");
+        for (py::ssize_t i = 0; i < points.shape(0); ++i) m.points.emplace_back(points.at(i, 0), points.at(i, 1), points.at(i, 2));
+        for (py::ssize_t i = 0; i < triangles.shape(0); ++i) {
+            for (int c = 0; c < 3; ++c) {
+                if (triangles.at(i, c) < 0 || triangles.at(i, c) >= points.shape(0)) throw ValueError("write_mesh: triangle index out of range");
+            }
+            m.triangles.emplace_back(unsigned(triangles.at(i, 0)), unsigned(triangles.at(i, 1)), unsigned(triangles.at(i, 2)));
+        }
+        if (normals) {
+            check(*normals, 3, "normals");
+            if (normals->shape(0) != points.shape(0)) throw ValueError("write_mesh: one normal per point");
+            for (py::ssize_t i = 0; i < normals->shape(0); ++i) m.normals.emplace_back(normals->at(i, 0), normals->at(i, 1), normals->at(i, 2));
+        }
+        if (uvs && triangleUvs) {
+            check(*uvs, 2, "uvs");
+            check(*triangleUvs, 3, "triangle_uvs");
+            if (triangleUvs->shape(0) != triangles.shape(0)) throw ValueError("write_mesh: one triangle_uvs row per triangle");
+            for (py::ssize_t i = 0; i < uvs->shape(0); ++i) m.uvs.emplace_back(uvs->at(i, 0), uvs->at(i, 1));
+            for (py::ssize_t i = 0; i < triangleUvs->shape(0); ++i) {
+                for (int c = 0; c < 3; ++c) {
+                    if (triangleUvs->at(i, c) < 0 || triangleUvs->at(i, c) >= uvs->shape(0)) throw ValueError("write_mesh: uv index out of range");
+                }
+                m.triangleUvs.emplace_back(unsigned(triangleUvs->at(i, 0)), unsigned(triangleUvs->at(i, 1)), unsigned(triangleUvs->at(i, 2)));
+            }
+        }
+        writeMesh(m, path, upAxisFromString(up, "up"));
+    }, py::arg("points"), py::arg("triangles"), py::arg("normals") = std::nullopt,
+       py::arg("uvs") = std::nullopt, py::arg("triangle_uvs") = std::nullopt, py::arg("path"),
+       py::arg("up") = "z");
+
+    m.def("write_rgb_exr", [](const std::string& path, py::array_t<float, py::array::c_style | py::array::forcecast> a) {
+        if (a.ndim() != 3 || a.shape(2) != 3) throw ValueError("write_rgb_exr: expected an H x W x 3 array");
+        std::vector<float> rgb(a.data(), a.data() + a.size());
+        writeRgbExr(path, int(a.shape(1)), int(a.shape(0)), rgb);
+    }, py::arg("path"), py::arg("image"));
+
+    m.def("read_image", [](const std::string& path, const std::string& op) {
+        GrayImage img = readGrayImage(path, op.c_str());
+        py::array_t<float> a({img.height, img.width});
+        std::copy(img.pixels.begin(), img.pixels.end(), a.mutable_data());
+        return a;
+    }, py::arg("path"), py::arg("op") = "image",
+       "Read a float EXR / 16-bit PNG (0..1) as a 2D array (row 0 first)");
+
+    m.def("csg", [](const std::string& op, const std::vector<Grid>& grids, double smooth,
+                    const std::vector<std::vector<Grid>>& ids, double maxMemoryGB) -> py::object {
+        require(std::isfinite(maxMemoryGB) && maxMemoryGB >= 0, "csg", "max_memory", ">= 0 GB",
+                maxMemoryGB);
+        std::vector<openvdb::FloatGrid::ConstPtr> in(grids.begin(), grids.end());
+        if (!ids.empty() && ids.size() != grids.size()) {
+            throw ValueError("csg: ids needs one list of id grids per input grid");
+        }
+        // Id grids by name, in order of first appearance (as vdb_csg carries them).
+        std::vector<std::string> names;
+        for (const auto& list : ids) {
+            for (const auto& g : list) {
+                if (std::find(names.begin(), names.end(), g->getName()) == names.end()) {
+                    names.push_back(g->getName());
+                }
+            }
+        }
+        Grid g;
+        std::vector<Grid> carried;
+        {
+            py::gil_scoped_release release;
+            g = csgGrids(csgOpFromString(op), in, smooth, maxMemoryGB * 1e9);
+            for (const auto& name : names) {
+                std::vector<openvdb::FloatGrid::ConstPtr> per;
+                for (const auto& list : ids) {
+                    openvdb::FloatGrid::ConstPtr found;
+                    for (const auto& x : list) {
+                        if (x->getName() == name && !found) found = x;
+                    }
+                    per.push_back(found);
+                }
+                carried.push_back(csgAttribute(csgOpFromString(op), in, per, *g, name));
+            }
+        }
+        json sources = json::array();
+        for (const auto& in : grids) {
+            auto p = provenance(*in);
+            sources.push_back(p ? json{{"generator", p->generator},
+                                       {"params", jsonOrText(p->params)}}
+                                : json(nullptr));
+        }
+        const std::string prov = jsonText(json({{"op", op}, {"smooth", smooth}, {"sources", sources}}));
+        stampProvenance(*g, "rockvdb.csg", prov);
+        if (ids.empty()) return py::cast(g);
+        py::list out;
+        for (const auto& c : carried) {
+            stampProvenance(*c, "rockvdb.csg", prov);
+            out.append(py::cast(c));
+        }
+        return py::make_tuple(py::cast(g), out);
+    }, py::arg("op"), py::arg("grids"), py::arg("smooth") = 0.0,
+       py::arg("ids") = std::vector<std::vector<Grid>>{}, py::arg("max_memory") = 0.0,
+       "union / intersection / difference of level-set grids (inputs untouched)");
+
+    m.def("read", [](const std::string& path, const std::string& name) { return readLevelSet(path, name); },
+          py::arg("path"), py::arg("grid") = "surface", "Read a float level set by name");
+    m.def("write", [](const std::string& path, const std::vector<Grid>& grids) {
+        // Every grid written carries provenance; foreign grids get it on a shallow copy (the
+        // caller's grid and its metadata are left as they are).
+        openvdb::GridCPtrVec v;
+        for (const auto& g : grids) {
+            if (provenance(*g)) { v.push_back(g); continue; }
+            auto copy = g->copyGrid();
+            stampProvenance(*copy, "rockvdb.write", "{}");
+            v.push_back(copy);
+        }
+        writeGrids(path, v);
+    }, py::arg("path"), py::arg("grids"), "Write grids atomically (Blosc compressed); grids "
+       "without rockvdb provenance are stamped generator 'rockvdb.write'");
+    m.def("mesh", [](Grid grid, const std::string& path, double isovalue, double adaptivity,
+                     const std::string& up) {
+        requireLevelSet(*grid, "mesh input");
+        const UpAxis axis = upAxisFromString(up, "mesh: up");
+        Mesh mesh;
+        {
+            py::gil_scoped_release release;
+            mesh = meshLevelSet(*grid, isovalue, adaptivity);
+        }
+        writeMesh(mesh, path, axis);
+    }, py::arg("grid"), py::arg("path"), py::arg("isovalue") = 0.0, py::arg("adaptivity") = 0.0,
+       py::arg("up") = "z");
+    m.def("preview", [](Grid grid, const std::string& path, int width, int height, double azimuth,
+                        double elevation, double zoom, std::optional<Grid> ids,
+                        const std::string& palette) {
+        PreviewSettings s;
+        s.width = width;
+        s.height = height;
+        s.azimuth = azimuth;
+        s.elevation = elevation;
+        s.zoom = zoom;
+        if (!palette.empty()) s.palette = parsePalette(palette, "preview: palette");
+        PreviewStats st;
+        {
+            py::gil_scoped_release release;
+            writePreview(*grid, path, s, ids ? ids->get() : nullptr, &st);
+        }
+        py::dict out;
+        out["surface"] = double(st.surfacePixels) / double(st.pixels);
+        py::dict byId;
+        for (const auto& [id, n] : st.idPixels) byId[py::int_(id)] = double(n) / double(st.pixels);
+        out["ids"] = byId;
+        return out;
+    }, py::arg("grid"), py::arg("path"), py::arg("width") = 960, py::arg("height") = 540,
+       py::arg("azimuth") = 35.0, py::arg("elevation") = 30.0, py::arg("zoom") = 1.0,
+       py::arg("ids") = py::none(), py::arg("palette") = "");
+    m.def("provenance", [](Grid grid) -> py::object {
+        auto p = provenance(*grid);
+        if (!p) return py::none();
+        return py::make_tuple(p->version, p->generator, p->params);
+    }, py::arg("grid"), "(version, generator, params JSON) or None");
+}
+
+} // namespace pyhost
+} // namespace rockvdb
