@@ -257,36 +257,6 @@ private:
 
 } // namespace
 
-Progress::Progress(std::string label, bool enabled) : mLabel(std::move(label)), mEnabled(enabled) {}
-Progress::~Progress() { end(); }
-
-void Progress::start(const char*) { mLast = -1; }
-
-void Progress::end()
-{
-    if (mEnabled && mLast >= 0) {
-        std::fprintf(stderr, "\r\033[K");
-        std::fflush(stderr);
-    }
-    mLast = -1;
-}
-
-bool Progress::wasInterrupted(int percent)
-{
-    if (mEnabled && percent >= 0) {
-        static std::mutex m;
-        std::lock_guard<std::mutex> lock(m);
-        if (percent != mLast) {
-            mLast = percent;
-            const int w = 30, filled = std::min(w, percent * w / 100);
-            std::fprintf(stderr, "\r%s [%.*s%*s] %3d%%", mLabel.c_str(), filled,
-                         "##############################", w - filled, "", percent);
-            std::fflush(stderr);
-        }
-    }
-    return gSigint.load();
-}
-
 TaskBar::~TaskBar() { clear(); }
 
 void TaskBar::clear()
@@ -313,24 +283,6 @@ void TaskBar::progress(const char* phase, double fraction)
     std::fprintf(stderr, "\r\033[K%s: %s [%.*s%*s] %3d%%", mTool.c_str(), phase, filled,
                  "##############################", w - filled, "", percent);
     std::fflush(stderr);
-}
-
-BakeSettings BakeOptions::settings() const
-{
-    BakeSettings s;
-    s.voxelSize = voxelSize;
-    s.halfWidth = halfWidth;
-    s.renormalize = renormalizeFromString(renormalize);
-    s.trackerSteps = trackerSteps;
-    if (!region.empty()) {
-        if (region.size() != 6) fail<ValueError>("--region needs 6 values xmin,ymin,zmin,xmax,ymax,zmax");
-        s.region = BBoxd(Vec3d(region[0], region[1], region[2]), Vec3d(region[3], region[4], region[5]));
-    }
-    require(std::isfinite(maxMemoryGB) && maxMemoryGB >= 0, "bake", "--max-memory", ">= 0 GB",
-            maxMemoryGB);
-    s.maxMemoryBytes = maxMemoryGB * 1e9;
-    s.validate();
-    return s;
 }
 
 Tool::Tool(std::string name, std::string description)
@@ -476,32 +428,6 @@ int Tool::distribute(const std::vector<std::string>& words)
     fail<IoError>("cannot run ", ROCKVDB_PYTHON, " for the distributed bake: ", std::strerror(errno));
 }
 
-void Tool::addBakeOptions(CLI::App& where, bool inputDefaults)
-{
-    if (inputDefaults) {
-        where.add_option("--voxel-size", mBake.voxelSize,
-                         "Voxel edge length (m) [default: the input's]");
-        where.add_option("--half-width", mBake.halfWidth,
-                         "Narrow-band half width (voxels) [default: the input's]");
-    } else {
-        where.add_option("--voxel-size", mBake.voxelSize, "Voxel edge length (m)")
-            ->capture_default_str();
-        where.add_option("--half-width", mBake.halfWidth, "Narrow-band half width (voxels)")
-            ->capture_default_str();
-    }
-    where.add_option("--renormalize", mBake.renormalize,
-                     "Renormalise non-exact fields to distances: auto|on|off")
-        ->check(CLI::IsMember({"auto", "on", "off"}))->capture_default_str();
-    where.add_option("--tracker-steps", mBake.trackerSteps,
-                     "LevelSetTracker normalise steps after baking")->capture_default_str();
-    where.add_option("--region", mBake.region,
-                     "Bake only voxel centres in [min, max): xmin,ymin,zmin,xmax,ymax,zmax (m)")
-        ->delimiter(',')->expected(6);
-    where.add_option("--max-memory", mBake.maxMemoryGB,
-                     "Refuse bakes estimated above this many GB (0 = 75% of RAM)")
-        ->capture_default_str();
-}
-
 void Tool::addSeed(CLI::App& where)
 {
     where.add_option("--seed", mSeed, "Random seed (same seed, same bits)")->capture_default_str();
@@ -574,11 +500,6 @@ std::unique_ptr<TaskBar> Tool::taskBar() const
 std::string Tool::paramsJson() const
 {
     return jsonText(ConfigJson::toJson(&mApp, true));
-}
-
-std::unique_ptr<Progress> Tool::progress(const std::string& label) const
-{
-    return std::make_unique<Progress>(mName + ": " + label, !mQuiet && ::isatty(STDERR_FILENO));
 }
 
 void Tool::addStats(CLI::App& where)
@@ -763,9 +684,13 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
 
 BakeResult bakeAndWrite(const Tool& tool, const Field& field, const BakeSettings& settings)
 {
-    auto bar = tool.progress("baking");
-    BakeResult r = bake(field, settings, bar.get());
-    bar->end();
+    auto bar = tool.taskBar();
+    Task task(bar.get());
+    task.phase("bake", 1.0);
+    BakeResult r = bake(field, settings, task.interrupter());
+    task.check();
+    task.done();
+    bar->clear();
     char line[256];
     std::snprintf(line, sizeof line,
                   "%zu active voxels in %zu leaves; cull %.3f s, fill %.3f s, finish %.3f s%s",

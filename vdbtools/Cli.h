@@ -27,23 +27,6 @@
 namespace rockvdb {
 namespace cli {
 
-/// @brief Progress bar on stderr (only when stderr is a terminal and not --quiet); also
-/// turns Ctrl-C into a clean Interrupted instead of a killed process with a partial file.
-class Progress : public openvdb::util::NullInterrupter
-{
-public:
-    Progress(std::string label, bool enabled);
-    ~Progress() override;
-    void start(const char* name = nullptr) override;
-    void end() override;
-    bool wasInterrupted(int percent = -1) override;
-
-private:
-    std::string mLabel;
-    bool mEnabled;
-    int mLast = -1;
-};
-
 /// @brief A Task's host on the command line: a progress bar on stderr (when it is a terminal
 /// and not --quiet) that only goes up, labelled with the phase; cancelled by Ctrl-C (SIGINT)
 /// or SIGTERM, after which the tool exits 130 having written nothing.
@@ -64,18 +47,6 @@ private:
     bool mShown = false;
 };
 
-/// @brief Options shared by tools that bake.
-struct BakeOptions
-{
-    double voxelSize = 0.05;
-    double halfWidth = 3.0;
-    std::string renormalize = "auto";
-    int trackerSteps = 0;
-    std::vector<double> region;  ///< xmin,ymin,zmin,xmax,ymax,zmax (m), empty = whole field
-    double maxMemoryGB = 0;
-    BakeSettings settings() const;
-};
-
 class Tool
 {
 public:
@@ -87,9 +58,6 @@ public:
     /// @name Shared options (call the ones the tool needs before run()).
     /// @{
     CLI::Option* addOutput(CLI::App& where, const std::string& help);
-    /// With @a inputDefaults, --voxel-size and --half-width default to the input grid's
-    /// (the tool sets them; --help says so).
-    void addBakeOptions(CLI::App& where, bool inputDefaults = false);
     void addSeed(CLI::App& where);
     /// @brief One option per row of a stage's table, on @a where: --name, help with unit,
     /// range and default from the table (flags take --name / --no-name).
@@ -116,7 +84,6 @@ public:
     /// @brief The host of a stage's Task: progress bar and Ctrl-C.
     std::unique_ptr<TaskBar> taskBar() const;
 
-    const BakeOptions& bake() const { return mBake; }
     uint64_t seed() const { return mSeed; }
     const std::string& output() const { return mOutput; }
     bool quiet() const { return mQuiet; }
@@ -127,8 +94,6 @@ public:
     /// @brief Every option's value (defaults included) as a JSON object: the provenance.
     std::string paramsJson() const;
 
-    /// @brief A progress bar labelled @a label (disabled when quiet or stderr not a tty).
-    std::unique_ptr<Progress> progress(const std::string& label) const;
 
     /// @brief Informational line on stderr (suppressed by --quiet).
     void info(const std::string& line) const;
@@ -146,7 +111,6 @@ private:
     std::string mName;
     CLI::App mApp;
     std::vector<Bound> mBound;
-    BakeOptions mBake;
     uint64_t mSeed = 0;
     /// @brief exec /usr/bin/python3 -m rockvdb.distributed with this run's arguments.
     int distribute(const std::vector<std::string>& words);
@@ -163,8 +127,9 @@ private:
     std::string mScheduler, mChunkDir;
 };
 
-/// @brief Bake with a progress bar, print statistics, stamp provenance and write the
-/// surface (and the attribute grid, when baked) atomically to tool.output().
+/// @brief Bake with the task bar (Ctrl-C, progress), print statistics, stamp provenance (every
+/// option's value) and write the surface (and the attribute grid, when baked) atomically to
+/// tool.output(): vdb_primitive's bake.
 BakeResult bakeAndWrite(const Tool& tool, const Field& field, const BakeSettings& settings);
 
 /// @brief ValueError when two outputs of one run, given as (option, path), name the same file

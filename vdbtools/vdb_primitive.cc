@@ -1,6 +1,7 @@
 // vdb_primitive — bake a primitive or a CSG expression of primitives into a level set.
 #include "Cli.h"
 
+#include <rockvdb/core/BakeParams.h>
 #include <rockvdb/core/Combinators.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
@@ -17,7 +18,7 @@ int main(int argc, char** argv)
                    "into a narrow-band level set (grid 'surface'). Units: metres, degrees.");
     CLI::App& app = tool.app();
     app.require_subcommand(1);
-    tool.addBakeOptions(app);
+    tool.addParams(app, fieldBakeSchema());
     tool.addSeed(app);
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
 
@@ -64,7 +65,8 @@ int main(int argc, char** argv)
                       "tagged in the expression");
 
     return tool.run(argc, argv, [&] {
-        BakeSettings settings = tool.bake().settings();
+        BakeSettings settings =
+            fieldBakeSchema().fromJson(tool.givenParams(fieldBakeSchema())).bake.settings();
         FieldPtr field;
         if (*sSphere) field = sphere(cli::toVec3(center, "--center"), radius);
         else if (*sBox) field = box(cli::toVec3(center, "--center"), cli::toVec3(size, "--size") * 0.5, rounding);

@@ -397,19 +397,27 @@ def expression(json):
 # ---------------------------------------------------------------------------------------------
 # Grids
 
-def heightfield(path, cell_size=1.0, height_scale=1.0, base_depth=1.0, voxel_size=0.05,
-                half_width=3.0):
-    """A heightfield image (float EXR, metres; or 16-bit PNG, 0..65535 -> 0..1) as the level
-    set of the terrain solid. Pixel column i, row j (row 0 = first row stored) sits at
-    x = i * cell_size, y = j * cell_size (m, default 1), height = value * height_scale (default
-    1); the solid's floor is base_depth (m, default 1) below the lowest sample. voxel_size:
-    metres (default 0.05), half_width: voxels (default 3)."""
+def _heightfield(path, stats=None, **params):
     fn = "heightfield"
-    return _rockvdb.heightfield(_path(path, "path", fn), _float(cell_size, "cell_size", fn),
-                                _float(height_scale, "height_scale", fn),
-                                _float(base_depth, "base_depth", fn),
-                                _float(voxel_size, "voxel_size", fn),
-                                _float(half_width, "half_width", fn))
+    if stats is not None and not isinstance(stats, dict):
+        raise _type_error(fn, "stats", "a dict", stats)
+    grid, info = _rockvdb.heightfield(_path(path, "path", fn), _stage_params(_HEIGHTFIELD, fn, params))
+    if stats is not None:
+        stats.update(info)
+    return grid
+
+
+_HEIGHTFIELD = _table("heightfield")
+heightfield = _stage_function(
+    _HEIGHTFIELD, _heightfield, "heightfield",
+    "A heightfield image (float EXR, metres; or 16-bit PNG, 0..65535 -> 0..1) as the level set "
+    "of the terrain solid (vdb_heightfield from Python: the same entry point, the same grid). "
+    "Pixel column i, row j (row 0 = first row stored) sits at x = i * cell_size, y = j * "
+    "cell_size, height = value * height_scale; the solid's floor is base_depth below the "
+    "lowest sample.",
+    "Returns the level set 'surface' (pyopenvdb.FloatGrid); stats (a dict) receives the "
+    "samples, the bake's counts and the phases. Ctrl-C raises KeyboardInterrupt.",
+    before=["path"], after=[("stats", None)])
 
 
 def write_heightfield(path, array):

@@ -7,7 +7,7 @@
 #include <rockvdb/core/BakeParams.h>
 #include <rockvdb/core/Combinators.h>
 #include <rockvdb/core/Expression.h>
-#include <rockvdb/core/Heightfield.h>
+#include <rockvdb/core/HeightfieldStage.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <pybind11/stl.h>
@@ -133,23 +133,18 @@ void bindFields(py::module_& m)
         return build(parseJson(text, "expression"));
     }, py::arg("json"), "A field from a JSON expression (see vdb_primitive expr)");
 
-    m.def("heightfield", [](const std::string& path, double cellSize, double heightScale,
-                            double baseDepth, double voxelSize, double halfWidth) {
-        auto hf = std::make_shared<Heightfield>(loadHeightfield(path, cellSize, heightScale));
-        HeightfieldSettings hs;
-        hs.baseDepth = baseDepth;
-        PyField f{heightfieldField(hf, hs), json()};
-        BakeSettings s;
-        s.voxelSize = voxelSize;
-        s.halfWidth = halfWidth;
-        return bakeField(f, s, std::nullopt, "rockvdb.heightfield",
-                         {{"file", path}, {"cell_size", cellSize}, {"height_scale", heightScale},
-                          {"base_depth", baseDepth}, {"voxel_size", voxelSize},
-                          {"half_width", halfWidth}, {"renormalize", "auto"},
-                          {"tracker_steps", 0}});
-    }, py::arg("path"), py::arg("cell_size") = 1.0, py::arg("height_scale") = 1.0,
-       py::arg("base_depth") = 1.0, py::arg("voxel_size") = 0.05, py::arg("half_width") = 3.0,
-       "Heightfield image (EXR / 16-bit PNG) to a level set of the terrain solid");
+    m.def("heightfield", [](const std::string& path, const std::string& params) {
+        const HeightfieldParams p = heightfieldSchema().fromJson(parseParams(params, "heightfield"));
+        StageResult r;
+        {
+            py::gil_scoped_release release;
+            PyTaskHost host;
+            Task task(&host);
+            r = runHeightfield(p, path, task);
+        }
+        return py::make_tuple(openvdb::gridPtrCast<openvdb::FloatGrid>(r.grids.at(0)), pyJson(r.stats));
+    }, py::arg("path"), py::arg("params"),
+       "vdb_heightfield: a heightfield image to a level set of the terrain solid (the table's JSON)");
 }
 
 } // namespace pyhost

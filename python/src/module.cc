@@ -8,6 +8,7 @@
 #include <rockvdb/blocks/BlocksStage.h>
 #include <rockvdb/core/BakeParams.h>
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/HeightfieldStage.h>
 #include <rockvdb/core/Json.h>
 #include <rockvdb/core/VdbIO.h>
 #include <rockvdb/detail/DetailStage.h>
@@ -74,6 +75,7 @@ PYBIND11_MODULE(_rockvdb, m)
         if (stage == "detail") return jsonText(detailing::detailSchema().describe());
         if (stage == "block_tile") return jsonText(blocks::blocksSchema().describe());
         if (stage == "bake") return jsonText(fieldBakeSchema().describe());
+        if (stage == "heightfield") return jsonText(heightfieldSchema().describe());
         if (stage == "tile") return jsonText(blocks::tileSchema().describe());
         if (stage == "amplify") return jsonText(amplify::amplifySchema().describe());
         if (stage == "fractal_rock" || stage == "fractal_scatter") return jsonText(fractal::rockSchema().describe());

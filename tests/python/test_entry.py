@@ -40,6 +40,7 @@ TABLE_FUNCTIONS = [
     (rockvdb.fractal_carve, "fractal_rock", ROWS["single"] + ROWS["ground"], {"solid", "path"}),
     (rockvdb.Stacks, "arches", ["terrain"], {"terrain"}),
     (rockvdb.Field.bake, "bake", [], {"self", "attribute"}),
+    (rockvdb.heightfield, "heightfield", [], {"path", "stats"}),
 ]
 
 
@@ -62,12 +63,31 @@ def test_block_tile_bake_takes_exactly_the_tables_bake_rows():
     assert {"periods", "voxel_size", "chunks", "chunk"} <= set(bake_rows)
 
 
-def test_functions_off_the_tables_share_the_bake_defaults():
-    """heightfield is not on a table yet: its bake sizes must still be the bake table's."""
+def test_every_bake_has_the_same_default_sizes():
+    """The bake rows of every table that gives the sizes a default share BakeSettings'."""
     bake = {r["python"]: python_default(r) for r in table("bake")}
-    sig = inspect.signature(rockvdb.heightfield).parameters
-    for name in ("voxel_size", "half_width"):
-        assert sig[name].default == bake[name]
+    for stage in ("heightfield", "block_tile", "amplify"):
+        rows = {r["python"]: python_default(r) for r in table(stage)}
+        for name in ("voxel_size", "half_width"):
+            assert rows[name] == bake[name], (stage, name)
+
+
+def test_heightfield_runs_the_heightfield_entry_from_both_sides(tmp_path):
+    import numpy as np
+    z = np.fromfunction(lambda j, i: 2 + np.sin(i / 4.0) + 0.05 * j, (24, 32), dtype=np.float32)
+    rockvdb.write_heightfield(str(tmp_path / "h.exr"), z)
+    args = dict(cell_size=0.25, height_scale=1.5, voxel_size=0.1)
+    cli = cli_stats(tmp_path, "vdb_heightfield", [str(tmp_path / "h.exr")] + cli_args(args) +
+                    ["-o", str(tmp_path / "h.vdb")])
+    py = {}
+    grid = rockvdb.heightfield(tmp_path / "h.exr", stats=py, **args)
+    assert phases(cli) == phases(py) == ["bake"]
+    assert cli["samples"] == py["samples"] == [32, 24]
+    from conftest import assert_bitwise_equal
+    import pyopenvdb as vdb
+    other = vdb.read(str(tmp_path / "h.vdb"), "surface")
+    assert_bitwise_equal(grid, other)
+    assert grid.metadata["rockvdb:params"] == other.metadata["rockvdb:params"]
 
 
 def test_field_bake_renormalize_is_the_tables_choice():

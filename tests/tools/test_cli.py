@@ -146,7 +146,7 @@ def test_bad_voxel_size(tmp_path, vs, heightfield_png):
     for args in ([tool("vdb_primitive"), "sphere"],
                  [tool("vdb_heightfield"), str(heightfield_png)]):
         out = tmp_path / "o.vdb"
-        one_line_error(run(args + ["--voxel-size", vs, "-o", str(out)]), 2, "voxel size")
+        one_line_error(run(args + ["--voxel-size", vs, "-o", str(out)]), 2, "voxel-size must be in")
         assert not out.exists()
 
 
