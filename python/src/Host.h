@@ -19,8 +19,13 @@
 #include <string>
 #include <thread>
 
+namespace py = pybind11;
+
 namespace rockvdb {
 namespace pyhost {
+
+/// A level set (or id grid) as the bindings pass it; None is refused by GridCaster.h.
+using Grid = openvdb::FloatGrid::Ptr;
 
 /// A Task's host in Python: Ctrl-C (the interpreter's pending SIGINT, or any signal whose
 /// handler raises) cancels; polled from the calling thread, which works in every TBB loop, at
@@ -50,6 +55,17 @@ private:
     std::chrono::steady_clock::time_point mNext{};
     std::atomic<bool> mCancelled{false};
 };
+
+/// @brief @a work(task) with the GIL released and a Task that Python's Ctrl-C cancels: how
+/// every binding calls an entry point.
+template<typename Work>
+auto withTask(Work&& work)
+{
+    pybind11::gil_scoped_release release;
+    PyTaskHost host;
+    Task task(&host);
+    return work(task);
+}
 
 /// A field plus the expression that rebuilds it (its provenance): rockvdb.Field's native half.
 struct PyField

@@ -9,9 +9,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
-namespace py = pybind11;
 using nlohmann::json;
-using Grid = openvdb::FloatGrid::Ptr;
 
 namespace rockvdb {
 namespace pyhost {
@@ -44,13 +42,9 @@ py::tuple amplifyTerrain(py::object terrain, const std::vector<PyTile>& tiles,
     }
     for (auto it = src.begin(); it != src.end(); ++it) in.names[it.key()] = it.value();
     if (mask) in.mask = std::make_shared<const GrayImage>(std::move(*mask));
-    amplify::AmplifyRun r;
-    {
-        py::gil_scoped_release release;
-        PyTaskHost host;
-        Task task(&host);
-        r = amplify::runAmplify(p, in, task);
-    }
+    const amplify::AmplifyRun r = withTask([&](Task& task) {
+        return amplify::runAmplify(p, in, task);
+    });
     return py::make_tuple(py::cast(r.amplified.surface), py::cast(r.amplified.blockId),
                           py::cast(r.amplified.material), pyJson(r.stats));
 }

@@ -19,7 +19,6 @@
 #include <optional>
 #include <vector>
 
-namespace py = pybind11;
 using nlohmann::json;
 
 namespace rockvdb {
@@ -226,13 +225,9 @@ void bindArches(py::module_& m)
             const json e = parseParams(text, "arches");
             const size_t index = s.params.at("edits").size();
             const ArchesParams p = paramsOf(s.params);
-            EditStats st;
-            {
-                py::gil_scoped_release release;
-                PyTaskHost host;
-                Task task(&host);
-                st = applyEdit(s.stacks, e, index, editContext(p, s.stacks.geometry()), task);
-            }
+            const EditStats st = withTask([&](Task& task) {
+                return applyEdit(s.stacks, e, index, editContext(p, s.stacks.geometry()), task);
+            });
             s.params["edits"].push_back(e);
             return editStats(st);
         }, py::arg("edit"))
@@ -252,13 +247,7 @@ void bindArches(py::module_& m)
         in.given = parseParams(params, "arches");
         in.anchorGiven = bool(scene);
         if (grid) in.terrainGrid = *grid;
-        Scene sc;
-        {
-            py::gil_scoped_release release;
-            PyTaskHost host;
-            Task task(&host);
-            sc = openScene(in, task);
-        }
+        Scene sc = withTask([&](Task& task) { return openScene(in, task); });
         PyStacks s;
         s.stacks = std::move(sc.stacks);
         s.params = archesSchema().toJson(sc.params);

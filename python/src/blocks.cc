@@ -9,7 +9,6 @@
 
 #include <pybind11/stl.h>
 
-namespace py = pybind11;
 using nlohmann::json;
 
 namespace rockvdb {
@@ -25,13 +24,9 @@ py::tuple runBlocks(const std::string& params, std::optional<PyTile> tile, bool 
     blocks::BlocksInputs in;
     if (tile) in.tile = tile->tile;
     in.bake = bake;
-    blocks::BlocksResult r;
-    {
-        py::gil_scoped_release release;
-        PyTaskHost host;
-        Task task(&host);
-        r = blocks::runBlocks(p, in, task);
-    }
+    const blocks::BlocksResult r = withTask([&](Task& task) {
+        return blocks::runBlocks(p, in, task);
+    });
     return py::make_tuple(PyTile{r.tile}, r.bake.surface, r.bake.attribute, pyJson(r.stats));
 }
 

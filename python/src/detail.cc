@@ -6,9 +6,7 @@
 
 #include <pybind11/stl.h>
 
-namespace py = pybind11;
 using nlohmann::json;
-using Grid = openvdb::FloatGrid::Ptr;
 
 namespace rockvdb {
 namespace pyhost {
@@ -22,13 +20,9 @@ void bindDetail(py::module_& m)
         detailing::DetailInputs in;
         in.grid = grid;
         if (blendMask) in.blendMask = *blendMask;
-        detailing::DetailResult r;
-        {
-            py::gil_scoped_release release;
-            PyTaskHost host;
-            Task task(&host);
-            r = detailing::runDetail(p, in, task);
-        }
+        const detailing::DetailResult r = withTask([&](Task& task) {
+            return detailing::runDetail(p, in, task);
+        });
         return py::make_tuple(r.bake.surface, pyJson(r.stats));
     }, py::arg("grid"), py::arg("params"), py::arg("blend_mask") = std::nullopt);
 }

@@ -12,9 +12,7 @@
 
 #include <pybind11/stl.h>
 
-namespace py = pybind11;
 using nlohmann::json;
-using Grid = openvdb::FloatGrid::Ptr;
 
 namespace rockvdb {
 namespace pyhost {
@@ -135,13 +133,7 @@ void bindFields(py::module_& m)
 
     m.def("heightfield", [](const std::string& path, const std::string& params) {
         const HeightfieldParams p = heightfieldSchema().fromJson(parseParams(params, "heightfield"));
-        StageResult r;
-        {
-            py::gil_scoped_release release;
-            PyTaskHost host;
-            Task task(&host);
-            r = runHeightfield(p, path, task);
-        }
+        const StageResult r = withTask([&](Task& task) { return runHeightfield(p, path, task); });
         return py::make_tuple(openvdb::gridPtrCast<openvdb::FloatGrid>(r.grids.at(0)), pyJson(r.stats));
     }, py::arg("path"), py::arg("params"),
        "vdb_heightfield: a heightfield image to a level set of the terrain solid (the table's JSON)");

@@ -9,9 +9,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
-namespace py = pybind11;
 using nlohmann::json;
-using Grid = openvdb::FloatGrid::Ptr;
 
 namespace rockvdb {
 namespace pyhost {
@@ -124,13 +122,9 @@ py::tuple runFractal(const std::string& mode, const std::string& params, py::obj
     in.levelSet = levelSet;
     in.normalMap = normalMap;
     in.mesh = withMesh;
-    fractal::FractalResult r;
-    {
-        py::gil_scoped_release release;
-        PyTaskHost host;
-        Task task(&host);
-        r = fractal::runFractal(p, in, task);
-    }
+    const fractal::FractalResult r = withTask([&](Task& task) {
+        return fractal::runFractal(p, in, task);
+    });
     py::list grids;
     for (const auto& g : r.grids) grids.append(openvdb::gridPtrCast<openvdb::FloatGrid>(g));
     py::dict stats = pyJson(r.stats).cast<py::dict>();

@@ -15,9 +15,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace py = pybind11;
 using nlohmann::json;
-using Grid = openvdb::FloatGrid::Ptr;
 
 namespace rockvdb {
 namespace pyhost {

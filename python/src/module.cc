@@ -17,7 +17,6 @@
 
 #include <thread>
 
-namespace py = pybind11;
 using namespace rockvdb;
 using namespace rockvdb::pyhost;
 

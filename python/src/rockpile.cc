@@ -9,9 +9,7 @@
 
 #include <cmath>
 
-namespace py = pybind11;
 using nlohmann::json;
-using Grid = openvdb::FloatGrid::Ptr;
 
 namespace rockvdb {
 namespace pyhost {
@@ -31,13 +29,7 @@ void bindRockpile(py::module_& m)
     m.def("rock_library", [](Grid tiles) {
         if (!tiles) throw py::type_error("rockpile: the tile set grid is None");
         const rockpile::TileSet set = rockpile::tilesFromGrid(*tiles);
-        Grid lib;
-        {
-            py::gil_scoped_release release;
-            PyTaskHost host;
-            Task task(&host);
-            lib = rockpile::libraryGrid(set, task);
-        }
+        const Grid lib = withTask([&](Task& task) { return rockpile::libraryGrid(set, task); });
         stampProvenance(*lib, rockpile::kToolName,
                         jsonText(json{{"tiles", rockpile::tilesSchema().toJson(set.params)}}));
         return lib;
@@ -69,13 +61,9 @@ void bindRockpile(py::module_& m)
                                      "set, a rockvdb Field or a file path");
             }
         }
-        rockpile::PileResult r;
-        {
-            py::gil_scoped_release release;
-            PyTaskHost host;
-            Task task(&host);
-            r = rockpile::runPile(p, in, task);
-        }
+        const rockpile::PileResult r = withTask([&](Task& task) {
+            return rockpile::runPile(p, in, task);
+        });
         py::dict stats = pyJson(r.stats).cast<py::dict>();
         py::list rocks, positions;
         for (const auto& i : r.pile.instances) {
