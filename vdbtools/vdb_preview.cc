@@ -11,21 +11,13 @@ using namespace rockvdb;
 
 int main(int argc, char** argv)
 {
-    cli::Tool tool("vdb_preview",
-        "Render a shaded PNG of a level set with OpenVDB's LevelSetRayIntersector; the camera "
-        "frames the active bounding box from --azimuth/--elevation. --ids tints each id.");
+    cli::Tool tool("vdb_preview", previewSchema().summary() + " --ids tints each id.");
     CLI::App& app = tool.app();
     std::string input, gridName = "surface", idsName;
-    PreviewSettings s;
     app.add_option("input", input, "Input .vdb ('-' = stdin)")->required();
     app.add_option("--grid", gridName, "Level-set grid to render")->capture_default_str();
     app.add_option("--ids", idsName, "Id grid (e.g. block_id) to tint surfaces by id");
-    app.add_option("--width", s.width, "Image width (pixels)")->capture_default_str();
-    app.add_option("--height", s.height, "Image height (pixels)")->capture_default_str();
-    app.add_option("--azimuth", s.azimuth, "Camera direction around z from +x (degrees)")->capture_default_str();
-    app.add_option("--elevation", s.elevation, "Camera angle above the ground (degrees)")->capture_default_str();
-    app.add_option("--fov", s.fov, "Vertical field of view (degrees)")->capture_default_str();
-    app.add_option("--zoom", s.zoom, "> 1 moves the camera closer")->capture_default_str();
+    tool.addParams(app, previewSchema());
     std::string palette;
     app.add_option("--palette", palette,
                    "Colours per id for --ids, ID=#rrggbb[,ID=#rrggbb...] (sRGB); other ids get "
@@ -33,8 +25,8 @@ int main(int argc, char** argv)
     tool.addOutput(app, "Output .png");
 
     return tool.run(argc, argv, [&] {
+        PreviewSettings s = previewSchema().fromJson(tool.givenParams(previewSchema()));
         if (!palette.empty()) s.palette = parsePalette(palette, "preview: --palette");
-        s.validate();
         auto grids = readGrids(input);
         const std::string src = input == "-" ? "<stdin>" : input;
         auto grid = findLevelSet(*grids, gridName, src);

@@ -30,6 +30,40 @@ Mesh meshLevelSet(const openvdb::FloatGrid& grid, double isovalue, double adapti
     return m;
 }
 
+const Schema<MeshParams>& meshSchema()
+{
+    static const Schema<MeshParams> s = [] {
+        Schema<MeshParams> t("mesh", "Mesh a level set (tools::volumeToMesh) and write OBJ or "
+                                     "PLY with outward, counter-clockwise faces.");
+        t.member(param("isovalue", ParamType::Real, "m", 0.0, Range::closed(-1e6, 1e6),
+                       "Iso-surface value"), &MeshParams::isovalue);
+        t.member(param("adaptivity", ParamType::Real, "", 0.0, Range::closed(0, 1),
+                       "0 = uniform .. 1 = most adaptive"), &MeshParams::adaptivity);
+        ParamInfo up = param("up", ParamType::Text, "", "z", Range::any(),
+                             "Up axis of the written mesh: z (rockvdb) or y (what Blender's OBJ "
+                             "import expects by default, Houdini)");
+        up.choices = {"z", "y"};
+        t.member(up, &MeshParams::up);
+        return t;
+    }();
+    return s;
+}
+
+MeshParams::MeshParams() { meshSchema().reset(*this); }
+
+Mesh meshGrid(const openvdb::FloatGrid& grid, const MeshParams& p)
+{
+    meshSchema().validate(p);
+    requireLevelSet(grid, "mesh input");
+    Mesh mesh = meshLevelSet(grid, p.isovalue, p.adaptivity);
+    if (mesh.points.empty()) {
+        fail<ValueError>("the result is empty: no surface at isovalue ", p.isovalue, " (the level "
+                         "set's band holds values within +-", double(grid.background()),
+                         "; an isovalue must lie inside it)");
+    }
+    return mesh;
+}
+
 double signedVolume(const Mesh& m)
 {
     double v = 0;

@@ -1,6 +1,8 @@
 // rockvdb — level set to polygon mesh (tools::volumeToMesh) and OBJ / PLY export.
 #pragma once
 
+#include <rockvdb/core/Schema.h>
+
 #include <openvdb/openvdb.h>
 
 #include <string>
@@ -42,6 +44,23 @@ void fromZUp(Mesh& mesh, UpAxis up);
 /// @brief Mesh the @a isovalue surface of a level set; outward-facing polygons.
 /// @param adaptivity  0 (uniform) .. 1 (most adaptive), as tools::volumeToMesh
 Mesh meshLevelSet(const openvdb::FloatGrid& grid, double isovalue = 0.0, double adaptivity = 0.0);
+
+/// vdb_mesh's options, rockvdb.mesh's keywords (defaults in meshSchema()).
+struct MeshParams
+{
+    MeshParams();
+    double isovalue;   ///< m
+    double adaptivity; ///< 0 (uniform) .. 1
+    std::string up;    ///< the file's up axis: "z" or "y"
+};
+
+/// @brief The table of MeshParams (op "mesh").
+const Schema<MeshParams>& meshSchema();
+
+/// @brief vdb_mesh and rockvdb.mesh: mesh @a grid (a level set) at the table's values.
+/// @throw ValueError for a grid that is not a level set, or an isovalue outside its band
+/// (an empty mesh).
+Mesh meshGrid(const openvdb::FloatGrid& grid, const MeshParams& params);
 
 /// @brief Signed volume enclosed by the mesh (divergence theorem); > 0 for outward winding.
 double signedVolume(const Mesh& mesh);

@@ -18,17 +18,33 @@
 
 namespace rockvdb {
 
-void PreviewSettings::validate() const
+const Schema<PreviewSettings>& previewSchema()
 {
-    require(width >= 8 && width <= 16384, "preview", "width", "in [8, 16384] pixels", width);
-    require(height >= 8 && height <= 16384, "preview", "height", "in [8, 16384] pixels", height);
-    require(std::isfinite(fov) && fov > 1 && fov < 170, "preview", "field of view",
-            "in (1, 170) degrees", fov);
-    require(std::isfinite(elevation) && elevation >= -89 && elevation <= 89, "preview",
-            "elevation", "in [-89, 89] degrees", elevation);
-    require(std::isfinite(azimuth), "preview", "azimuth", "finite", azimuth);
-    require(std::isfinite(zoom) && zoom > 0, "preview", "zoom", "> 0", zoom);
+    static const Schema<PreviewSettings> s = [] {
+        using P = PreviewSettings;
+        Schema<P> t("preview",
+            "Render a shaded PNG of a level set with OpenVDB's LevelSetRayIntersector; the "
+            "camera frames the active bounding box from azimuth / elevation.");
+        t.member(param("width", ParamType::Int, "pixels", 960, Range::closed(8, 16384),
+                       "Image width"), &P::width);
+        t.member(param("height", ParamType::Int, "pixels", 540, Range::closed(8, 16384),
+                       "Image height"), &P::height);
+        t.member(param("azimuth", ParamType::Real, "degrees", 35.0, Range::closed(-1e6, 1e6),
+                       "Camera direction around z from +x"), &P::azimuth);
+        t.member(param("elevation", ParamType::Real, "degrees", 30.0, Range::closed(-89, 89),
+                       "Camera angle above the ground"), &P::elevation);
+        t.member(param("fov", ParamType::Real, "degrees", 35.0, Range::open(1, 170),
+                       "Vertical field of view"), &P::fov);
+        t.member(param("zoom", ParamType::Real, "", 1.0, Range::openClosed(0, 1e6),
+                       "> 1 moves the camera closer"), &P::zoom);
+        return t;
+    }();
+    return s;
 }
+
+PreviewSettings::PreviewSettings() { previewSchema().reset(*this); }
+
+void PreviewSettings::validate() const { previewSchema().validate(*this); }
 
 std::map<int, std::array<double, 3>> parsePalette(const std::string& text, const std::string& what)
 {

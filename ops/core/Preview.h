@@ -1,6 +1,8 @@
 // rockvdb — shaded PNG previews of level sets (OpenVDB's LevelSetRayIntersector).
 #pragma once
 
+#include <rockvdb/core/Schema.h>
+
 #include <openvdb/openvdb.h>
 
 #include <array>
@@ -11,17 +13,25 @@
 
 namespace rockvdb {
 
+/// vdb_preview's options, rockvdb.preview's keywords (defaults in previewSchema()).
 struct PreviewSettings
 {
-    int width = 960, height = 540;  ///< pixels
-    double azimuth = 35.0;          ///< camera direction around z from +x (degrees)
-    double elevation = 30.0;        ///< camera height angle above the xy plane (degrees)
-    double fov = 35.0;              ///< vertical field of view (degrees)
-    double zoom = 1.0;              ///< > 1 moves the camera closer than the framing distance
-    /// Albedo (linear RGB in [0, 1]) per id; ids not listed get a colour hashed from the id.
+    PreviewSettings();
+
+    int width, height;  ///< pixels
+    double azimuth;     ///< camera direction around z from +x (degrees)
+    double elevation;   ///< camera height angle above the xy plane (degrees)
+    double fov;         ///< vertical field of view (degrees)
+    double zoom;        ///< > 1 moves the camera closer than the framing distance
+    /// Albedo (linear RGB in [0, 1]) per id; ids not listed get a colour hashed from the id
+    /// (not a row: the CLI's --palette text, Python's dict).
     std::map<int, std::array<double, 3>> palette;
+    /// @brief The table's ranges (ValueError naming the row).
     void validate() const;
 };
+
+/// @brief The table of PreviewSettings (op "preview").
+const Schema<PreviewSettings>& previewSchema();
 
 /// What the image shows: pixels on the surface, and per id (when tinted by an id grid).
 struct PreviewStats

@@ -472,34 +472,40 @@ def write(path, grids):
     _rockvdb.write(_path(path, "path", "write"), _grids(grids, "grids", "write"))
 
 
-def mesh(grid, path, isovalue=0.0, adaptivity=0.0, up="z"):
-    """Mesh a level set (tools::volumeToMesh) to an .obj or .ply file with outward faces.
-    isovalue: metres (default 0); adaptivity: 0 (uniform, default) .. 1; up: the file's up
-    axis, 'z' (rockvdb, default) or 'y' (Blender's OBJ import default, Houdini)."""
+def _mesh(grid, path, **params):
     fn = "mesh"
-    _rockvdb.mesh(_grid(grid, "grid", fn), _path(path, "path", fn),
-                  _float(isovalue, "isovalue", fn), _float(adaptivity, "adaptivity", fn),
-                  _str(up, "up", fn))
+    _rockvdb.mesh(_grid(grid, "grid", fn), _path(path, "path", fn), _stage_params(_MESH, fn, params))
 
 
-def preview(grid, path, width=960, height=540, azimuth=35.0, elevation=30.0, zoom=1.0, ids=None,
-            palette=None):
-    """Render a shaded PNG of a level set (OpenVDB ray intersector), framing its active
-    voxels: width x height pixels (default 960 x 540), camera azimuth around z from +x and
-    elevation above the ground (degrees, default 35 / 30), zoom > 1 moves closer (default 1);
-    ids: an id grid (e.g. material) to tint surfaces by id, palette: {id: "#rrggbb"} colours
-    (other ids get a colour hashed from the id; default None).
-    Returns what the image shows: {"surface": share of pixels on the surface, "ids": {id:
-    share}} (shares in [0, 1])."""
+_MESH = _table("mesh")
+mesh = _stage_function(
+    _MESH, _mesh, "mesh",
+    "Mesh a level set (tools::volumeToMesh; vdb_mesh from Python) to an .obj or .ply file "
+    "with outward faces.",
+    "up 'y' writes what Blender's OBJ import expects by default (and Houdini). An isovalue "
+    "outside the level set's band (an empty mesh) raises ValueError.",
+    before=["grid", "path"])
+
+
+def _preview(grid, path, ids=None, palette=None, **params):
     fn = "preview"
     if palette is not None and not isinstance(palette, dict):
         raise _type_error(fn, "palette", "a dict {id: '#rrggbb'}", palette)
     text = ",".join(f"{_int(k, 'palette key', fn)}={_str(v, 'palette colour', fn)}"
                     for k, v in (palette or {}).items())
     return _rockvdb.preview(_grid(grid, "grid", fn), _path(path, "path", fn),
-                            _int(width, "width", fn), _int(height, "height", fn),
-                            _float(azimuth, "azimuth", fn), _float(elevation, "elevation", fn),
-                            _float(zoom, "zoom", fn), _opt(ids, _grid, "ids", fn), text)
+                            _stage_params(_PREVIEW, fn, params), _opt(ids, _grid, "ids", fn), text)
+
+
+_PREVIEW = _table("preview")
+preview = _stage_function(
+    _PREVIEW, _preview, "preview",
+    "Render a shaded PNG of a level set (OpenVDB ray intersector; vdb_preview from Python), "
+    "framing its active voxels.",
+    "ids: an id grid (e.g. material) to tint surfaces by id, palette: {id: '#rrggbb'} colours "
+    "(other ids get a colour hashed from the id; default None). Returns what the image shows: "
+    "{'surface': share of pixels on the surface, 'ids': {id: share}} (shares in [0, 1]).",
+    before=["grid", "path"], after=[("ids", None), ("palette", None)])
 
 
 def provenance(grid):

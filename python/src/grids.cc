@@ -157,42 +157,29 @@ void bindGrids(py::module_& m)
         writeGrids(path, v);
     }, py::arg("path"), py::arg("grids"), "Write grids atomically (Blosc compressed); grids "
        "without rockvdb provenance are stamped generator 'rockvdb.write'");
-    m.def("mesh", [](Grid grid, const std::string& path, double isovalue, double adaptivity,
-                     const std::string& up) {
-        requireLevelSet(*grid, "mesh input");
-        const UpAxis axis = upAxisFromString(up, "mesh: up");
-        Mesh mesh;
-        {
-            py::gil_scoped_release release;
-            mesh = meshLevelSet(*grid, isovalue, adaptivity);
-        }
+    m.def("mesh", [](Grid grid, const std::string& path, const std::string& params) {
+        const MeshParams p = meshSchema().fromJson(parseParams(params, "mesh"));
+        const UpAxis axis = upAxisFromString(p.up, "mesh: up");
+        const Mesh mesh = withTask([&](Task&) { return meshGrid(*grid, p); });
         writeMesh(mesh, path, axis);
-    }, py::arg("grid"), py::arg("path"), py::arg("isovalue") = 0.0, py::arg("adaptivity") = 0.0,
-       py::arg("up") = "z");
-    m.def("preview", [](Grid grid, const std::string& path, int width, int height, double azimuth,
-                        double elevation, double zoom, std::optional<Grid> ids,
-                        const std::string& palette) {
-        PreviewSettings s;
-        s.width = width;
-        s.height = height;
-        s.azimuth = azimuth;
-        s.elevation = elevation;
-        s.zoom = zoom;
+    }, py::arg("grid"), py::arg("path"), py::arg("params"), "vdb_mesh (the table's JSON)");
+    m.def("preview", [](Grid grid, const std::string& path, const std::string& params,
+                        std::optional<Grid> ids, const std::string& palette) {
+        PreviewSettings s = previewSchema().fromJson(parseParams(params, "preview"));
         if (!palette.empty()) s.palette = parsePalette(palette, "preview: palette");
         PreviewStats st;
-        {
-            py::gil_scoped_release release;
+        withTask([&](Task&) {
             writePreview(*grid, path, s, ids ? ids->get() : nullptr, &st);
-        }
+            return 0;
+        });
         py::dict out;
         out["surface"] = double(st.surfacePixels) / double(st.pixels);
         py::dict byId;
         for (const auto& [id, n] : st.idPixels) byId[py::int_(id)] = double(n) / double(st.pixels);
         out["ids"] = byId;
         return out;
-    }, py::arg("grid"), py::arg("path"), py::arg("width") = 960, py::arg("height") = 540,
-       py::arg("azimuth") = 35.0, py::arg("elevation") = 30.0, py::arg("zoom") = 1.0,
-       py::arg("ids") = py::none(), py::arg("palette") = "");
+    }, py::arg("grid"), py::arg("path"), py::arg("params"), py::arg("ids") = py::none(),
+       py::arg("palette") = "", "vdb_preview (the table's JSON)");
     m.def("provenance", [](Grid grid) -> py::object {
         auto p = provenance(*grid);
         if (!p) return py::none();

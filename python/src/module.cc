@@ -10,6 +10,8 @@
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/HeightfieldStage.h>
 #include <rockvdb/core/Json.h>
+#include <rockvdb/core/Mesh.h>
+#include <rockvdb/core/Preview.h>
 #include <rockvdb/core/VdbIO.h>
 #include <rockvdb/detail/DetailStage.h>
 #include <rockvdb/fractal/FractalStage.h>
@@ -75,6 +77,8 @@ PYBIND11_MODULE(_rockvdb, m)
         if (stage == "block_tile") return jsonText(blocks::blocksSchema().describe());
         if (stage == "bake") return jsonText(fieldBakeSchema().describe());
         if (stage == "heightfield") return jsonText(heightfieldSchema().describe());
+        if (stage == "mesh") return jsonText(meshSchema().describe());
+        if (stage == "preview") return jsonText(previewSchema().describe());
         if (stage == "tile") return jsonText(blocks::tileSchema().describe());
         if (stage == "amplify") return jsonText(amplify::amplifySchema().describe());
         if (stage == "fractal_rock" || stage == "fractal_scatter") return jsonText(fractal::rockSchema().describe());

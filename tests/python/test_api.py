@@ -88,7 +88,7 @@ def test_mesh_up_axis_y_is_blenders_obj_convention(tmp_path):
     assert zlo[2] == pytest.approx(2, abs=0.06) and zhi[2] == pytest.approx(4, abs=0.06)
     assert ylo[1] == pytest.approx(zlo[2], abs=1e-5) and yhi[1] == pytest.approx(zhi[2], abs=1e-5)
     assert ylo[2] == pytest.approx(-zhi[1], abs=1e-5) and yhi[2] == pytest.approx(-zlo[1], abs=1e-5)
-    with pytest.raises(ValueError, match="z or y"):
+    with pytest.raises(ValueError, match="up must be one of z, y"):
         rockvdb.mesh(g, str(tmp_path / "x.obj"), up="x")
 
 

@@ -41,6 +41,8 @@ TABLE_FUNCTIONS = [
     (rockvdb.Stacks, "arches", ["terrain"], {"terrain"}),
     (rockvdb.Field.bake, "bake", [], {"self", "attribute"}),
     (rockvdb.heightfield, "heightfield", [], {"path", "stats"}),
+    (rockvdb.mesh, "mesh", [], {"grid", "path"}),
+    (rockvdb.preview, "preview", [], {"grid", "path", "ids", "palette"}),
 ]
 
 
