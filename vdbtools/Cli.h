@@ -77,6 +77,19 @@ public:
     /// stats to --stats FILE. The main writes the grids.
     void finish(const StageResult& result) const;
 
+    /// @brief Run a stage's entry point, @a entry(task), on a Task with the progress bar and
+    /// Ctrl-C, then finish() its result and return it: a main's one call of its stage.
+    template<typename Entry>
+    auto stage(Entry&& entry) const
+    {
+        auto bar = taskBar();
+        Task task(bar.get());
+        auto result = entry(task);
+        bar->clear();
+        finish(result);
+        return result;
+    }
+
     /// @brief The values given for @a schema's rows, on the command line or by --params, as
     /// JSON for Schema::fromJson (which fills in the defaults and checks everything).
     nlohmann::json givenParams(const SchemaBase& schema) const;

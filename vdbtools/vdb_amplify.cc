@@ -56,11 +56,7 @@ int main(int argc, char** argv)
             in.names["mask"] = mask;
         }
         const double loadSeconds = std::chrono::duration<double>(Clock::now() - t0).count();
-        auto bar = tool.taskBar();
-        Task task(bar.get());
-        const AmplifyRun r = runAmplify(p, in, task);
-        bar->clear();
-        tool.finish(r);
+        const AmplifyRun r = tool.stage([&](Task& task) { return runAmplify(p, in, task); });
         const auto tw = Clock::now();
         writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
         char line[160];

@@ -59,11 +59,7 @@ int main(int argc, char** argv)
         }
         if (!pointsOut.empty()) requireWritable(pointsOut);
         in.points = !pointsOut.empty();
-        auto bar = tool.taskBar();
-        Task task(bar.get());
-        const ArchesResult r = runArches(in, task);
-        bar->clear();
-        tool.finish(r);
+        const ArchesResult r = tool.stage([&](Task& task) { return runArches(in, task); });
         // The stacks first: if the .vdb fails after, the run is repeatable from them; the
         // reverse would leave a terrain whose stacks were lost.
         if (!stacksOut.empty()) writeStackFile(stacksOut, r.stacks, jsonText(r.provenance));

@@ -49,11 +49,7 @@ int main(int argc, char** argv)
             in.source = {{"from-tile", fromTile}};
         }
         in.meshes = !meshes.empty();
-        auto bar = tool.taskBar();
-        Task task(bar.get());
-        const BlocksResult r = runBlocks(p, in, task);
-        bar->clear();
-        tool.finish(r);
+        const BlocksResult r = tool.stage([&](Task& task) { return runBlocks(p, in, task); });
         writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
         // The tile file after the grids: a failed bake leaves no file at all.
         if (!tileOut.empty()) writeTile(*r.tile, tileOut);

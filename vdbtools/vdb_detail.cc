@@ -58,11 +58,7 @@ int main(int argc, char** argv)
                                  " in ", blendMask);
             }
         }
-        auto bar = tool.taskBar();
-        Task task(bar.get());
-        const DetailResult r = runDetail(p, in, task);
-        bar->clear();
-        tool.finish(r);
+        const DetailResult r = tool.stage([&](Task& task) { return runDetail(p, in, task); });
         writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
     });
 }

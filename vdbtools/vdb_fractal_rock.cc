@@ -77,11 +77,7 @@ int main(int argc, char** argv)
         in.normalMap = !mapPath.empty();
         in.mesh = !meshPath.empty();
         in.points = !pointsPath.empty();
-        auto bar = tool.taskBar();
-        Task task(bar.get());
-        const FractalResult r = runFractal(p, in, task);
-        bar->clear();
-        tool.finish(r);
+        const FractalResult r = tool.stage([&](Task& task) { return runFractal(p, in, task); });
         if (!meshPath.empty()) writeMesh(r.mesh(), meshPath, upAxis);
         if (!mapPath.empty()) {
             writeRgbExr(mapPath, r.rock.normalMapWidth, r.rock.normalMapHeight, r.rock.normalMap);

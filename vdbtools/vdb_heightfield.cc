@@ -20,11 +20,9 @@ int main(int argc, char** argv)
 
     return tool.run(argc, argv, [&] {
         const HeightfieldParams p = heightfieldSchema().fromJson(tool.givenParams(heightfieldSchema()));
-        auto bar = tool.taskBar();
-        Task task(bar.get());
-        const StageResult r = runHeightfield(p, image, task);
-        bar->clear();
-        tool.finish(r);
+        const StageResult r = tool.stage([&](Task& task) {
+            return runHeightfield(p, image, task);
+        });
         writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
     });
 }

@@ -60,17 +60,15 @@ int main(int argc, char** argv)
     tool.addDistribution(*pile);
 
     return tool.run(argc, argv, [&] {
-        auto bar = tool.taskBar();
-        Task task(bar.get());
         if (tiles->parsed()) {
             const RockTileParams p = tilesSchema().fromJson(tool.givenParams(tilesSchema()));
             cli::distinctOutputs({{"-o", tool.output()}, {"--library", library}});
             if (!library.empty()) requireWritable(library);
             require(std::isfinite(tilesMaxMemoryGB) && tilesMaxMemoryGB >= 0, "rockpile",
                     "--max-memory", ">= 0 GB", tilesMaxMemoryGB);
-            const TilesResult r = runTiles(p, !library.empty(), task, tilesMaxMemoryGB * 1e9);
-            bar->clear();
-            tool.finish(r);
+            const TilesResult r = tool.stage([&](Task& task) {
+                return runTiles(p, !library.empty(), task, tilesMaxMemoryGB * 1e9);
+            });
             if (r.library) writeGrids(library, {r.library});
             writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
             return;
@@ -85,9 +83,7 @@ int main(int argc, char** argv)
         in.supportPath = supportPath;
         in.points = !pointsPath.empty();
         in.library = !pileLibrary.empty();
-        const PileResult r = runPile(p, in, task);
-        bar->clear();
-        tool.finish(r);
+        const PileResult r = tool.stage([&](Task& task) { return runPile(p, in, task); });
         if (r.points) writeGrids(pointsPath, {r.points});
         if (r.library) writeGrids(pileLibrary, {r.library});
         writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});

@@ -30,8 +30,8 @@ struct StageResult
     std::vector<std::string> report;
 };
 
-/// @brief The one provenance builder: the table's values @a params with @a inputs merged in
-/// (input names never shadow a row: they are the stage's own keys such as "from-tile").
+/// @brief The one provenance builder: the table's values @a params with @a inputs' keys set on
+/// top (the stage's names for its inputs, such as "from-tile" or "support", never a row's).
 nlohmann::json stageProvenance(nlohmann::json params, const nlohmann::json& inputs);
 
 /// @brief What provenance records of a grid given in memory rather than as a file: its name,
