@@ -188,6 +188,11 @@ int Tool::run(int argc, char** argv, const std::function<void()>& body)
     try {
         initialize();
         if (!mOutput.empty()) requireWritable(mOutput);
+        if (!mStatsPath.empty()) {
+            // (a main's own distinctOutputs names its other outputs)
+            distinctOutputs({{"-o", mOutput}, {"--stats", mStatsPath}});
+            requireWritable(mStatsPath);
+        }
         std::unique_ptr<tbb::global_control> threads;
         if (mThreads > 0) {
             threads = std::make_unique<tbb::global_control>(

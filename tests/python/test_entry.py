@@ -141,6 +141,15 @@ def test_block_tile_runs_the_blocks_entry_from_both_sides(tmp_path):
     assert again["bake"]["active_voxels"] == cli["bake"]["active_voxels"] == py["bake"]["active_voxels"]
 
 
+def test_stats_share_no_output_with_the_grids(tmp_path):
+    out = tmp_path / "b.vdb"
+    p = run([tool("vdb_blocks"), *cli_args(BLOCKS), "-q", "-o", "-", "--stats", "-"])
+    assert p.returncode == 2 and p.stdout == b"" and "--stats" in p.stderr
+    p = run([tool("vdb_blocks"), *cli_args(BLOCKS), "-q", "-o", str(out), "--stats",
+             str(tmp_path / "no" / "s.json")])
+    assert p.returncode == 1 and not out.exists()
+
+
 def test_block_tile_chunks_reach_the_entry():
     """chunk / chunks were left out of Python's bake keys: block_tile(chunk=...) failed."""
     whole = rockvdb.block_tile(**BLOCKS)
