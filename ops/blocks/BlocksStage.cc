@@ -4,7 +4,6 @@
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
 #include <rockvdb/core/Image.h>
-#include <rockvdb/core/Json.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <algorithm>

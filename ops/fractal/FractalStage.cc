@@ -739,7 +739,11 @@ FractalResult runFractal(const FractalRockParams& p, const FractalInputs& in, Ta
         out.rock = runRock(p, in.levelSet, in.normalMap, task);
         tellRock(out, in.normalMap);
     }
-    out.provenance = out.grids.empty() ? json() : jsonOrText(provenance(*out.grids.back())->params);
+    // What runRock / runScatter / runCarve stamped on the grids.
+    if (!out.grids.empty()) {
+        out.provenance = out.mode == FractalMode::Rock ? rockSchema().toJson(p)
+                                                       : stageProvenance(rockSchema().toJson(p), source);
+    }
     out.stats["phases"] = phasesJson(task);
     return out;
 }

@@ -803,7 +803,11 @@ rock_pile = _stage_function(
 # ---------------------------------------------------------------------------------------------
 # Fractal rocks (fractal-rocks-midpoint-displacement)
 
-def _fractal_rock(path=None, mesh_path=None, mesh_up="z", normal_map=False,
+# The mesh file's up axis: vdb_mesh's row (one default for every mesh written).
+_MESH_UP = next(r["default"] for r in _MESH["params"] if r["name"] == "up")
+
+
+def _fractal_rock(path=None, mesh_path=None, mesh_up=_MESH_UP, normal_map=False,
                   normal_map_path=None, level_set=True, **params):
     fn = "fractal_rock"
     target = _opt(path, _path, "path", fn)
@@ -841,7 +845,7 @@ fractal_rock = _stage_function(
     "(H x W x 3 floats, the layout of vdb_fractal_rock --help). path, mesh_path (.obj / .ply; "
     "mesh_up 'z' or 'y') and normal_map_path (.exr) also write the files (atomically). "
     "Ctrl-C raises KeyboardInterrupt.",
-    after=[("path", None), ("mesh_path", None), ("mesh_up", "z"), ("normal_map", False),
+    after=[("path", None), ("mesh_path", None), ("mesh_up", _MESH_UP), ("normal_map", False),
            ("normal_map_path", None), ("level_set", True)],
     exclude=_SCATTER_ROWS + _CARVE_ROWS)
 

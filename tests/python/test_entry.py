@@ -163,15 +163,19 @@ def test_block_tile_chunks_reach_the_entry():
 
 
 def test_the_blocks_voxel_guard_answers_both_sides_alike(tmp_path):
-    """runBlocks refuses a voxel too coarse for the tile before generating it."""
-    p = run([tool("vdb_blocks"), "--tile-size", "8", "--voxel-size", "0.9", "-q", "-o",
-             str(tmp_path / "x.vdb")])
+    """runBlocks refuses a voxel too coarse for the tile before generating it: before the
+    generation reads its relief image (missing here), from both sides alike."""
+    missing = str(tmp_path / "no_relief.png")
+    p = run([tool("vdb_blocks"), "--tile-size", "8", "--voxel-size", "0.9", "--warp-relief",
+             missing, "-q", "-o", str(tmp_path / "x.vdb")])
     assert p.returncode == 2
     message = p.stderr.strip().split("error: ", 1)[1]
     with pytest.raises(ValueError) as e:
-        rockvdb.block_tile(tile_size=8, voxel_size=0.9)
+        rockvdb.block_tile(tile_size=8, voxel_size=0.9, warp_relief=missing)
     assert str(e.value) == message
     assert "too coarse" in message
+    with pytest.raises(OSError):  # a fine voxel reaches the generation, which reads the image
+        rockvdb.block_tile(tile_size=8, voxel_size=0.1, warp_relief=missing)
 
 
 FRACTAL = dict(levels=2, voxel_size=0.05, seed=5)
