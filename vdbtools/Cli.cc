@@ -4,6 +4,7 @@
 #include <rockvdb/core/Chunks.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Json.h>
+#include <rockvdb/core/Mesh.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <openvdb/Exceptions.h>
@@ -49,7 +50,19 @@ CLI::Option* Tool::addOutput(CLI::App& where, const std::string& help)
 
 void Tool::addSeed(CLI::App& where)
 {
-    where.add_option("--seed", mSeed, "Random seed (same seed, same bits)")->capture_default_str();
+    const ParamInfo row = seedRow();
+    mSeed = row.defaultValue.get<uint64_t>();
+    where.add_option("--" + row.name, mSeed, row.help)->capture_default_str();
+}
+
+CLI::Option* Tool::addUpAxis(CLI::App& where, const std::string& option, std::string& up,
+                             const std::string& file)
+{
+    const ParamInfo& row = *meshSchema().find("up");
+    up = row.defaultValue.get<std::string>();
+    return where.add_option(option, up, "Up axis of " + file + ": z (rockvdb) or y (Blender's OBJ "
+                                        "import default, Houdini)")
+        ->check(CLI::IsMember(row.choices))->capture_default_str();
 }
 
 std::unique_ptr<TaskBar> Tool::taskBar() const

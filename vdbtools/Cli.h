@@ -58,7 +58,12 @@ public:
     /// @name Shared options (call the ones the tool needs before run()).
     /// @{
     CLI::Option* addOutput(CLI::App& where, const std::string& help);
+    /// @brief --seed: the seed row (Schema.h seedRow) of a tool without a stage table.
     void addSeed(CLI::App& where);
+    /// @brief An up-axis option for a mesh file a tool writes, its default and values from
+    /// vdb_mesh's "up" row (meshSchema).
+    CLI::Option* addUpAxis(CLI::App& where, const std::string& option, std::string& up,
+                           const std::string& file);
     /// @brief One option per row of a stage's table, on @a where: --name, help with unit,
     /// range and default from the table (flags take --name / --no-name).
     void addParams(CLI::App& where, const SchemaBase& schema);
@@ -124,7 +129,7 @@ private:
     std::string mName;
     CLI::App mApp;
     std::vector<Bound> mBound;
-    uint64_t mSeed = 0;
+    uint64_t mSeed{}; ///< addSeed sets it from the seed row
     /// @brief exec /usr/bin/python3 -m rockvdb.distributed with this run's arguments.
     int distribute(const std::vector<std::string>& words);
 

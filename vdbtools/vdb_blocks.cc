@@ -20,14 +20,13 @@ int main(int argc, char** argv)
         "rockvdb:params replays it: vdb_blocks --params FILE -o OUT.");
     CLI::App& app = tool.app();
     tool.addParams(app, blocksSchema());
-    std::string tileOut, fromTile, meshes, up = "z";
+    std::string tileOut, fromTile, meshes, up;
     app.add_option("--tile", tileOut, "Also write the tile description to this .tile file");
     app.add_option("--from-tile", fromTile,
                    "Bake an existing tile (.tile or a vdb_blocks .vdb) instead of generating one "
                    "(the tile's own parameters replace the tile options)");
     app.add_option("--meshes", meshes, "Write one mesh per block (home frame) to .obj or .ply");
-    app.add_option("--up", up, "Up axis of the --meshes file: z (rockvdb) or y (Blender's OBJ "
-                               "import default, Houdini)")->capture_default_str();
+    tool.addUpAxis(app, "--up", up, "the --meshes file");
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
     tool.addStats(app);
     tool.addDistribution(app);

@@ -34,11 +34,9 @@ int main(int argc, char** argv)
         "caves). The output's rockvdb:params replays it: vdb_fractal_rock --params FILE -o OUT.");
     CLI::App& app = tool.app();
     tool.addParams(app, rockSchema());
-    std::string meshPath, mapPath, up = "z";
+    std::string meshPath, mapPath, up;
     app.add_option("--mesh", meshPath, "Also write the mesh: .obj (normals, UVs) or .ply (normals)");
-    app.add_option("--mesh-up", up, "Up axis of the mesh file: z (rockvdb) or y (Blender's OBJ "
-                                    "import default, Houdini)")->check(CLI::IsMember({"z", "y"}))
-        ->capture_default_str();
+    tool.addUpAxis(app, "--mesh-up", up, "the mesh file");
     app.add_option("--normal-map", mapPath, "Also write the normal map (.exr; layout above; one rock)");
     std::string groundPath, pointsPath;
     app.add_option("--ground", groundPath, "Scatter ground: a heightfield image (.exr, .png; "

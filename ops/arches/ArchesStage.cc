@@ -77,10 +77,9 @@ Schema<ArchesParams> makeArchesSchema()
     row(s, param("sigma", ParamType::Real, "m", json(), Range::above(0),
                  "Half size σ of the convolution's cubic kernel (§3.3; unset: half the cell size)"),
         &P::sigma);
-    row(s, param("voxel-size", ParamType::Real, "m", json(), Range::above(0),
-                 "Voxel edge of the level sets (unset: the cell size)"),
+    row(s, voxelSizeRow(json(), "Voxel edge of the level sets (unset: the cell size)"),
         &P::voxelSize);
-    row(s, param("half-width", ParamType::Real, "voxels", 3.0, Range::closed(1, 64), "Narrow-band half width"),
+    row(s, halfWidthRow(defaultHalfWidth()),
         &P::halfWidth);
     row(s, param("repose-sand", ParamType::Real, "degrees", ReposeAngles().sand, Range::open(0, 90),
                  "Repose angle of sand (§3.4: 30-35)"),
@@ -112,10 +111,8 @@ Schema<ArchesParams> makeArchesSchema()
                  "Edits applied in order after stabilisation (§4): a list of {\"tool\": sculpt | crack | tunnel | deposit | erode | "
                  "stabilize, ...} (JSON, or the path of a JSON file); each is stabilised locally"),
         &P::edits);
-    row(s, param("seed", ParamType::Int, "", 0, Range::atLeast(0), "Seed of noise terrains and warps"), &P::seed);
-    row(s, param("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0),
-                 "Refuse work estimated above this (0 = 75% of RAM)"),
-        &P::maxMemoryGB);
+    row(s, seedRow("Seed of noise terrains and warps"), &P::seed);
+    row(s, maxMemoryRow(), &P::maxMemoryGB);
     addChunkRows(s, [](auto& p) -> auto& { return p.chunking; });
     s.rule([](const P& p) {
         if (p.terrain.is_null()) fail<ValueError>("arches: terrain is required (a heightfield, strata, level_set or solid node)");

@@ -22,71 +22,99 @@ using json = nlohmann::json;
 namespace {
 
 // A key of a tool: its JSON type, default (null: none, or computed as its help says), help,
-// and whether an edit must give it.
-json key(const char* name, const char* type, json def, const char* help, bool required = false)
+// whether an edit must give it, the range of a number and the values of a string. The one
+// place a key's default lives: withDefaults() fills it in before an edit runs.
+struct Key
 {
-    return {{"name", name}, {"type", type}, {"default", std::move(def)}, {"help", help}, {"required", required}};
+    std::string name, type;
+    json def;
+    std::string help;
+    bool required = false;
+    Range range;
+    std::vector<std::string> choices;
+};
+
+struct Tool
+{
+    std::string help;
+    std::vector<Key> keys;
+};
+
+Key key(const char* name, const char* type, json def, std::string help, bool required = false)
+{
+    return {name, type, std::move(def), std::move(help), required, Range::any(), {}};
 }
 
-json makeTools()
+Key numberKey(const char* name, json def, Range range, std::string help, bool required = false)
 {
-    json t;
+    return {name, "number", std::move(def), std::move(help), required, range, {}};
+}
+
+Key choiceKey(const char* name, std::vector<std::string> choices, std::string help)
+{
+    const json def = choices.front();
+    return {name, "string", def, std::move(help), false, Range::any(), std::move(choices)};
+}
+
+std::map<std::string, Tool> makeTools()
+{
+    std::map<std::string, Tool> t;
     t["sculpt"] = {
-        {"help", "Displace the bedrock along its normal with a point primitive (§4.1), at each point of a stroke"},
-        {"keys",
-         {key("points", "points", nullptr, "Targets [[x, y, z], ...] (m), projected on the bedrock surface in turn "
+        "Displace the bedrock along its normal with a point primitive (§4.1), at each point of a stroke",
+        {key("points", "points", nullptr, "Targets [[x, y, z], ...] (m), projected on the bedrock surface in turn "
                                            "(with at = center: the primitive's centres themselves)", true),
-          key("radius", "number", nullptr, "R: the primitive's radius of influence (m, > 0)", true),
-          key("mode", "string", "add", "add (bedrock grows out) or carve (bedrock is cut in)"),
-          key("depth", "number", nullptr, "delta: the centre lies this far inside (add) or outside (carve) the surface "
-                                          "(m, 0..R; default R/2)"),
-          key("strength", "number", 1.0, "k in f_e = f +- k g(r) (> 0; 1 as in the paper, larger cuts or adds deeper)"),
-          key("at", "string", "surface", "surface (points are targets on the bedrock) or center (points are centres)")}}};
+         numberKey("radius", nullptr, Range::above(0), "R: the primitive's radius of influence (m)", true),
+         choiceKey("mode", {"add", "carve"}, "add (bedrock grows out) or carve (bedrock is cut in)"),
+         numberKey("depth", nullptr, Range::atLeast(0), "delta: the centre lies this far inside (add) or outside "
+                                                       "(carve) the surface (m, at most R; default R/2)"),
+         numberKey("strength", 1.0, Range::above(0), "k in f_e = f +- k g(r) (1 as in the paper, larger cuts or adds deeper)"),
+         choiceKey("at", {"surface", "center"}, "surface (points are targets on the bedrock) or center (points are centres)")}};
     t["deposit"] = {
-        {"help", "Drop sand or rocks over a disc, then stabilise (§4.3)"},
-        {"keys",
-         {key("center", "xy", nullptr, "[x, y] of the disc (m)", true),
-          key("radius", "number", nullptr, "R: the disc's radius (m, > 0)", true),
-          key("amount", "number", nullptr, "Thickness dropped at the centre (m, > 0)", true),
-          key("material", "string", "sand", "sand or rocks"),
-          key("profile", "string", "smooth", "smooth: amount (1 - (r/R)^2)^2, or flat: amount over the disc"),
-          key("z", "number", nullptr, "Drop into the room (between bedrock) holding this height, e.g. a cave's "
-                                      "floor (m; default: on each stack's top)")}}};
+        "Drop sand or rocks over a disc, then stabilise (§4.3)",
+        {key("center", "xy", nullptr, "[x, y] of the disc (m)", true),
+         numberKey("radius", nullptr, Range::above(0), "R: the disc's radius (m)", true),
+         numberKey("amount", nullptr, Range::above(0), "Thickness dropped at the centre (m)", true),
+         choiceKey("material", {"sand", "rocks"}, "sand or rocks"),
+         choiceKey("profile", {"smooth", "flat"}, "smooth: amount (1 - (r/R)^2)^2, or flat: amount over the disc"),
+         numberKey("z", nullptr, Range::any(), "Drop into the room (between bedrock) holding this height, e.g. a cave's "
+                                             "floor (m; default: on each stack's top)")}};
     t["erode"] = {
-        {"help", "Turn bedrock inside a sphere into granular material, then stabilise (§4.4)"},
-        {"keys",
-         {key("center", "xyz", nullptr, "[x, y, z] of the sphere (m)", true),
-          key("radius", "number", nullptr, "R: the sphere's radius (m, > 0)", true),
-          key("mode", "string", "surface", "surface: the bedrock within depth of an exposed face turns to sand; "
-                                           "collapse: all the bedrock in the sphere turns to rocks and sand"),
-          key("depth", "number", nullptr, "surface mode: thickness eroded below each exposed face (m, > 0; default one "
-                                          "cell)"),
-          key("rho", "number", 0.5, "collapse mode: the share of rocks (0..1; the rest is sand)")}}};
+        "Turn bedrock inside a sphere into granular material, then stabilise (§4.4)",
+        {key("center", "xyz", nullptr, "[x, y, z] of the sphere (m)", true),
+         numberKey("radius", nullptr, Range::above(0), "R: the sphere's radius (m)", true),
+         choiceKey("mode", {"surface", "collapse"}, "surface: the bedrock within depth of an exposed face turns to sand; "
+                                                 "collapse: all the bedrock in the sphere turns to rocks and sand"),
+         numberKey("depth", nullptr, Range::above(0), "surface mode: thickness eroded below each exposed face (m; "
+                                                     "default one cell)"),
+         numberKey("rho", 0.5, Range::closed(0, 1), "collapse mode: the share of rocks (the rest is sand)")}};
     const char* graphHelp = "Arcs between nodes [[a, b], ...] (indices; default: a path through the nodes in order)";
     const char* profileHelp = "The cross-section: closed curve through [[u, v], ...] (m; u across, v along the normal, "
                               ">= 3 points, non-convex allowed), at every node";
     t["crack"] = {
-        {"help", "Carve a crack or ravine: a graph projected on the terrain, a profile swept along it (§4.2)"},
-        {"keys",
-         {key("nodes", "points2", nullptr, "Nodes [[x, y], ...] (m), projected on the ground's bedrock top", true),
-          key("arcs", "arcs", nullptr, graphHelp),
-          key("profile", "profile", nullptr, std::string(profileHelp).append("; v > 0 is above the surface").c_str()),
-          key("profiles", "profiles", nullptr, "Several profiles [[[u, v], ...], ...], chosen per node by node_profiles"),
-          key("node_profiles", "ints", nullptr, "Per node: the index of its profile in profiles (interpolated along arcs)"),
-          key("spline", "bool", true, "Profiles as closed cubic splines through their points (false: polygons)"),
-          key("step", "number", nullptr, "Spacing of cross-sections along arcs (m, > 0; default one cell)")}}};
+        "Carve a crack or ravine: a graph projected on the terrain, a profile swept along it (§4.2)",
+        {key("nodes", "points2", nullptr, "Nodes [[x, y], ...] (m), projected on the ground's bedrock top", true),
+         key("arcs", "arcs", nullptr, graphHelp),
+         key("profile", "profile", nullptr, std::string(profileHelp).append("; v > 0 is above the surface").c_str()),
+         key("profiles", "profiles", nullptr, "Several profiles [[[u, v], ...], ...], chosen per node by node_profiles"),
+         key("node_profiles", "ints", nullptr, "Per node: the index of its profile in profiles (interpolated along arcs)"),
+         key("spline", "bool", true, "Profiles as closed cubic splines through their points (false: polygons)"),
+         numberKey("step", nullptr, Range::above(0), "Spacing of cross-sections along arcs (m; default one cell)")}};
     t["tunnel"] = {
-        {"help", "Carve tunnels and caves: a graph in 3D, a profile swept along it (§4.2)"},
-        {"keys",
-         {key("nodes", "points", nullptr, "Nodes [[x, y, z], ...] (m)", true),
-          key("arcs", "arcs", nullptr, graphHelp),
-          key("profile", "profile", nullptr, std::string(profileHelp).append("; v is up").c_str()),
-          key("profiles", "profiles", nullptr, "Several profiles [[[u, v], ...], ...], chosen per node by node_profiles"),
-          key("node_profiles", "ints", nullptr, "Per node: the index of its profile in profiles (interpolated along arcs)"),
-          key("spline", "bool", true, "Profiles as closed cubic splines through their points (false: polygons)"),
-          key("step", "number", nullptr, "Spacing of cross-sections along arcs (m, > 0; default one cell)")}}};
-    t["stabilize"] = {{"help", "Stabilise every stack (§3.4), as the scene's stabilize does before the edits"},
-                      {"keys", json::array()}};
+        "Carve tunnels and caves: a graph in 3D, a profile swept along it (§4.2)",
+        {key("nodes", "points", nullptr, "Nodes [[x, y, z], ...] (m)", true),
+         key("arcs", "arcs", nullptr, graphHelp),
+         key("profile", "profile", nullptr, std::string(profileHelp).append("; v is up").c_str()),
+         key("profiles", "profiles", nullptr, "Several profiles [[[u, v], ...], ...], chosen per node by node_profiles"),
+         key("node_profiles", "ints", nullptr, "Per node: the index of its profile in profiles (interpolated along arcs)"),
+         key("spline", "bool", true, "Profiles as closed cubic splines through their points (false: polygons)"),
+         numberKey("step", nullptr, Range::above(0), "Spacing of cross-sections along arcs (m; default one cell)")}};
+    t["stabilize"] = {"Stabilise every stack (§3.4), as the scene's stabilize does before the edits", {}};
+    return t;
+}
+
+const std::map<std::string, Tool>& tools()
+{
+    static const std::map<std::string, Tool> t = makeTools();
     return t;
 }
 
@@ -417,7 +445,7 @@ void sweep(Stacks& stacks, const json& e, size_t index, const std::string& tool,
     } else {
         for (size_t q = 0; q + 1 < nodes.size(); ++q) spec.arcs.emplace_back(int(q), int(q + 1));
     }
-    const bool spline = e.value("spline", true);
+    const bool spline = e.at("spline").get<bool>();
     constexpr int kProfilePoints = 48;
     if (e.contains("profiles")) {
         for (const auto& p : e.at("profiles")) spec.profiles.push_back(sampleProfile(profileOf(p, "profiles", index, tool), spline, kProfilePoints));
@@ -514,8 +542,8 @@ void deposit(Stacks& stacks, const json& e, size_t index, Touched& touched, Edit
     const auto c = vec(e.at("center"), 2, "center", index, "deposit");
     requireInside(g, c[0], c[1], index, "deposit", "center");
     const double R = number(e, "radius", index, "deposit"), amount = number(e, "amount", index, "deposit");
-    const Material m = e.value("material", std::string("sand")) == "rocks" ? Material::Rocks : Material::Sand;
-    const bool smooth = e.value("profile", std::string("smooth")) == "smooth";
+    const Material m = e.at("material") == "rocks" ? Material::Rocks : Material::Sand;
+    const bool smooth = e.at("profile") == "smooth";
     const bool intoRoom = e.contains("z");
     const double zr = intoRoom ? number(e, "z", index, "deposit") : 0.0;
     int i0, j0, i1, j1;
@@ -567,8 +595,8 @@ void erode(Stacks& stacks, const json& e, size_t index, Touched& touched, EditSt
     const auto c = vec(e.at("center"), 3, "center", index, "erode");
     requireInside(g, c[0], c[1], index, "erode", "center");
     const double R = number(e, "radius", index, "erode");
-    const bool collapse = e.value("mode", std::string("surface")) == "collapse";
-    const double rho = e.contains("rho") ? number(e, "rho", index, "erode") : 0.5;
+    const bool collapse = e.at("mode") == "collapse";
+    const double rho = number(e, "rho", index, "erode");
     const double depth = e.contains("depth") ? number(e, "depth", index, "erode") : g.cell;
     const uint64_t dq = std::max<uint64_t>(1, uint64_t(std::llround(depth / g.quantum)));
     int i0, j0, i1, j1;
@@ -651,8 +679,30 @@ void erode(Stacks& stacks, const json& e, size_t index, Touched& touched, EditSt
 
 const json& editTools()
 {
-    static const json t = makeTools();
+    static const json t = [] {
+        json out = json::object();
+        for (const auto& [name, tool] : tools()) {
+            json keys = json::array();
+            for (const Key& k : tool.keys) {
+                const bool ranged = std::isfinite(k.range.min) || std::isfinite(k.range.max);
+                keys.push_back({{"name", k.name}, {"type", k.type}, {"default", k.def}, {"help", k.help},
+                                {"required", k.required}, {"range", ranged ? json(k.range.text()) : json()},
+                                {"choices", k.choices}});
+            }
+            out[name] = {{"help", tool.help}, {"keys", keys}};
+        }
+        return out;
+    }();
     return t;
+}
+
+json withDefaults(const json& e)
+{
+    json out = e;
+    for (const Key& k : tools().at(e.at("tool").get<std::string>()).keys) {
+        if (!out.contains(k.name) && !k.def.is_null()) out[k.name] = k.def;
+    }
+    return out;
 }
 
 void validateEdit(const json& e, size_t index)
@@ -662,27 +712,35 @@ void validateEdit(const json& e, size_t index)
         fail<ValueError>("arches: edits[", index, "] needs \"tool\": sculpt, crack, tunnel, deposit, erode or stabilize");
     }
     const std::string tool = e.at("tool").get<std::string>();
-    const json& tools = editTools();
-    if (!tools.contains(tool)) {
+    if (!tools().count(tool)) {
         fail<ValueError>("arches: edits[", index, "]: unknown tool '", tool, "' (sculpt, crack, tunnel, deposit, erode, stabilize)");
     }
+    const std::vector<Key>& keys = tools().at(tool).keys;
     std::vector<std::string> names = {"tool"};
-    for (const auto& k : tools.at(tool).at("keys")) names.push_back(k.at("name").get<std::string>());
+    for (const Key& k : keys) names.push_back(k.name);
     for (auto it = e.begin(); it != e.end(); ++it) {
         if (std::find(names.begin(), names.end(), it.key()) == names.end()) {
             const std::string close = closestName(it.key(), names);
             bad(index, tool, "'" + it.key() + "' is not a key of " + tool + (close.empty() ? "" : " (did you mean '" + close + "'?)"));
         }
     }
-    for (const auto& k : tools.at(tool).at("keys")) {
-        const std::string name = k.at("name").get<std::string>();
-        if (k.at("required").get<bool>() && !e.contains(name)) {
+    for (const Key& k : keys) {
+        const std::string& name = k.name;
+        if (k.required && !e.contains(name)) {
             bad(index, tool, name + " is required");
         }
         if (!e.contains(name)) continue;
-        const std::string type = k.at("type").get<std::string>();
-        if (type == "number") number(e, name.c_str(), index, tool);
+        const std::string& type = k.type;
+        if (type == "number" && !k.range.contains(number(e, name.c_str(), index, tool))) {
+            bad(index, tool, name + " must be " + k.range.text() + " (got " + jsonText(e.at(name)) + ")");
+        }
         if (type == "string" && !e.at(name).is_string()) bad(index, tool, name + " must be a string");
+        if (!k.choices.empty() &&
+            std::find(k.choices.begin(), k.choices.end(), e.at(name).get<std::string>()) == k.choices.end()) {
+            std::string list;
+            for (const auto& c : k.choices) list += (list.empty() ? "" : ", ") + c;
+            bad(index, tool, name + " must be one of " + list + " (got '" + e.at(name).get<std::string>() + "')");
+        }
         if (type == "xy") vec(e.at(name), 2, name, index, tool);
         if (type == "xyz") vec(e.at(name), 3, name, index, tool);
         if (type == "points" || type == "points2") {
@@ -712,35 +770,14 @@ void validateEdit(const json& e, size_t index)
             for (size_t q = 0; q < ps.size(); ++q) profileOf(ps[q], name + "[" + std::to_string(q) + "]", index, tool);
         }
     }
-    auto positive = [&](const char* name) {
-        if (e.contains(name) && !(e.at(name).get<double>() > 0)) {
-            bad(index, tool, std::string(name) + " must be > 0 (got " + jsonText(e.at(name)) + ")");
-        }
-    };
-    auto oneOf = [&](const char* name, std::initializer_list<const char*> values) {
-        if (!e.contains(name)) return;
-        const std::string v = e.at(name).get<std::string>();
-        std::string list;
-        for (const char* x : values) {
-            if (v == x) return;
-            list += (list.empty() ? "" : ", ") + std::string(x);
-        }
-        bad(index, tool, std::string(name) + " must be one of " + list + " (got '" + v + "')");
-    };
-    positive("radius");
+    // The rules between keys (each key's own type, range and choices are checked above).
+    const json full = withDefaults(e);
     if (tool == "sculpt") {
-        oneOf("mode", {"add", "carve"});
-        oneOf("at", {"surface", "center"});
-        positive("strength");
         if (e.contains("depth")) {
             const double d = e.at("depth").get<double>(), R = e.at("radius").get<double>();
-            if (!(d >= 0 && d <= R)) bad(index, tool, "depth must be in [0, radius] (got " + jsonText(e.at("depth")) + ")");
-            if (e.value("at", std::string("surface")) == "center") bad(index, tool, "depth applies to at = surface");
+            if (!(d <= R)) bad(index, tool, "depth must be in [0, radius] (got " + jsonText(e.at("depth")) + ")");
+            if (full.at("at") == "center") bad(index, tool, "depth applies to at = surface");
         }
-    } else if (tool == "deposit") {
-        oneOf("material", {"sand", "rocks"});
-        oneOf("profile", {"smooth", "flat"});
-        positive("amount");
     } else if (tool == "crack" || tool == "tunnel") {
         const size_t nodes = e.at("nodes").size();
         if (nodes < 2) bad(index, tool, "nodes needs at least 2 nodes");
@@ -777,25 +814,17 @@ void validateEdit(const json& e, size_t index)
         } else if (e.contains("node_profiles")) {
             bad(index, tool, "node_profiles applies to profiles");
         }
-        positive("step");
     } else if (tool == "erode") {
-        oneOf("mode", {"surface", "collapse"});
-        const bool collapse = e.value("mode", std::string("surface")) == "collapse";
-        if (e.contains("rho")) {
-            if (!collapse) bad(index, tool, "rho applies to mode collapse");
-            const double r = e.at("rho").get<double>();
-            if (!(r >= 0 && r <= 1)) bad(index, tool, "rho must be in [0, 1] (got " + jsonText(e.at("rho")) + ")");
-        }
-        if (e.contains("depth")) {
-            if (collapse) bad(index, tool, "depth applies to mode surface");
-            positive("depth");
-        }
+        const bool collapse = full.at("mode") == "collapse";
+        if (e.contains("rho") && !collapse) bad(index, tool, "rho applies to mode collapse");
+        if (e.contains("depth") && collapse) bad(index, tool, "depth applies to mode surface");
     }
 }
 
-EditStats applyEdit(Stacks& stacks, const json& e, size_t index, const EditContext& ctx, Task& task)
+EditStats applyEdit(Stacks& stacks, const json& given, size_t index, const EditContext& ctx, Task& task)
 {
-    validateEdit(e, index);
+    validateEdit(given, index);
+    const json e = withDefaults(given); // every key with a default holds it from here on
     const auto t0 = std::chrono::steady_clock::now();
     EditStats st;
     st.tool = e.at("tool").get<std::string>();
@@ -807,10 +836,10 @@ EditStats applyEdit(Stacks& stacks, const json& e, size_t index, const EditConte
         Touched touched;
         if (st.tool == "sculpt") {
             const double R = e.at("radius").get<double>();
-            const bool add = e.value("mode", std::string("add")) == "add";
+            const bool add = e.at("mode") == "add";
             const double delta = e.contains("depth") ? e.at("depth").get<double>() : 0.5 * R;
-            const double k = e.value("strength", 1.0);
-            const bool atCenter = e.value("at", std::string("surface")) == "center";
+            const double k = e.at("strength").get<double>();
+            const bool atCenter = e.at("at") == "center";
             const json& points = e.at("points");
             for (size_t q = 0; q < points.size(); ++q) {
                 const auto v = vec(points[q], 3, "points", index, "sculpt");

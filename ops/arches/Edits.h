@@ -53,8 +53,13 @@ struct EditStats
 };
 
 /// @brief Every tool's keys: {tool: {"help": text, "keys": [{"name", "type", "default",
-/// "help"}...]}}; "default" null = required.
+/// "help", "required", "range" (text or null), "choices"}...]}}; "default" null = none (or
+/// computed as the help says). The one place a key's default, range and values live.
 const nlohmann::json& editTools();
+
+/// @brief Edit @a e with every key it leaves out that has a default set to it (what the
+/// edit runs with). @a e must name a known tool.
+nlohmann::json withDefaults(const nlohmann::json& e);
 
 /// @brief Check edit @a index (its tool, keys, types and ranges). @throw ValueError
 /// "arches: edits[index] (tool): ..." naming the key.

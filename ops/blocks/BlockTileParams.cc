@@ -1,5 +1,6 @@
-// Block tiles: the parameters' type defaults and checks, user fractures and authored blocks from JSON.
+// Block tiles: the parameters' derived defaults and rules, user fractures and authored blocks from JSON.
 #include <rockvdb/blocks/TileBuild.h>
+#include <rockvdb/blocks/BlocksStage.h>
 
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Primitives.h>
@@ -36,7 +37,8 @@ BlockType blockTypeFromString(const std::string& name)
 
 const char* blockTypeName(BlockType type) { return kTypeNames[int(type)]; }
 
-// Defaults, scaled by the tile size s (the paper uses s ≈ 20 m; Table 1 for the counts):
+// The derived defaults (rules of the table, tileSchema(); here their numbers), scaled by the
+// tile size s (the paper uses s ≈ 20 m; Table 1 for the counts):
 //   points: Poisson radius 0.034·s ≈ 0.68 m → ≈ 14 600 points (Table 1: 14 524–14 589; the
 //           paper's "r ≈ 10 cm" cannot give that count in a 20 m cube); edges up to 2r.
 //   Set-based types place each set's discs evenly spaced along its normal (§3).
@@ -52,13 +54,9 @@ const char* blockTypeName(BlockType type) { return kTypeNames[int(type)]; }
 //   rhombohedral 24 discs, radii 0.3–0.45·s, jitter 2°, three sets at 60° to each other;
 //   tabular 30 discs: a third bedding planes (radius s), the rest radius ≈ s/10;
 //   columnar 24 discs: radii 0.5–0.7·s along three sets 60° apart, 15% cross-joints.
-void BlockTileParams::resolveDefaults()
+const TypeDefaults& tilegen::typeDefaults(BlockType type)
 {
-    const double s = tileSize;
-    if (pointRadius <= 0) pointRadius = 0.034 * s;
-    if (neighbourRadius <= 0) neighbourRadius = 2.0 * pointRadius;
-    struct D { int count; double spacing, rmin, rmax, jitter, irregular; };
-    const D defaults[6] = {
+    static const TypeDefaults defaults[6] = {
         {15, 0.10, 0.50, 0.70, 1, 0.10},  // equidimensional
         {18, 0.10, 0.20, 0.30, 8, 0.25},  // prismatic
         {44, 0.05, 0.05, 0.15, 0, 1.00},  // polyhedral
@@ -66,58 +64,40 @@ void BlockTileParams::resolveDefaults()
         {30, 0.10, 0.08, 0.12, 5, 0.00},  // tabular (small discs; beds have radius s)
         {18, 0.08, 0.50, 0.70, 3, 0.15},  // columnar
     };
-    const D& d = defaults[int(type)];
-    if (discCount < 0) discCount = d.count;
-    if (discSpacing <= 0) discSpacing = d.spacing * s;
-    if (discRadiusMin <= 0) discRadiusMin = d.rmin * s;
-    if (discRadiusMax <= 0) discRadiusMax = std::max(discRadiusMin, d.rmax * s);
-    if (jitterDeg < 0) jitterDeg = d.jitter;
-    if (irregularFraction < 0) irregularFraction = d.irregular;
-    if (fractureWidth < 0) fractureWidth = 0.002 * s;
+    return defaults[int(type)];
 }
 
-void BlockTileParams::validate() const
+void BlockTileParams::resolveDefaults() { *this = tileSchema().derive(*this); }
+
+void BlockTileParams::validate() const { tileSchema().validate(*this); }
+
+// The rules between the tile's rows (the table checks each row's own range), on derived
+// values; names are the table's.
+void tilegen::checkTileRules(const BlockTileParams& p)
 {
     const char* op = "blocks";
-    require(std::isfinite(tileSize) && tileSize > 0 && tileSize <= 1e4, op, "tile size",
-            "in (0, 10000] m", tileSize);
-    require(std::isfinite(pointRadius) && pointRadius > 0 && pointRadius < tileSize / 2, op,
-            "point radius", "in (0, tile size / 2)", pointRadius);
-    require(tileSize / pointRadius <= 400, op, "tile size / point radius", "<= 400",
-            tileSize / pointRadius);
-    require(std::isfinite(neighbourRadius) && neighbourRadius > pointRadius &&
-                neighbourRadius < tileSize / 2,
-            op, "neighbour radius", "in (point radius, tile size / 2)", neighbourRadius);
-    require(discCount >= 0 && discCount <= 10000, op, "disc count", "in [0, 10000]", discCount);
-    require(std::isfinite(discSpacing) && discSpacing >= 0 && discSpacing < tileSize / 2, op,
-            "disc spacing", "in [0, tile size / 2)", discSpacing);
-    require(std::isfinite(discRadiusMin) && discRadiusMin > 0, op, "disc radius (min)", "> 0",
-            discRadiusMin);
-    require(std::isfinite(discRadiusMax) && discRadiusMax >= discRadiusMin &&
-                discRadiusMax <= 4 * tileSize,
-            op, "disc radius (max)", "in [min, 4 · tile size]", discRadiusMax);
-    require(std::isfinite(jitterDeg) && jitterDeg >= 0 && jitterDeg <= 90, op, "jitter",
-            "in [0, 90] degrees", jitterDeg);
-    require(std::isfinite(irregularFraction) && irregularFraction >= 0 && irregularFraction <= 1,
-            op, "irregular fraction", "in [0, 1]", irregularFraction);
-    require(finite3(axis) && axis.length() > 1e-9, op, "axis", "a non-zero vector",
-            std::to_string(axis[0]) + "," + std::to_string(axis[1]) + "," + std::to_string(axis[2]));
-    require(std::isfinite(obliqueDeg) && obliqueDeg >= 30 && obliqueDeg <= 90, op,
-            "oblique angle", "in [30, 90] degrees", obliqueDeg);
-    require(minPoints >= 1 && minPoints <= 100000, op, "min points", "in [1, 100000]", minPoints);
-    require(std::isfinite(fractureWidth) && fractureWidth >= 0 && fractureWidth < pointRadius, op,
-            "fracture width", "in [0, point radius) m", fractureWidth);
-    require(std::isfinite(smoothRadius) && smoothRadius >= 0 && smoothRadius < tileSize / 4, op,
-            "smooth radius", "in [0, tile size / 4)", smoothRadius);
-    require(std::isfinite(relief.amplitude) && relief.amplitude >= 0 &&
-                relief.amplitude <= tileSize / 20,
-            op, "warp amplitude", "in [0, tile size / 20]", relief.amplitude);
-    require(std::isfinite(relief.scale) && relief.scale > 0 && relief.scale <= 1e4, op,
-            "relief scale", "in (0, 10000] m", relief.scale);
-    require(relief.octaves >= 1 && relief.octaves <= 12, op, "relief octaves", "in [1, 12]",
-            relief.octaves);
-    require(std::isfinite(relief.sharpness) && relief.sharpness >= 1 && relief.sharpness <= 64,
-            op, "relief sharpness", "in [1, 64]", relief.sharpness);
+    const double tileSize = p.tileSize;
+    require(p.pointRadius > 0 && p.pointRadius < tileSize / 2, op, "point-radius",
+            "in (0, tile-size / 2)", p.pointRadius);
+    require(tileSize / p.pointRadius <= 400, op, "tile-size / point-radius", "<= 400",
+            tileSize / p.pointRadius);
+    require(p.neighbourRadius > p.pointRadius && p.neighbourRadius < tileSize / 2, op,
+            "neighbour-radius", "in (point-radius, tile-size / 2)", p.neighbourRadius);
+    require(p.discSpacing >= 0 && p.discSpacing < tileSize / 2, op, "disc-spacing",
+            "in [0, tile-size / 2)", p.discSpacing);
+    require(p.discRadiusMin > 0, op, "disc-radius (min)", "> 0", p.discRadiusMin);
+    require(p.discRadiusMax >= p.discRadiusMin && p.discRadiusMax <= 4 * tileSize, op,
+            "disc-radius (max)", "in [min, 4 x tile-size]", p.discRadiusMax);
+    require(p.axis.length() > 1e-9, op, "axis", "a non-zero vector",
+            std::to_string(p.axis[0]) + "," + std::to_string(p.axis[1]) + "," + std::to_string(p.axis[2]));
+    require(p.fractureWidth >= 0 && p.fractureWidth < p.pointRadius, op, "fracture-width",
+            "in [0, point-radius) m", p.fractureWidth);
+    require(p.smoothRadius < tileSize / 4, op, "smooth-radius", "in [0, tile-size / 4)",
+            p.smoothRadius);
+    require(p.relief.amplitude <= tileSize / 20, op, "warp-amplitude", "in [0, tile-size / 20]",
+            p.relief.amplitude);
+    const auto& extraDiscs = p.extraDiscs;
+    const auto& authored = p.authored;
     for (size_t i = 0; i < extraDiscs.size(); ++i) {
         const Disc& d = extraDiscs[i];
         const std::string what = "fracture " + std::to_string(i);

@@ -1,5 +1,7 @@
 #include "BlocksStage.h"
 
+#include <rockvdb/blocks/TileBuild.h>
+
 #include <rockvdb/core/Json.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
@@ -41,16 +43,15 @@ void addTileRows(Schema<P>& s, Access at)
     member(param("tile-size", ParamType::Real, "m", 20.0, Range::openClosed(0, 1e4), "Tile side s"),
            &T::tileSize);
     member(param("point-radius", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
-               "Poisson radius of the sample points (0 = 0.034 x tile size, ~14 500 points)"),
-           &T::pointRadius);
+               "Poisson radius of the sample points"), &T::pointRadius);
     member(param("neighbour-radius", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
-               "Longest graph edge (0 = 2 x point radius)"), &T::neighbourRadius);
+               "Longest graph edge"), &T::neighbourRadius);
     member(param("disc-count", ParamType::Int, "", -1, Range::closed(-1, 10000),
-               "Generated fracture discs (-1 = the type's default, 0 = none)"), &T::discCount);
+               "Generated fracture discs (0 = none)"), &T::discCount);
     member(param("disc-spacing", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
-               "Poisson radius of the disc centres (0 = the type's default)"), &T::discSpacing);
+               "Poisson radius of the disc centres"), &T::discSpacing);
     bind(param("disc-radius", ParamType::Reals, "m", nullptr, Range::closed(0, 4e4),
-             "Disc radius range min,max (default: the type's)", 2),
+             "Disc radius range min,max", 2),
          [](const T& t) {
              return t.discRadiusMin > 0 ? json::array({t.discRadiusMin, t.discRadiusMax}) : json();
          },
@@ -59,9 +60,9 @@ void addTileRows(Schema<P>& s, Access at)
              t.discRadiusMax = j.is_null() ? 0.0 : j.at(1).get<double>();
          });
     member(param("jitter", ParamType::Real, "degrees", -1.0, Range::closed(-1, 90),
-               "Random tilt of the set normals (-1 = the type's default)"), &T::jitterDeg);
+               "Random tilt of the set normals"), &T::jitterDeg);
     member(param("irregular-fraction", ParamType::Real, "", -1.0, Range::closed(-1, 1),
-               "Share of discs with a random normal (-1 = the type's default)"),
+               "Share of discs with a random normal"),
            &T::irregularFraction);
     member(param("axis", ParamType::Reals, "", json::array({0.0, 0.0, 1.0}), Range::closed(-1e6, 1e6),
                "Dominant axis: bedding normal / column axis", 3), &T::axis);
@@ -103,34 +104,52 @@ void addTileRows(Schema<P>& s, Access at)
                "the paper's hull-only reading (neighbours about a point spacing apart, small "
                "clusters dropped)"), &T::fill);
     member(param("fracture-width", ParamType::Real, "m", -1.0, Range::closed(-1, 1e3),
-               "Gap between neighbouring blocks across a fracture (-1 = 0.002 x tile size; "
-               "unused without fill)"), &T::fractureWidth);
+               "Gap between neighbouring blocks across a fracture (unused without fill)"),
+           &T::fractureWidth);
     member(param("smooth-radius", ParamType::Real, "m", 0.25, Range::closed(0, 2.5e3),
                "R of the smooth intersection of the hull planes"), &T::smoothRadius);
-    bind(param("warp-amplitude", ParamType::Real, "m", 0.05, Range::closed(0, 500),
-             "Relief warp amplitude (the surface moves at most this; 0 = off)"),
-         [](const T& t) { return t.relief.amplitude; },
+    const auto warp = warpRows(0.05, 1.0,
+        "Warp: exponent p of the triplanar weights |g.u_i|^p (1 = the paper's)");
+    bind(warp[0], [](const T& t) { return t.relief.amplitude; },
          [](T& t, const json& j) { t.relief.amplitude = j.get<double>(); });
-    bind(param("warp-relief", ParamType::Text, "", "turbulence", Range::any(),
-             "Warp relief: 'turbulence' or an EXR / 16-bit PNG image (tiled; bright = bump)"),
-         [](const T& t) { return t.relief.image.empty() ? std::string("turbulence") : t.relief.image; },
+    bind(warp[1], [](const T& t) { return t.relief.image.empty() ? std::string("turbulence") : t.relief.image; },
          [](T& t, const json& j) {
              const std::string v = j.get<std::string>();
              t.relief.image = v == "turbulence" ? std::string() : v;
          });
-    bind(param("warp-scale", ParamType::Real, "m", 1.5, Range::openClosed(0, 1e4),
-             "Warp: turbulence wavelength, or world size of one image tile"),
-         [](const T& t) { return t.relief.scale; },
+    bind(warp[2], [](const T& t) { return t.relief.scale; },
          [](T& t, const json& j) { t.relief.scale = j.get<double>(); });
-    bind(param("warp-octaves", ParamType::Int, "", 4, Range::closed(1, 12), "Warp: turbulence octaves"),
-         [](const T& t) { return t.relief.octaves; },
+    bind(warp[3], [](const T& t) { return t.relief.octaves; },
          [](T& t, const json& j) { t.relief.octaves = j.get<int>(); });
-    bind(param("warp-sharpness", ParamType::Real, "", 1.0, Range::closed(1, 64),
-             "Warp: exponent p of the triplanar weights |g.u_i|^p (1 = the paper's)"),
-         [](const T& t) { return t.relief.sharpness; },
+    bind(warp[4], [](const T& t) { return t.relief.sharpness; },
          [](T& t, const json& j) { t.relief.sharpness = j.get<double>(); });
-    member(param("seed", ParamType::Int, "", 0, Range::atLeast(0),
-               "Random seed (same seed, same bits)"), &T::seed);
+    member(seedRow(), &T::seed);
+
+    // Derived defaults (numbers and reasons: BlockTileParams.cc), in the order they read each
+    // other, and the rules between rows.
+    using namespace tilegen;
+    auto derived = [&](const char* name, const char* text, auto fill) {
+        s.derived(name, text, [at, fill](P& p) { fill(at(p)); });
+    };
+    derived("point-radius", "0.034 x tile-size",
+            [](T& t) { t.pointRadius = kPointRadiusPerSize * t.tileSize; });
+    derived("neighbour-radius", "2 x point-radius",
+            [](T& t) { t.neighbourRadius = 2.0 * t.pointRadius; });
+    derived("disc-count", "the type's",
+            [](T& t) { t.discCount = typeDefaults(t.type).count; });
+    derived("disc-spacing", "the type's share of tile-size",
+            [](T& t) { t.discSpacing = typeDefaults(t.type).spacing * t.tileSize; });
+    derived("disc-radius", "the type's shares of tile-size", [](T& t) {
+        const TypeDefaults& d = typeDefaults(t.type);
+        if (t.discRadiusMin <= 0) t.discRadiusMin = d.rmin * t.tileSize;
+        if (t.discRadiusMax <= 0) t.discRadiusMax = std::max(t.discRadiusMin, d.rmax * t.tileSize);
+    });
+    derived("jitter", "the type's", [](T& t) { t.jitterDeg = typeDefaults(t.type).jitter; });
+    derived("irregular-fraction", "the type's",
+            [](T& t) { t.irregularFraction = typeDefaults(t.type).irregular; });
+    derived("fracture-width", "0.002 x tile-size",
+            [](T& t) { t.fractureWidth = kFractureWidthPerSize * t.tileSize; });
+    s.rule([at](const P& p) { checkTileRules(at(p)); });
 }
 
 Schema<BlockTileParams> makeTileSchema()

@@ -19,6 +19,22 @@ namespace rockvdb {
 namespace blocks {
 namespace tilegen {
 
+/// The derived defaults of the tile's rows (BlockTileParams.cc says where each comes from):
+/// Poisson radius and fracture width per metre of tile size, and the per-type disc set.
+constexpr double kPointRadiusPerSize = 0.034;
+constexpr double kFractureWidthPerSize = 0.002;
+struct TypeDefaults
+{
+    int count;
+    double spacing, rmin, rmax; ///< fractions of the tile size
+    double jitter, irregular;   ///< degrees, share
+};
+const TypeDefaults& typeDefaults(BlockType type);
+
+/// @brief The rules between the tile's rows (each row's range is the table's), on derived
+/// values: ValueError naming the row.
+void checkTileRules(const BlockTileParams& p);
+
 // Random streams (one per independent quantity, see core/Random.h).
 enum Stream : uint64_t {
     kPoints = 1, kDiscCentres = 2, kDiscShape = 3, kBedding = 4, kAnchors = 5, kFrame = 6

@@ -25,6 +25,8 @@ struct ChunkParams
     ChunkSpec spec(const char* op) const { return ChunkSpec::parse(chunks, chunk, op); }
 };
 
+/// The bake's rows' values. The member initialisers are the rows' defaults (addBakeRows reads
+/// them, as it reads the sizes from BakeSettings): written once, here.
 struct BakeParams
 {
     std::optional<double> voxelSize;  ///< m; unset: the stage's own rule (e.g. the input's)
@@ -79,24 +81,22 @@ void addBakeRows(Schema<P>& s, BakeParams P::*m, nlohmann::json voxelSize,
               [m, field](P& p, const nlohmann::json& j) { Conv<T>::set((p.*m).*field, j); });
     };
     const std::string note = sizeNote;
-    bind(param("voxel-size", ParamType::Real, "m", voxelSize, Range::closed(1e-6, 1e6),
-             "Voxel edge length" + (voxelSize.is_null() ? note : std::string())),
+    const BakeParams defaults;
+    bind(voxelSizeRow(voxelSize, "Voxel edge length" + (voxelSize.is_null() ? note : std::string())),
          &BakeParams::voxelSize);
-    bind(param("half-width", ParamType::Real, "voxels", halfWidth, Range::closed(1, 64),
-             "Narrow-band half width" + (halfWidth.is_null() ? note : std::string())),
+    bind(halfWidthRow(halfWidth, "Narrow-band half width" + (halfWidth.is_null() ? note : std::string())),
          &BakeParams::halfWidth);
-    ParamInfo renorm = param("renormalize", ParamType::Text, "", "auto", Range::any(),
+    ParamInfo renorm = param("renormalize", ParamType::Text, "", defaults.renormalize, Range::any(),
                            "Renormalise fields that are not exact distances: auto (those), on, off");
     renorm.choices = {"auto", "on", "off"};
     bind(renorm, &BakeParams::renormalize);
-    bind(param("tracker-steps", ParamType::Int, "", 0, Range::closed(0, 100),
+    bind(param("tracker-steps", ParamType::Int, "", defaults.trackerSteps, Range::closed(0, 100),
              "LevelSetTracker normalise steps after baking"), &BakeParams::trackerSteps);
     bind(param("region", ParamType::Reals, "m", nullptr, Range::any(),
              "Bake only voxel centres in [min, max): xmin,ymin,zmin,xmax,ymax,zmax "
              "(leaf-aligned regions chunk a bake bit for bit)", 6),
          &BakeParams::region);
-    bind(param("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0),
-             "Refuse bakes estimated above this (0 = 75% of RAM)"), &BakeParams::maxMemoryGB);
+    bind(maxMemoryRow("Refuse bakes estimated above this (0 = 75% of RAM)"), &BakeParams::maxMemoryGB);
     addChunkRows(s, [m](auto& p) -> auto& { return (p.*m).chunking; });
 }
 

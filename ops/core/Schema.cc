@@ -101,6 +101,42 @@ ParamInfo param(const char* name, ParamType type, const char* unit, json default
     return p;
 }
 
+ParamInfo seedRow(std::string help)
+{
+    return param("seed", ParamType::Int, "", 0, Range::atLeast(0), std::move(help));
+}
+
+ParamInfo voxelSizeRow(json defaultValue, std::string help)
+{
+    return param("voxel-size", ParamType::Real, "m", std::move(defaultValue),
+                 Range::closed(1e-6, 1e6), std::move(help));
+}
+
+ParamInfo halfWidthRow(json defaultValue, std::string help)
+{
+    return param("half-width", ParamType::Real, "voxels", std::move(defaultValue),
+                 Range::closed(1, 64), std::move(help));
+}
+
+ParamInfo maxMemoryRow(std::string help)
+{
+    return param("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0), std::move(help));
+}
+
+std::array<ParamInfo, 5> warpRows(double amplitude, double sharpness, std::string sharpnessHelp)
+{
+    return {param("warp-amplitude", ParamType::Real, "m", amplitude, Range::closed(0, 1e3),
+                  "Warp: largest displacement of the surface (0 = off)"),
+            param("warp-relief", ParamType::Text, "", "turbulence", Range::any(),
+                  "Warp relief: 'turbulence' or an EXR / 16-bit PNG image (tiled; bright = bump)"),
+            param("warp-scale", ParamType::Real, "m", 1.5, Range::openClosed(0, 1e4),
+                  "Warp: turbulence wavelength, or world size of one image tile"),
+            param("warp-octaves", ParamType::Int, "", 4, Range::closed(1, 12),
+                  "Warp: turbulence octaves"),
+            param("warp-sharpness", ParamType::Real, "", sharpness, Range::closed(1, 64),
+                  std::move(sharpnessHelp))};
+}
+
 json jsonOrFile(const json& value)
 {
     return value.is_string() ? readJsonFile(value.get<std::string>()) : value;
@@ -213,7 +249,8 @@ json SchemaBase::describe() const
         if (std::isfinite(p.range.min) || std::isfinite(p.range.max)) range = p.range.text();
         rows.push_back({{"name", p.name}, {"python", p.pythonName()}, {"type", typeName(p.type)},
                         {"unit", p.unit}, {"default", p.defaultValue}, {"count", p.count},
-                        {"range", range}, {"choices", p.choices}, {"help", p.help}});
+                        {"range", range}, {"choices", p.choices}, {"help", p.help},
+                        {"derived", p.derived.empty() ? json() : json(p.derived)}});
     }
     return {{"op", mOp}, {"summary", mSummary}, {"params", rows}};
 }

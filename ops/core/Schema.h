@@ -26,7 +26,9 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <stdexcept>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace rockvdb {
@@ -74,6 +76,9 @@ struct ParamInfo
     Range range;
     std::vector<std::string> choices; ///< Text: the allowed values (empty = any text)
     std::string help;
+    /// A derived default: what the row's default stands for ("0.034 x tile-size"), computed
+    /// by the table's rule from other rows (Schema::derived). Empty: the default is itself.
+    std::string derived;
     /// The Python keyword: the name with '_' for '-'.
     std::string pythonName() const;
 };
@@ -81,6 +86,17 @@ struct ParamInfo
 /// @brief One row: the way every table spells its rows.
 ParamInfo param(const char* name, ParamType type, const char* unit, nlohmann::json defaultValue,
                 Range range, std::string help, size_t count = 1);
+
+/// Rows several stages share, spelt once: name, type, unit and range here; the stage gives
+/// the default (and, where its meaning differs, the help).
+ParamInfo seedRow(std::string help = "Random seed (same seed, same bits)");
+ParamInfo voxelSizeRow(nlohmann::json defaultValue, std::string help = "Voxel edge length");
+ParamInfo halfWidthRow(nlohmann::json defaultValue, std::string help = "Narrow-band half width");
+ParamInfo maxMemoryRow(std::string help = "Refuse work estimated above this (0 = 75% of RAM)");
+/// The gradient warp's rows (implicit blocks §4.2), in order: warp-amplitude, warp-relief,
+/// warp-scale, warp-octaves, warp-sharpness. Stages differ in two defaults: the amplitude and
+/// the exponent p (whose help says why).
+std::array<ParamInfo, 5> warpRows(double amplitude, double sharpness, std::string sharpnessHelp);
 
 /// @brief A Json row's value as JSON: a string is a file path, read; anything else is itself.
 nlohmann::json jsonOrFile(const nlohmann::json& value);
@@ -180,7 +196,37 @@ public:
                    [m](P& p, const nlohmann::json& j) { schema_detail::Conv<T>::set(p.*m, j); });
     }
 
-    /// @brief A rule between parameters (checked after every row): throws ValueError.
+    /// @brief A derived default: when row @a name holds its default, @a fill sets it from other
+    /// rows (the tile size, the block type, ...). @a text says how ("0.034 x tile-size"); the
+    /// help, --help and Python docstrings show it. Rules and derive() see filled values.
+    Schema& derived(const std::string& name, std::string text, std::function<void(P&)> fill)
+    {
+        for (size_t i = 0; i < mInfo.size(); ++i) {
+            if (mInfo[i].name != name) continue;
+            mInfo[i].derived = text;
+            const nlohmann::json& d = mInfo[i].defaultValue;
+            const std::string unset = d.is_null() ? std::string("unset")
+                : d.is_number() && d.get<double>() == double(int64_t(d.get<double>()))
+                ? std::to_string(int64_t(d.get<double>())) : d.dump();
+            mInfo[i].help += " (" + unset + " = " + text + ")";
+            mDerive.push_back({i, std::move(fill)});
+            return *this;
+        }
+        throw std::logic_error(mOp + ": no row '" + name + "' to derive");
+    }
+
+    /// @brief @a p with every row still at its default filled by its derived rule, in the
+    /// order the rules were added (a rule may read an earlier one's value).
+    P derive(P p) const
+    {
+        for (const auto& [i, fill] : mDerive) {
+            if (mGet[i](p) == mInfo[i].defaultValue) fill(p);
+        }
+        return p;
+    }
+
+    /// @brief A rule between parameters (checked after every row, on derive()'s values):
+    /// throws ValueError.
     Schema& rule(Rule r)
     {
         mRules.push_back(std::move(r));
@@ -222,12 +268,15 @@ public:
 private:
     void checkRules(const P& p) const
     {
-        for (const auto& r : mRules) r(p);
+        if (mRules.empty()) return;
+        const P filled = mDerive.empty() ? p : derive(p);
+        for (const auto& r : mRules) r(filled);
     }
 
     std::vector<Getter> mGet;
     std::vector<Setter> mSet;
     std::vector<Rule> mRules;
+    std::vector<std::pair<size_t, std::function<void(P&)>>> mDerive;
 };
 
 } // namespace rockvdb

@@ -25,19 +25,14 @@ Schema<DetailStageParams> makeSchema()
         "noise in local frames (n, t, b), b = n ^ W): each point near the surface is projected "
         "on it and the field raised or lowered by D(noise)·(1 - |p p_S|/R)^6. Amplitudes are "
         "in metres and bound the displacement; 0 disables an operator.");
-    s.member(param("warp-amplitude", ParamType::Real, "m", 0.0, Range::closed(0, 1e3),
-                 "Warp: largest displacement; 0 = off"), &P::warpAmplitude);
-    s.member(param("warp-relief", ParamType::Text, "", "turbulence", Range::any(),
-                 "Warp relief: 'turbulence' or an EXR / 16-bit PNG image (bright = bump)"),
-             &P::warpRelief);
-    s.member(param("warp-scale", ParamType::Real, "m", 1.5, Range::above(0),
-                 "Warp: turbulence wavelength, or world size of one image tile"), &P::warpScale);
-    s.member(param("warp-octaves", ParamType::Int, "", 4, Range::closed(1, 12),
-                 "Warp: turbulence octaves"), &P::warpOctaves);
-    s.member(param("warp-sharpness", ParamType::Real, "", 8.0, Range::closed(1, 64),
-                 "Warp: exponent p of the projection weights |g.u_i|^p (8: the arches paper's "
-                 "texture blend keeps one projection sharp; 1: the blocks paper's)"),
-             &P::warpSharpness);
+    const auto warp = warpRows(0.0, 8.0,
+        "Warp: exponent p of the projection weights |g.u_i|^p (8: the arches paper's texture "
+        "blend keeps one projection sharp; 1: the blocks paper's)");
+    s.member(warp[0], &P::warpAmplitude);
+    s.member(warp[1], &P::warpRelief);
+    s.member(warp[2], &P::warpScale);
+    s.member(warp[3], &P::warpOctaves);
+    s.member(warp[4], &P::warpSharpness);
     s.member(param("gabor-amplitude", ParamType::Real, "m", 0.0, Range::closed(0, 1e3),
                  "Gabor: largest displacement; 0 = off"), &P::gaborAmplitude);
     s.member(param("gabor-frequency", ParamType::Real, "cycles/m", 0.0, Range::atLeast(0),
@@ -75,8 +70,7 @@ Schema<DetailStageParams> makeSchema()
                              "noise; auto = isotropic for curvature frames, cancel otherwise");
     singular.choices = {"auto", "cancel", "isotropic"};
     s.member(singular, &P::singular);
-    s.member(param("seed", ParamType::Int, "", 0, Range::atLeast(0),
-                 "Random seed (same seed, same bits)"), &P::seed);
+    s.member(seedRow(), &P::seed);
     s.add(param("blend", ParamType::Json, "", nullptr, Range::any(),
                  "Blend towards a second parameter set where the blend mask reads 1: a JSON file "
                  "(or object) with warp_amplitude, gabor_amplitude, gabor_frequency, "

@@ -1,5 +1,6 @@
 #include "FractalStage.h"
 
+#include <rockvdb/core/BakeParams.h>
 #include <rockvdb/core/Json.h>
 #include <rockvdb/fractal/MeshBake.h>
 
@@ -81,21 +82,17 @@ Schema<FractalRockParams> makeRockSchema()
                 "The rock's centre", 3),
           [](const P& p) { return json::array({p.center[0], p.center[1], p.center[2]}); },
           [](P& p, const json& j) { p.center = Vec3d(j.at(0), j.at(1), j.at(2)); });
-    s.add(param("seed", ParamType::Int, "", 0, Range::atLeast(0),
-                "Random seed: displacements and orientation (same seed, same bits)"),
+    s.add(seedRow("Random seed: displacements and orientation (same seed, same bits)"),
           [](const P& p) { return json(p.shape.seed); },
           [](P& p, const json& j) { p.shape.seed = j.get<uint64_t>(); });
-    s.member(param("voxel-size", ParamType::Real, "m", 0.01, Range::closed(1e-6, 1e6),
-                   "Voxel edge length of the level set"), &P::voxelSize);
-    s.member(param("half-width", ParamType::Real, "voxels", 3.0, Range::closed(1, 64),
-                   "Narrow-band half width"), &P::halfWidth);
+    s.member(voxelSizeRow(0.01, "Voxel edge length of the level set"), &P::voxelSize);
+    s.member(halfWidthRow(defaultHalfWidth()), &P::halfWidth);
     s.member(param("normal-levels", ParamType::Int, "", 2, Range::closed(1, 4),
                    "Normal map: levels of the finer model its normals come from (§7)"),
              &P::normalLevels);
     s.member(param("normal-map-size", ParamType::Int, "pixels", 256, Range::closed(16, 4096),
                    "Normal map: pixels per cell (the image is 5n × 2n)"), &P::normalMapSize);
-    s.member(param("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0),
-                   "Refuse work estimated above this (0 = 75% of RAM)"), &P::maxMemoryGB);
+    s.member(maxMemoryRow(), &P::maxMemoryGB);
     // Scatter rows (§1: rocks "spatially distributed by another fBm").
     s.member(param("count", ParamType::Int, "", 0, Range::closed(0, 1000000),
                    "Scatter this many rocks on the ground (0: one rock at center)"), &P::count);

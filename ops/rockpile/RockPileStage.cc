@@ -53,8 +53,7 @@ Schema<RockTileParams> makeTilesSchema()
                  "Erosion per step at full exposure"), &T::erosionRate);
     s.member(param("poisson-radius", ParamType::Real, "cells", 0.0, Range::halfOpen(0, 1),
                  "Periodic: seed spacing (0 = 0.8; else >= 0.3)"), &T::poissonRadius);
-    s.member(param("seed", ParamType::Int, "", 0, Range::atLeast(0),
-                 "Random seed (same seed, same bits)"), &T::seed);
+    s.member(seedRow(), &T::seed);
     s.rule([](const T& p) {
         if (p.tiling == Tiling::Aperiodic && p.n < 4) {
             fail<ValueError>("rockpile: n must be >= 4 for aperiodic corner cubes (a cell's "
@@ -101,8 +100,7 @@ Schema<PileParams> makePileSchema()
     up.choices = {"z", "y"};
     s.add(up, [](const P& p) { return json(p.support.up == UpAxis::Y ? "y" : "z"); },
           [](P& p, const json& j) { p.support.up = j == "y" ? UpAxis::Y : UpAxis::Z; });
-    s.member(param("seed", ParamType::Int, "", 0, Range::atLeast(0),
-                 "Lattice colours (and a JSON support's noise)"), &P::seed);
+    s.member(seedRow("Lattice colours (and a JSON support's noise)"), &P::seed);
     addChunkRows(s, [](auto& p) -> auto& { return p.chunking; });
     return s;
 }

@@ -1182,6 +1182,10 @@ def _edit_method(tool):
     for k in optional:
         params.append(P(k["name"], P.KEYWORD_ONLY, default=None))
         shown = "" if k["default"] is None else f"; default {k['default']!r}"
+        if k["range"]:
+            shown += f"; {k['range']}"
+        if k["choices"]:
+            shown += "; one of " + ", ".join(k["choices"])
         lines.append(f"  {k['name']} (optional{shown}): {k['help']}.")
     lines += ["", "Returns the edit's stats (Stacks.edit). Keys left out take their defaults."]
     sig = inspect.Signature(params)

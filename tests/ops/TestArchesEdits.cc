@@ -266,6 +266,10 @@ TEST(Edits, BadEditsNameTheirIndexAndKeyAndChangeNothing)
     };
     fails({{"tool", "smash"}}, "unknown tool 'smash'");
     fails({{"tool", "sculpt"}, {"radius", 0}, {"points", {{1, 1, 5}}}}, "radius must be > 0");
+    // Ranges and values are the tool table's: what editTools() publishes is what is enforced.
+    fails({{"tool", "sculpt"}, {"radius", 1}, {"strength", -1}, {"points", {{1, 1, 5}}}}, "strength must be > 0");
+    fails({{"tool", "deposit"}, {"center", {1, 1}}, {"radius", 1}, {"amount", 1}, {"material", "gold"}},
+          "material must be one of sand, rocks (got 'gold')");
     fails({{"tool", "sculpt"}, {"radius", 1}}, "points is required");
     fails({{"tool", "sculpt"}, {"radius", 1}, {"points", {{1, 1}}}}, "points[0]");
     fails({{"tool", "sculpt"}, {"radius", 1}, {"points", {{50, 1, 5}}}}, "outside the terrain");
@@ -274,6 +278,34 @@ TEST(Edits, BadEditsNameTheirIndexAndKeyAndChangeNothing)
     fails({{"tool", "deposit"}, {"center", {1, 1}}, {"radius", 1}, {"amount", 1}, {"material", "lava"}}, "lava");
     fails({{"tool", "erode"}, {"center", {1, 1, 5}}, {"radius", 1}, {"rho", 0.5}}, "rho applies to mode collapse");
     fails({{"tool", "erode"}, {"mode", "collapse"}, {"center", {1, 1, 5}}, {"radius", 1}, {"rho", 2}}, "rho must be in [0, 1]");
+}
+
+TEST(Edits, DefaultsRangesAndValuesComeFromTheToolTable)
+{
+    // withDefaults fills exactly the keys the table gives a default, with that default; the
+    // published range is the one enforced.
+    const nlohmann::json& tools = editTools();
+    for (const auto& [tool, spec] : tools.items()) {
+        const nlohmann::json full = withDefaults({{"tool", tool}});
+        size_t withDefault = 0;
+        for (const auto& k : spec.at("keys")) {
+            const std::string name = k.at("name");
+            if (k.at("default").is_null()) {
+                EXPECT_FALSE(full.contains(name)) << tool << "." << name;
+            } else {
+                ++withDefault;
+                EXPECT_EQ(full.at(name), k.at("default")) << tool << "." << name;
+            }
+            if (!k.at("choices").empty()) EXPECT_EQ(k.at("default"), k.at("choices")[0]) << tool << "." << name;
+        }
+        EXPECT_EQ(full.size(), withDefault + 1) << tool;
+    }
+    const auto strength = tools.at("sculpt").at("keys")[4];
+    ASSERT_EQ(strength.at("name"), "strength");
+    EXPECT_EQ(strength.at("range"), "> 0");
+    EXPECT_EQ(tools.at("erode").at("keys")[4].at("range"), "in [0, 1]");
+    // A given key is kept.
+    EXPECT_EQ(withDefaults({{"tool", "erode"}, {"mode", "collapse"}}).at("mode"), "collapse");
 }
 
 TEST(Edits, TheSameAtAnyThreadCountAndThroughTheScene)

@@ -542,6 +542,31 @@ TEST(Blocks, DeterministicAcrossThreadsAndThroughTheTileFile)
     EXPECT_LT(text.size(), 1000000u); // compact: < 1 MB per tile
 }
 
+TEST(Blocks, DerivedDefaultsScaleWithTheTileAndTheType)
+{
+    // The table's rules: 0.034·s points, 2·r edges, 0.002·s gaps, the type's disc set.
+    BlockTileParams p = BlockTileParams::fromJson({{"tile-size", 10.0}, {"type", "polyhedral"}});
+    p.resolveDefaults();
+    EXPECT_DOUBLE_EQ(p.pointRadius, 0.34);
+    EXPECT_DOUBLE_EQ(p.neighbourRadius, 0.68);
+    EXPECT_DOUBLE_EQ(p.fractureWidth, 0.02);
+    EXPECT_EQ(p.discCount, 44);
+    EXPECT_DOUBLE_EQ(p.discSpacing, 0.5);
+    EXPECT_DOUBLE_EQ(p.discRadiusMin, 0.5);
+    EXPECT_DOUBLE_EQ(p.discRadiusMax, 1.5);
+    EXPECT_EQ(p.irregularFraction, 1.0);
+    // A given value wins, and the derived ones read it.
+    p = BlockTileParams::fromJson({{"point-radius", 0.5}, {"disc-count", 0}});
+    p.resolveDefaults();
+    EXPECT_EQ(p.pointRadius, 0.5);
+    EXPECT_EQ(p.neighbourRadius, 1.0);
+    EXPECT_EQ(p.discCount, 0);
+    // A rule reads the derived value: at 40 m the 2·r edge of a given r = 10 m is 20 m, not
+    // below tile-size / 2.
+    EXPECT_THROW(BlockTileParams::fromJson({{"tile-size", 40.0}, {"point-radius", 10.0}}),
+                 ValueError);
+}
+
 TEST(Blocks, BadParametersAreClearErrors)
 {
     EXPECT_THROW(blockTypeFromString("granite"), ValueError);

@@ -31,6 +31,7 @@ struct Toy
     std::string mode;
     std::array<double, 2> range;
     std::optional<std::array<double, 3>> axis;
+    double spacing;
 
     static const Schema<Toy>& schema()
     {
@@ -55,8 +56,11 @@ struct Toy
             t.member(row("range", ParamType::Reals, json::array({-1.0, 2.0}), Range::closed(-10, 10), 2),
                      &Toy::range);
             t.member(row("axis", ParamType::Reals, nullptr, Range::any(), 3), &Toy::axis);
+            t.member(row("spacing", ParamType::Real, 0.0, Range::atLeast(0)), &Toy::spacing);
+            t.derived("spacing", "0.1 x tile-size", [](Toy& p) { p.spacing = 0.1 * p.size; });
             t.rule([](const Toy& p) {
                 if (p.range[0] > p.range[1]) fail<ValueError>("toy: range needs min <= max");
+                if (p.spacing >= p.size) fail<ValueError>("toy: spacing must be < tile-size");
             });
             return t;
         }();
@@ -140,11 +144,31 @@ TEST(Schema, ValidateChecksMembersSetFromCpp)
     EXPECT_NO_THROW(Toy::schema().validate(t));
 }
 
+TEST(Schema, DerivedDefaultsAreRulesOfTheTable)
+{
+    // A row left at its default takes the rule's value; one given keeps it; the record (toJson,
+    // what provenance replays) keeps the row as given, so a replay derives it again.
+    const Toy given = Toy::schema().fromJson({{"tile-size", 30.0}});
+    EXPECT_EQ(given.spacing, 0.0);
+    EXPECT_EQ(Toy::schema().toJson(given)["spacing"], 0.0);
+    EXPECT_DOUBLE_EQ(Toy::schema().derive(given).spacing, 3.0);
+    EXPECT_EQ(Toy::schema().derive(Toy::schema().fromJson({{"spacing", 2.0}})).spacing, 2.0);
+    // Rules see derived values: 0.1 x 0.5 passes "spacing < tile-size"; a given 1 does not.
+    EXPECT_NO_THROW(Toy::schema().fromJson({{"tile-size", 0.5}}));
+    EXPECT_EQ(message({{"tile-size", 0.5}, {"spacing", 1.0}}), "toy: spacing must be < tile-size");
+    // Interfaces read the rule: describe() and the help.
+    const json row = Toy::schema().describe()["params"][6];
+    EXPECT_EQ(row["derived"], "0.1 x tile-size");
+    EXPECT_EQ(row["help"], "help (0 = 0.1 x tile-size)");
+    EXPECT_TRUE(Toy::schema().describe()["params"][0]["derived"].is_null());
+    EXPECT_THROW(Schema<Toy>("t", "").derived("nope", "x", [](Toy&) {}), std::logic_error);
+}
+
 TEST(Schema, DescribeIsWhatInterfacesRead)
 {
     const json d = Toy::schema().describe();
     EXPECT_EQ(d["op"], "toy");
-    ASSERT_EQ(d["params"].size(), 6u);
+    ASSERT_EQ(d["params"].size(), 7u);
     EXPECT_EQ(d["params"][1]["python"], "tile_size");
     EXPECT_EQ(d["params"][1]["range"], "> 0");
     EXPECT_EQ(d["params"][0]["range"], "in [3, 64]");

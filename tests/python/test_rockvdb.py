@@ -223,7 +223,7 @@ def test_tile_file_round_trip_is_bitwise(tmp_path):
 def test_block_tile_errors_are_exceptions(tmp_path):
     with pytest.raises(ValueError, match="type must be one of"):
         rockvdb.block_tile(type="granite", bake=False)
-    with pytest.raises(ValueError, match="point radius"):
+    with pytest.raises(ValueError, match="point-radius must be in"):
         rockvdb.block_tile(tile_size=10, point_radius=6, bake=False)
     with pytest.raises(ValueError, match="fractures"):
         rockvdb.block_tile(fractures=[{"center": [1, 2, 3]}], bake=False, **SMALL_TILE)

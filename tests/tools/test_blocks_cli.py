@@ -103,11 +103,11 @@ def test_bad_input(tmp_path):
     base = [tool("vdb_blocks"), *SMALL, "-o", str(out)]
     one_line_error(run(base + ["--type", "granite"]), 2, "type must be one of equidimensional")
     one_line_error(run([tool("vdb_blocks"), "--tile-size", "10", "--point-radius", "6", "-o",
-                        str(out)]), 2, "point radius must be in (0, tile size / 2) (got 6)")
-    one_line_error(run(base + ["--neighbour-radius", "0.3"]), 2, "neighbour radius")
+                        str(out)]), 2, "point-radius must be in (0, tile-size / 2) (got 6)")
+    one_line_error(run(base + ["--neighbour-radius", "0.3"]), 2, "neighbour-radius must be in (point-radius")
     one_line_error(run([tool("vdb_blocks"), "--tile-size", "10", "--voxel-size", "0.5", "-o",
                         str(out)]), 2, "too coarse")
-    one_line_error(run(base + ["--disc-radius", "2,1"]), 2, "disc radius (max)")
+    one_line_error(run(base + ["--disc-radius", "2,1"]), 2, "disc-radius (max)")
     one_line_error(run(base + ["--disc-radius", "-1,2"]), 2, "blocks: disc-radius must be in [0, 40000] (got -1.0)")
     bad = tmp_path / "f.json"
     bad.write_text('[{"center": [1, 2, 3], "normal": [0, 0, 1]}]')
