@@ -224,13 +224,13 @@ void detailGroup(bool quick)
     auto sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.41f, openvdb::Vec3f(0), dx);
     BakeSettings s;
     s.voxelSize = dx;
-    auto run = [&](const detailing::DetailParams& p) {
+    auto run = [&](const detail::DetailParams& p) {
         const auto t0 = std::chrono::steady_clock::now();
-        const BakeResult r = detailing::detailLevelSet(sphere, p, s);
+        const BakeResult r = detail::detailLevelSet(sphere, p, s);
         return std::make_pair(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                               size_t(r.surface->activeVoxelCount()));
     };
-    detailing::DetailParams none = detailing::DetailParams::fromJson(nlohmann::json::object());
+    detail::DetailParams none = detail::DetailParams::fromJson(nlohmann::json::object());
     const auto ref = run(none);
     std::printf("| plain re-bake (reference) | %.2f s | %zu | %.2f M | 1.0x |\n", ref.first, ref.second,
                 double(ref.second) / ref.first / 1e6);
@@ -242,7 +242,7 @@ void detailGroup(bool quick)
         {"warp + Gabor", {{"warp-amplitude", 0.03}, {"warp-scale", 0.6}, {"gabor-amplitude", 0.03}, {"gabor-frequency", 6.0}, {"direction-axis", {0, 0, 1}}}},
     };
     for (const Case& k : cases) {
-        const auto m = run(detailing::DetailParams::fromJson(k.j));
+        const auto m = run(detail::DetailParams::fromJson(k.j));
         std::printf("| %s | %.2f s | %zu | %.2f M | %.1fx |\n", k.name, m.first, m.second,
                     double(m.second) / m.first / 1e6, m.first / ref.first);
     }
@@ -433,7 +433,7 @@ void fractalGroup(bool quick)
         ScatterResult r;
         const double total = bestOf(quick ? 1 : 2, [&] {
             Task task;
-            r = runScatter(p, *ground, nlohmann::json::object(), false, true, task);
+            r = runScatter(p, *ground, false, true, task);
         });
         (void)total;
         // The same rocks' meshes (the scatter's grouped mesh), for the reference.
@@ -588,7 +588,7 @@ void archesGroup(bool quick)
         ap.rockTiles = tilesPath;
         ap.weights = false;
         ArchesResult ar;
-        const double all = bestOf(1, [&] { ar = bakeStacks(ap, rocky, ArchesOutput::All, nlohmann::json::object(), task); });
+        const double all = bestOf(1, [&] { ar = bakeStacks(ap, rocky, ArchesOutput::All, task); });
         std::printf("\n| rocks in rock layers (§5, Table 2) | rocks | rocks in the tile set | tile generation | instancing | whole bake |\n|---|---|---|---|---|---|\n");
         std::printf("| paper: cave / canyon / cliff | 1941 / 6113 / 2931 | 50 / 70 / 50 | 30.2 / 44.1 / 19.0 s | 0.6 / 0.9 / 0.4 s | |\n");
         std::printf("| 100 x 75 m strata, 0.5 m stacks, 1.5 m rock stratum | %zu | %zu | %.2f s | %.2f s | %.2f s |\n",

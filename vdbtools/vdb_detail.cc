@@ -10,7 +10,7 @@
 #include <cstdio>
 
 using namespace rockvdb;
-using namespace rockvdb::detailing;
+using namespace rockvdb::detail;
 
 int main(int argc, char** argv)
 {

@@ -13,6 +13,24 @@
 using namespace rockvdb;
 using namespace rockvdb::fractal;
 
+namespace {
+
+// Wrong extensions are refused before any work, so no output is written half.
+void checkExtensions(const std::string& meshPath, const std::string& mapPath)
+{
+if (!mapPath.empty() && !cli::hasExtension(mapPath, {".exr"})) {
+    fail<ValueError>("fractal: --normal-map '", mapPath, "' must end in .exr");
+}
+if (!meshPath.empty() && meshPath != "-" && !cli::hasExtension(meshPath, {".obj", ".ply"})) {
+    fail<ValueError>("fractal: --mesh '", meshPath, "' must end in .obj or .ply");
+}
+if (!mapPath.empty() && cli::hasExtension(meshPath, {".ply"})) {
+    fail<ValueError>("fractal: a normal map needs the OBJ's UVs; write --mesh as .obj");
+}
+}
+
+} // namespace
+
 int main(int argc, char** argv)
 {
     cli::Tool tool(kToolName, std::string(
@@ -59,16 +77,7 @@ int main(int argc, char** argv)
         for (const auto& path : {meshPath, mapPath, pointsPath}) {
             if (!path.empty()) requireWritable(path);
         }
-        // Wrong extensions are refused before any work, so no output is written half.
-        if (!mapPath.empty() && !cli::hasExtension(mapPath, {".exr"})) {
-            fail<ValueError>("fractal: --normal-map '", mapPath, "' must end in .exr");
-        }
-        if (!meshPath.empty() && meshPath != "-" && !cli::hasExtension(meshPath, {".obj", ".ply"})) {
-            fail<ValueError>("fractal: --mesh '", meshPath, "' must end in .obj or .ply");
-        }
-        if (!mapPath.empty() && cli::hasExtension(meshPath, {".ply"})) {
-            fail<ValueError>("fractal: a normal map needs the OBJ's UVs; write --mesh as .obj");
-        }
+        checkExtensions(meshPath, mapPath);
         FractalInputs in;
         in.groundPath = groundPath;
         in.carvePath = carvePath;

@@ -6,10 +6,41 @@
 #include <rockvdb/core/VdbIO.h>
 #include <rockvdb/rockpile/RockPileStage.h>
 
-#include <cmath>
 
 using namespace rockvdb;
 using namespace rockvdb::rockpile;
+
+namespace {
+
+void tilesCommand(cli::Tool& tool, const std::string& library, double maxMemoryGB)
+{
+    const RockTileParams p = tilesSchema().fromJson(tool.givenParams(tilesSchema()));
+    cli::distinctOutputs({{"-o", tool.output()}, {"--library", library}});
+    if (!library.empty()) requireWritable(library);
+    const TilesResult r = tool.stage([&](Task& task) {
+        return runTiles(p, !library.empty(), task, maxMemoryGB * 1e9);
+    });
+    if (r.library) writeGrids(library, {r.library});
+    writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
+}
+
+void pileCommand(cli::Tool& tool, PileInputs in, const std::string& pointsPath,
+                 const std::string& library)
+{
+    const PileParams p = pileSchema().fromJson(tool.givenParams(pileSchema()));
+    cli::distinctOutputs({{"-o", tool.output()}, {"--points", pointsPath}, {"--library", library}});
+    for (const auto& path : {pointsPath, library}) {
+        if (!path.empty()) requireWritable(path);
+    }
+    in.points = !pointsPath.empty();
+    in.library = !library.empty();
+    const PileResult r = tool.stage([&](Task& task) { return runPile(p, in, task); });
+    if (r.points) writeGrids(pointsPath, {r.points});
+    if (r.library) writeGrids(library, {r.library});
+    writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
+}
+
+} // namespace
 
 int main(int argc, char** argv)
 {
@@ -61,31 +92,12 @@ int main(int argc, char** argv)
 
     return tool.run(argc, argv, [&] {
         if (tiles->parsed()) {
-            const RockTileParams p = tilesSchema().fromJson(tool.givenParams(tilesSchema()));
-            cli::distinctOutputs({{"-o", tool.output()}, {"--library", library}});
-            if (!library.empty()) requireWritable(library);
-            require(std::isfinite(tilesMaxMemoryGB) && tilesMaxMemoryGB >= 0, "rockpile",
-                    "--max-memory", ">= 0 GB", tilesMaxMemoryGB);
-            const TilesResult r = tool.stage([&](Task& task) {
-                return runTiles(p, !library.empty(), task, tilesMaxMemoryGB * 1e9);
-            });
-            if (r.library) writeGrids(library, {r.library});
-            writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
-            return;
+            tilesCommand(tool, library, tilesMaxMemoryGB);
+        } else {
+            PileInputs in;
+            in.tilesPath = tilesPath;
+            in.supportPath = supportPath;
+            pileCommand(tool, in, pointsPath, pileLibrary);
         }
-        const PileParams p = pileSchema().fromJson(tool.givenParams(pileSchema()));
-        cli::distinctOutputs({{"-o", tool.output()}, {"--points", pointsPath}, {"--library", pileLibrary}});
-        for (const auto& path : {pointsPath, pileLibrary}) {
-            if (!path.empty()) requireWritable(path);
-        }
-        PileInputs in;
-        in.tilesPath = tilesPath;
-        in.supportPath = supportPath;
-        in.points = !pointsPath.empty();
-        in.library = !pileLibrary.empty();
-        const PileResult r = tool.stage([&](Task& task) { return runPile(p, in, task); });
-        if (r.points) writeGrids(pointsPath, {r.points});
-        if (r.library) writeGrids(pileLibrary, {r.library});
-        writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
     });
 }

@@ -329,8 +329,7 @@ ArchesOutput archesOutputFromString(const std::string& name, const std::string& 
     fail<ValueError>(what, " must be all, surface, ground, sand, bedrock, rocks, water, material or weights (got '", name, "')");
 }
 
-ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutput output,
-                        const json& inputs, Task& task)
+ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutput output, Task& task)
 {
     archesSchema().validate(p);
     ArchesResult r;
@@ -496,16 +495,6 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
         for (auto& w : r.weights) keepInside(*w);
     }
     r.stats.bakeSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
-    json prov = archesSchema().toJson(p);
-    for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = jsonText(prov);
-    for (auto* grid : {&r.surface, &r.material}) {
-        if (*grid) stampProvenance(**grid, kToolName, text);
-    }
-    for (auto& m : r.materials) stampProvenance(*m, kToolName, text);
-    for (auto& w : r.weights) stampProvenance(*w, kToolName, text);
-    if (r.rockId) stampProvenance(*r.rockId, kToolName, text);
-    if (r.points) stampProvenance(*r.points, kToolName, text);
     r.stats.stacks = g.count();
     r.stats.layers = stacks.layerCount();
     r.stats.bytes = stacks.bytes();
@@ -535,12 +524,27 @@ std::vector<EditStats> applyEdits(const ArchesParams& p, Stacks& stacks, const j
     return out;
 }
 
+namespace {
+
+// The one record on every grid a bake made: the table's values and the inputs.
+void stamp(ArchesResult& r, const ArchesParams& p, const json& inputs)
+{
+    r.provenance = stageProvenance(archesSchema().toJson(p), inputs);
+    openvdb::GridPtrVec all{r.surface, r.material, r.rockId, r.points};
+    all.insert(all.end(), r.materials.begin(), r.materials.end());
+    all.insert(all.end(), r.weights.begin(), r.weights.end());
+    stampExtras(r, kToolName, all);
+}
+
+} // namespace
+
 ArchesResult runStacks(const ArchesParams& p, Stacks stacks, Task& task)
 {
     archesSchema().validate(p);
     const StabilizeStats st = stabilizeIfAsked(p, stacks, task);
     std::vector<EditStats> edits = applyEdits(p, stacks, p.edits, 0, task);
-    ArchesResult r = bakeStacks(p, stacks, ArchesOutput::All, json::object(), task);
+    ArchesResult r = bakeStacks(p, stacks, ArchesOutput::All, task);
+    stamp(r, p, json::object());
     r.stats.stabilize = st;
     r.stats.edits = std::move(edits);
     r.stacks = std::move(stacks);
@@ -641,8 +645,8 @@ ArchesResult bakeScene(const ArchesParams& params, const Stacks& stacks, const j
         fail<ValueError>("arches: points need a bake that instances the rocks (all, surface, "
                          "material, weights or rocks)");
     }
-    ArchesResult r = bakeStacks(p, stacks, output, inputs, task);
-    r.provenance = stageProvenance(archesSchema().toJson(p), inputs);
+    ArchesResult r = bakeStacks(p, stacks, output, task);
+    stamp(r, p, inputs);
     return r;
 }
 

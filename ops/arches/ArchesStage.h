@@ -126,14 +126,13 @@ enum class ArchesOutput
 /// @throw ValueError naming @a what.
 ArchesOutput archesOutputFromString(const std::string& name, const std::string& what);
 
-/// @brief Bake @a stacks as they are (no stabilisation): the grids of @a output, stamped with
-/// provenance. With rock-tiles (§5), the rock layers are filled with the tile set's rocks
-/// (vdb_rockpile's pile, supported by the rocks' own level set): the ground is then sand ∪
-/// bedrock united with those rocks, 'rocks' is the rocks' level set, and 'rock_id' names the
-/// rock at each voxel, and 'points' holds the instances. Provenance is the table's JSON with @a inputs' keys on top (e.g. how a
-/// grid terrain was made). Each grid is the same bit for bit whichever @a output asked for it.
-ArchesResult bakeStacks(const ArchesParams& params, const Stacks& stacks, ArchesOutput output,
-                        const nlohmann::json& inputs, Task& task);
+/// @brief Bake @a stacks as they are (no stabilisation): the grids of @a output, not yet
+/// stamped (bakeScene and runStacks stamp one provenance on all). With rock-tiles (§5), the
+/// rock layers are filled with the tile set's rocks (vdb_rockpile's pile, supported by the
+/// rocks' own level set): the ground is then sand ∪ bedrock united with those rocks, 'rocks'
+/// is the rocks' level set, 'rock_id' names the rock at each voxel, and 'points' holds the
+/// instances. Each grid is the same bit for bit whichever @a output asked for it.
+ArchesResult bakeStacks(const ArchesParams& params, const Stacks& stacks, ArchesOutput output, Task& task);
 
 /// @brief The edits' context from the table: σ (unset: half the cell) and the repose angles.
 EditContext editContext(const ArchesParams& params, const StackGeometry& geometry);

@@ -87,27 +87,27 @@ std::map<std::string, Tool> makeTools()
          numberKey("depth", nullptr, Range::above(0), "surface mode: thickness eroded below each exposed face (m; "
                                                      "default one cell)"),
          numberKey("rho", 0.5, Range::closed(0, 1), "collapse mode: the share of rocks (the rest is sand)")}};
-    const char* graphHelp = "Arcs between nodes [[a, b], ...] (indices; default: a path through the nodes in order)";
-    const char* profileHelp = "The cross-section: closed curve through [[u, v], ...] (m; u across, v along the normal, "
-                              ">= 3 points, non-convex allowed), at every node";
-    t["crack"] = {
-        "Carve a crack or ravine: a graph projected on the terrain, a profile swept along it (§4.2)",
-        {key("nodes", "points2", nullptr, "Nodes [[x, y], ...] (m), projected on the ground's bedrock top", true),
-         key("arcs", "arcs", nullptr, graphHelp),
-         key("profile", "profile", nullptr, std::string(profileHelp).append("; v > 0 is above the surface").c_str()),
-         key("profiles", "profiles", nullptr, "Several profiles [[[u, v], ...], ...], chosen per node by node_profiles"),
-         key("node_profiles", "ints", nullptr, "Per node: the index of its profile in profiles (interpolated along arcs)"),
-         key("spline", "bool", true, "Profiles as closed cubic splines through their points (false: polygons)"),
-         numberKey("step", nullptr, Range::above(0), "Spacing of cross-sections along arcs (m; default one cell)")}};
-    t["tunnel"] = {
-        "Carve tunnels and caves: a graph in 3D, a profile swept along it (§4.2)",
-        {key("nodes", "points", nullptr, "Nodes [[x, y, z], ...] (m)", true),
-         key("arcs", "arcs", nullptr, graphHelp),
-         key("profile", "profile", nullptr, std::string(profileHelp).append("; v is up").c_str()),
-         key("profiles", "profiles", nullptr, "Several profiles [[[u, v], ...], ...], chosen per node by node_profiles"),
-         key("node_profiles", "ints", nullptr, "Per node: the index of its profile in profiles (interpolated along arcs)"),
-         key("spline", "bool", true, "Profiles as closed cubic splines through their points (false: polygons)"),
-         numberKey("step", nullptr, Range::above(0), "Spacing of cross-sections along arcs (m; default one cell)")}};
+    // crack and tunnel (§4.2): a graph and a profile swept along it; they differ in their
+    // nodes (2D, projected on the terrain, or 3D) and in what the profile's v means.
+    auto sweepTool = [](const char* help, Key nodes, const char* profileV) {
+        return Tool{help,
+            {std::move(nodes),
+             key("arcs", "arcs", nullptr, "Arcs between nodes [[a, b], ...] (indices; default: a path through the "
+                                          "nodes in order)"),
+             key("profile", "profile", nullptr, std::string("The cross-section: closed curve through [[u, v], ...] (m; "
+                                                            "u across, v along the normal, >= 3 points, non-convex "
+                                                            "allowed), at every node; ") + profileV),
+             key("profiles", "profiles", nullptr, "Several profiles [[[u, v], ...], ...], chosen per node by node_profiles"),
+             key("node_profiles", "ints", nullptr, "Per node: the index of its profile in profiles (interpolated along arcs)"),
+             key("spline", "bool", true, "Profiles as closed cubic splines through their points (false: polygons)"),
+             numberKey("step", nullptr, Range::above(0), "Spacing of cross-sections along arcs (m; default one cell)")}};
+    };
+    t["crack"] = sweepTool("Carve a crack or ravine: a graph projected on the terrain, a profile swept along it (§4.2)",
+                           key("nodes", "points2", nullptr, "Nodes [[x, y], ...] (m), projected on the ground's "
+                                                            "bedrock top", true),
+                           "v > 0 is above the surface");
+    t["tunnel"] = sweepTool("Carve tunnels and caves: a graph in 3D, a profile swept along it (§4.2)",
+                            key("nodes", "points", nullptr, "Nodes [[x, y, z], ...] (m)", true), "v is up");
     t["stabilize"] = {"Stabilise every stack (§3.4), as the scene's stabilize does before the edits", {}};
     return t;
 }

@@ -12,6 +12,7 @@
 #include <openvdb/tools/SignedFloodFill.h>
 #include <openvdb/tree/LeafManager.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace rockvdb {
@@ -206,6 +207,48 @@ FloatGrid::Ptr csgAttribute(CsgOp op, const std::vector<FloatGrid::ConstPtr>& su
             it.setValue(v);
         }
     });
+    return out;
+}
+
+CsgInput readCsgInput(const std::string& path, const std::string& gridName, bool withIds)
+{
+    const openvdb::GridPtrVecPtr all = readGrids(path);
+    CsgInput in;
+    in.surface = findLevelSet(*all, gridName, path == "-" ? "<stdin>" : path);
+    if (!withIds) return in;
+    for (const auto& gb : *all) {
+        auto f = openvdb::gridPtrCast<openvdb::FloatGrid>(gb);
+        if (f && f != in.surface && f->getGridClass() != openvdb::GRID_LEVEL_SET) in.ids.push_back(f);
+    }
+    return in;
+}
+
+openvdb::GridPtrVec csgWithIds(CsgOp op, const std::vector<CsgInput>& inputs, double smoothRadius,
+                               double maxMemoryBytes)
+{
+    std::vector<openvdb::FloatGrid::ConstPtr> surfaces;
+    std::vector<std::string> names;
+    for (const auto& in : inputs) {
+        surfaces.push_back(in.surface);
+        for (const auto& g : in.ids) {
+            if (std::find(names.begin(), names.end(), g->getName()) == names.end()) {
+                names.push_back(g->getName());
+            }
+        }
+    }
+    auto result = csgGrids(op, surfaces, smoothRadius, maxMemoryBytes);
+    openvdb::GridPtrVec out{result};
+    for (const auto& name : names) {
+        std::vector<openvdb::FloatGrid::ConstPtr> per;
+        for (const auto& in : inputs) {
+            openvdb::FloatGrid::ConstPtr found;
+            for (const auto& g : in.ids) {
+                if (g->getName() == name && !found) found = g;
+            }
+            per.push_back(found);
+        }
+        out.push_back(csgAttribute(op, surfaces, per, *result, name));
+    }
     return out;
 }
 

@@ -36,4 +36,22 @@ openvdb::FloatGrid::Ptr csgAttribute(CsgOp op,
                                      const std::vector<openvdb::FloatGrid::ConstPtr>& ids,
                                      const openvdb::FloatGrid& result, const std::string& name);
 
+/// One input of a CSG with its id grids (block_id, rock_id, material, ...).
+struct CsgInput
+{
+    openvdb::FloatGrid::ConstPtr surface;
+    std::vector<openvdb::FloatGrid::ConstPtr> ids; ///< the first of each name is used
+};
+
+/// @brief A file's level set @a gridName ("" = 'surface' or its only level set) and, with
+/// @a withIds, its id grids: the float grids that are not level sets.
+/// @a path "-" reads stdin. @throw IoError / ValueError naming the file.
+CsgInput readCsgInput(const std::string& path, const std::string& gridName, bool withIds);
+
+/// @brief csgGrids over the inputs' surfaces, then csgAttribute for every id grid name the
+/// inputs hold, in order of first appearance (an input without that name: −1): what
+/// vdb_csg and rockvdb.csg make. @return [surface, id grids...], unstamped.
+openvdb::GridPtrVec csgWithIds(CsgOp op, const std::vector<CsgInput>& inputs,
+                               double smoothRadius = 0.0, double maxMemoryBytes = 0);
+
 } // namespace rockvdb

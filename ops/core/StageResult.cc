@@ -35,6 +35,14 @@ void stampResult(StageResult& result, const char* tool, openvdb::GridPtrVec grid
     result.provenance = provenance;
 }
 
+void stampExtras(const StageResult& result, const char* tool, const openvdb::GridPtrVec& extras)
+{
+    const std::string text = jsonText(result.provenance);
+    for (const auto& g : extras) {
+        if (g) stampProvenance(*g, tool, text);
+    }
+}
+
 json bakeStatsJson(const BakeStats& s)
 {
     return {{"active_voxels", s.activeVoxels}, {"leaves", s.leaves},

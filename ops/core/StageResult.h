@@ -43,6 +43,10 @@ nlohmann::json gridSource(const openvdb::GridBase& grid);
 void stampResult(StageResult& result, const char* tool, openvdb::GridPtrVec grids,
                  const nlohmann::json& provenance);
 
+/// @brief Stamp @a result.provenance (generator @a tool) on the grids a stage writes beside
+/// its -o grids (points, a library, weights); null entries are skipped.
+void stampExtras(const StageResult& result, const char* tool, const openvdb::GridPtrVec& extras);
+
 /// @brief A bake's counts and times as stats (active_voxels, leaves, ... seconds).
 nlohmann::json bakeStatsJson(const BakeStats& stats);
 

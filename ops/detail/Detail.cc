@@ -18,7 +18,7 @@
 #include <memory>
 
 namespace rockvdb {
-namespace detailing {
+namespace detail {
 
 using namespace relief;
 
@@ -742,5 +742,5 @@ openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
     return out;
 }
 
-} // namespace detailing
+} // namespace detail
 } // namespace rockvdb

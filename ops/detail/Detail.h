@@ -22,7 +22,7 @@
 #include <vector>
 
 namespace rockvdb {
-namespace detailing {
+namespace detail {
 
 using relief::ReliefParams;
 
@@ -135,5 +135,5 @@ openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
                                        const openvdb::FloatGrid& detailed,
                                        const openvdb::FloatGrid& ids);
 
-} // namespace detailing
+} // namespace detail
 } // namespace rockvdb

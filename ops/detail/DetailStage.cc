@@ -9,7 +9,7 @@
 #include <cstdio>
 
 namespace rockvdb {
-namespace detailing {
+namespace detail {
 
 using nlohmann::json;
 
@@ -242,5 +242,5 @@ DetailResult runDetail(const DetailStageParams& params, const DetailInputs& in, 
     return r;
 }
 
-} // namespace detailing
+} // namespace detail
 } // namespace rockvdb

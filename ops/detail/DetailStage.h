@@ -20,7 +20,7 @@
 #include <vector>
 
 namespace rockvdb {
-namespace detailing {
+namespace detail {
 
 /// The tool the entry point records as the generator of what it makes.
 constexpr const char* kDetailTool = "vdb_detail";
@@ -78,5 +78,5 @@ struct DetailResult : StageResult
 /// reverse) and bad parameters; Interrupted when the task is cancelled.
 DetailResult runDetail(const DetailStageParams& params, const DetailInputs& inputs, Task& task);
 
-} // namespace detailing
+} // namespace detail
 } // namespace rockvdb

@@ -8,7 +8,7 @@
 #include <cstring>
 
 namespace rockvdb {
-namespace detailing {
+namespace detail {
 
 namespace {
 constexpr double kPi = 3.14159265358979323846;
@@ -163,5 +163,5 @@ void GaborNoise::eval(const std::vector<GaborImpulse>& imp, int n, const float* 
     }
 }
 
-} // namespace detailing
+} // namespace detail
 } // namespace rockvdb

@@ -13,7 +13,7 @@
 #include <vector>
 
 namespace rockvdb {
-namespace detailing {
+namespace detail {
 
 struct GaborImpulse
 {
@@ -51,5 +51,5 @@ private:
     uint64_t mSeed;
 };
 
-} // namespace detailing
+} // namespace detail
 } // namespace rockvdb

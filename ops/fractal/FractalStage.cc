@@ -351,7 +351,6 @@ RockResult runRock(const FractalRockParams& p, bool withLevelSet, bool withNorma
         task.check();
         r.stats.levelSetSeconds = since(t0);
         r.stats.activeVoxels = size_t(r.surface->activeVoxelCount());
-        stampProvenance(*r.surface, kToolName, jsonText(rockSchema().toJson(p)));
     }
     task.done();
     return r;
@@ -381,8 +380,8 @@ std::shared_ptr<const Ground> loadGround(const std::string& path, const FractalR
                      "level set (.vdb)");
 }
 
-ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const json& inputs,
-                         bool points, bool withMesh, Task& task)
+ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, bool points,
+                         bool withMesh, Task& task)
 {
     rockSchema().validate(p);
     if (p.count < 1) fail<ValueError>("fractal: a scatter needs count >= 1");
@@ -460,11 +459,6 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
     for (size_t i = 0; i < n; ++i) parts[i] = {&world[i], &meshes[i].triangles};
     r.surface = bakeMeshes(parts, p.voxelSize, p.halfWidth, true, task, &r.rockId);
     r.stats.levelSetSeconds = since(t0);
-    json prov = rockSchema().toJson(p);
-    for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = jsonText(prov);
-    stampProvenance(*r.surface, kToolName, text);
-    stampProvenance(*r.rockId, kToolName, text);
     if (p.material >= 0) {
         r.material = r.rockId->deepCopy();
         r.material->setName("material");
@@ -473,7 +467,6 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
         leaves.foreach([id](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
             for (auto it = leaf.beginValueOn(); it; ++it) it.setValue(id);
         });
-        stampProvenance(*r.material, kToolName, text);
     }
     if (points) {
         std::vector<openvdb::Vec3R> positions(n);
@@ -502,7 +495,6 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
         populateAttribute<PointDataTree, openvdb::tools::PointIndexTree, PointAttributeVector<int32_t>>(
             pts->tree(), idx->tree(), "rock", PointAttributeVector<int32_t>(rock));
         pts->setName("rocks");
-        stampProvenance(*pts, kToolName, text);
         r.points = pts;
     }
     if (withMesh) {
@@ -513,8 +505,7 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, const
     return r;
 }
 
-CarveResult runCarve(const FractalRockParams& p, const openvdb::FloatGrid& solid,
-                     const json& inputs, Task& task)
+CarveResult runCarve(const FractalRockParams& p, const openvdb::FloatGrid& solid, Task& task)
 {
     rockSchema().validate(p);
     if (p.count < 1) fail<ValueError>("fractal: a carve needs count >= 1 (the rocks of the chain)");
@@ -617,11 +608,6 @@ CarveResult runCarve(const FractalRockParams& p, const openvdb::FloatGrid& solid
     task.check();
     r.surface->setName(solid.getName().empty() ? "surface" : solid.getName());
     r.surface->setGridClass(openvdb::GRID_LEVEL_SET);
-    json prov = rockSchema().toJson(p);
-    for (auto it = inputs.begin(); it != inputs.end(); ++it) prov[it.key()] = it.value();
-    const std::string text = jsonText(prov);
-    stampProvenance(*r.surface, kToolName, text);
-    stampProvenance(*r.cave, kToolName, text);
     task.done();
     return r;
 }
@@ -713,7 +699,7 @@ FractalResult runFractal(const FractalRockParams& p, const FractalInputs& in, Ta
             solid = findLevelSet(*readGrids(in.carvePath), "", in.carvePath);
             source["carve"] = in.carvePath;
         }
-        out.carve = runCarve(p, *solid, source, task);
+        out.carve = runCarve(p, *solid, task);
         char line[200];
         std::snprintf(line, sizeof line, "carved a chain of %zu rocks (%zu cave voxels)",
                       out.carve.rocks.size(), size_t(out.carve.cave->activeVoxelCount()));
@@ -730,16 +716,18 @@ FractalResult runFractal(const FractalRockParams& p, const FractalInputs& in, Ta
             ground = loadGround(in.groundPath, p);
             if (!in.groundPath.empty()) source["ground"] = in.groundPath;
         }
-        out.scatter = runScatter(p, *ground, source, in.points, in.mesh, task);
+        out.scatter = runScatter(p, *ground, in.points, in.mesh, task);
         tellScatter(out);
     } else {
         out.rock = runRock(p, in.levelSet, in.normalMap, task);
         tellRock(out, in.normalMap);
     }
-    // What runRock / runScatter / runCarve stamped on the grids.
+    // One record on every grid: the table's values, and the inputs of a scatter or carve.
     if (!out.grids.empty()) {
-        out.provenance = out.mode == FractalMode::Rock ? rockSchema().toJson(p)
-                                                       : stageProvenance(rockSchema().toJson(p), source);
+        stampResult(out, kToolName, out.grids,
+                    out.mode == FractalMode::Rock ? rockSchema().toJson(p)
+                                                  : stageProvenance(rockSchema().toJson(p), source));
+        stampExtras(out, kToolName, {out.scatter.points});
     }
     out.stats["phases"] = phasesJson(task);
     return out;

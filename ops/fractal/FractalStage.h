@@ -1,6 +1,6 @@
 // rockvdb — the fractal-rock stage's front door: its parameter table and entry point.
 //
-// vdb_fractal_rock and rockvdb.fractal_rock are thin wrappers over runRock: the table gives
+// vdb_fractal_rock and rockvdb.fractal_rock are thin wrappers over runFractal: the table gives
 // both their options, defaults and checks, and the entry point stamps the provenance, so the
 // two interfaces write the same grids, and a file's rockvdb:params fed back as
 // `vdb_fractal_rock --params` remakes it bit for bit.
@@ -96,8 +96,8 @@ struct RockResult
 /// @brief What the normal map holds and where (the --help text).
 const char* normalMapHelp();
 
-/// @brief Build one rock (phases: mesh, level set, normal map), the grid stamped with
-/// provenance (the table's JSON). @a withLevelSet false: the mesh (and map) only.
+/// @brief Build one rock (phases: mesh, level set, normal map); a step of runFractal, which
+/// stamps the provenance. @a withLevelSet false: the mesh (and map) only.
 RockResult runRock(const FractalRockParams& params, bool withLevelSet, bool withNormalMap,
                    Task& task);
 
@@ -117,10 +117,10 @@ struct ScatterResult
 /// path). @throw IoError / ValueError naming the file.
 std::shared_ptr<const Ground> loadGround(const std::string& path, const FractalRockParams& params);
 
-/// @brief Scatter count rocks on @a ground (phases: place, meshes, level set), the grids
-/// stamped with provenance: the table's JSON + @a inputs ({"ground": path}).
-ScatterResult runScatter(const FractalRockParams& params, const Ground& ground,
-                         const nlohmann::json& inputs, bool points, bool withMesh, Task& task);
+/// @brief Scatter count rocks on @a ground (phases: place, meshes, level set); a step of
+/// runFractal, which stamps the provenance.
+ScatterResult runScatter(const FractalRockParams& params, const Ground& ground, bool points,
+                         bool withMesh, Task& task);
 
 struct CarveResult
 {
@@ -133,8 +133,7 @@ struct CarveResult
 /// walk of count rocks (full random orientations, neighbours overlapping) from carve-start
 /// along carve-direction, united and subtracted from @a solid (tools::csgDifferenceCopy), on
 /// the solid's voxels.
-CarveResult runCarve(const FractalRockParams& params, const openvdb::FloatGrid& solid,
-                     const nlohmann::json& inputs, Task& task);
+CarveResult runCarve(const FractalRockParams& params, const openvdb::FloatGrid& solid, Task& task);
 
 /// The three things the stage makes.
 enum class FractalMode

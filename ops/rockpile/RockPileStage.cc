@@ -5,6 +5,7 @@
 #include <rockvdb/core/VdbIO.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 namespace rockvdb {
@@ -150,6 +151,8 @@ double tilesBytes(const RockTileParams& p, bool library)
 TilesResult runTiles(const RockTileParams& params, bool library, Task& task, double maxMemoryBytes)
 {
     params.validate();
+    require(std::isfinite(maxMemoryBytes) && maxMemoryBytes >= 0, "rockpile", "max-memory",
+            ">= 0 GB", maxMemoryBytes / 1e9);
     const double need = tilesBytes(params, library), limit = memoryLimitBytes(maxMemoryBytes);
     if (need > limit) {
         fail<ValueError>("rockpile: a tile set of n = ", params.n, " cells per cube edge at ",
@@ -175,7 +178,7 @@ TilesResult runTiles(const RockTileParams& params, bool library, Task& task, dou
     if (library) {
         task.phase("level sets", 0.5);
         r.library = libraryGrid(r.set, task, 3.0, &r.librarySeconds);
-        stampProvenance(*r.library, kToolName, jsonText(prov));
+        stampExtras(r, kToolName, {r.library});
         std::snprintf(line, sizeof line, "level sets %.3f s", r.librarySeconds);
         r.report.push_back(line);
     }
@@ -184,6 +187,16 @@ TilesResult runTiles(const RockTileParams& params, bool library, Task& task, dou
                {"contacts", st.contacts}, {"seed_seconds", st.seedSeconds},
                {"voronoi_seconds", st.voronoiSeconds}, {"library_seconds", r.librarySeconds},
                {"phases", phasesJson(task)}};
+    return r;
+}
+
+StageResult runLibrary(const TileSet& set, Task& task)
+{
+    StageResult r;
+    task.phase("level sets", 1.0);
+    stampResult(r, kToolName, {libraryGrid(set, task)}, {{"tiles", set.params.toJson()}});
+    task.done();
+    r.stats = {{"phases", phasesJson(task)}};
     return r;
 }
 
@@ -212,19 +225,17 @@ PileResult pileRocks(const TileSet& tiles, const Field& support, const PileParam
     r.pile = buildPile(tiles, std::move(instances), params, task);
     r.counts.levelSetSeconds = r.pile.stats.levelSetSeconds;
     const json prov = {{"pile", stageProvenance(pileSchema().toJson(params), inputs)}};
-    const std::string text = jsonText(prov);
     openvdb::GridPtrVec grids{r.pile.surface, r.pile.rockId};
     if (r.pile.material) grids.push_back(r.pile.material);
     stampResult(r, kToolName, grids, prov);
     if (points) {
         r.points = instancePoints(r.pile.instances, tiles.params.voxelSize());
-        stampProvenance(*r.points, kToolName, text);
     }
     if (library) {
         task.phase("library", 0.2);
         r.library = libraryGrid(tiles, task);
-        stampProvenance(*r.library, kToolName, text);
     }
+    stampExtras(r, kToolName, {r.points, r.library});
     task.done();
     return r;
 }

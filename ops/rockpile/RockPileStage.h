@@ -42,6 +42,10 @@ struct TilesResult : StageResult
 TilesResult runTiles(const RockTileParams& params, bool library, Task& task,
                      double maxMemoryBytes = 0);
 
+/// @brief The library of a tile set made before (rockvdb.rock_library): every rock's level
+/// set, grids = {library}, stamped as runTiles stamps its own library ({"tiles": params}).
+StageResult runLibrary(const TileSet& set, Task& task);
+
 /// @brief Peak memory of runTiles, estimated from the parameters alone: the cells of every
 /// region (aperiodic: 2·8 + 12·4(n−2) + 48·2(n−2)² + 256(n−2)³; periodic: n³) times m³
 /// voxels each, at the bytes per voxel measured for the rocks' boxes, the Voronoi scratch

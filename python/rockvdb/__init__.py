@@ -435,15 +435,7 @@ def read_image(path):
     return _rockvdb.read_image(_path(path, "path", "read_image"), "image")
 
 
-def csg(op, grids, smooth=0.0, ids=None, max_memory=0.0):
-    """Fold 'union', 'intersection' or 'difference' (the first minus the others) over
-    level-set grids, left to right; smooth: blend radius (m, default 0 = hard CSG). Grids on
-    another voxel size are resampled onto the first. Inputs are left untouched; returns a new
-    grid. ids: one list of id grids (block_id, rock_id, material, ...) per input (default
-    None); then returns (surface, [id grids]) with each name carried as vdb_csg carries it: a
-    voxel takes the id of the input whose surface the result follows there (in a difference,
-    the first input's), -1 where that input has no such grid. max_memory (GB, 0 = 75% of RAM):
-    a CSG whose resampled inputs or widened bands are estimated above it is refused first."""
+def _csg(op, grids, ids=None, **params):
     fn = "csg"
     grids = _grids(grids, "grids", fn)
     lists = []
@@ -454,8 +446,20 @@ def csg(op, grids, smooth=0.0, ids=None, max_memory=0.0):
         if len(lists) != len(grids):
             raise ValueError(f"csg: ids needs one list of id grids per input grid (got "
                              f"{len(lists)} for {len(grids)})")
-    return _rockvdb.csg(_str(op, "op", fn), grids, _float(smooth, "smooth", fn), lists,
-                        _float(max_memory, "max_memory", fn))
+    return _rockvdb.csg(_str(op, "op", fn), grids, lists, _stage_params(_CSG, fn, params))
+
+
+_CSG = _table("csg")
+csg = _stage_function(
+    _CSG, _csg, "csg",
+    "Fold 'union', 'intersection' or 'difference' (the first minus the others) over level-set "
+    "grids, left to right (vdb_csg from Python: the same entry point). Grids on another voxel "
+    "size are resampled onto the first. Inputs are left untouched; returns a new grid.",
+    "ids: one list of id grids (block_id, rock_id, material, ...) per input (default None); "
+    "then returns (surface, [id grids]) with each name carried as vdb_csg carries it: a voxel "
+    "takes the id of the input whose surface the result follows there (in a difference, the "
+    "first input's), -1 where that input has no such grid.",
+    before=["op", "grids"], after=[("ids", None)], exclude=["ids"])
 
 
 def read(path, grid=None):

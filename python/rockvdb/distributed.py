@@ -34,7 +34,6 @@ import subprocess
 import sys
 import tempfile
 import time
-import zlib
 
 FORMAT = "rockvdb-chunks"
 VERSION = 1
@@ -66,16 +65,10 @@ def _die_with_parent():
 
 
 def crc32_of(path):
-    """(CRC-32, size) of a file: zlib's CRC, as vdb_merge --manifest checks it."""
-    crc, size = 0, 0
-    with open(path, "rb") as f:
-        while True:
-            b = f.read(1 << 20)
-            if not b:
-                break
-            crc = zlib.crc32(b, crc)
-            size += len(b)
-    return crc & 0xFFFFFFFF, size
+    """(CRC-32, size) of a file: the checksum vdb_merge --manifest checks (one C++ function,
+    core/MergeFiles.h). OSError when unreadable."""
+    from . import _rockvdb
+    return tuple(_rockvdb.file_checksum(path))
 
 
 def _write_json(path, value):

@@ -15,13 +15,13 @@ void bindDetail(py::module_& m)
 {
     m.def("detail", [](Grid grid, const std::string& params, std::optional<Grid> blendMask) {
         if (!grid) throw py::type_error("detail: the input grid is None");
-        const detailing::DetailStageParams p =
-            detailing::detailSchema().fromJson(parseParams(params, "detail"));
-        detailing::DetailInputs in;
+        const detail::DetailStageParams p =
+            detail::detailSchema().fromJson(parseParams(params, "detail"));
+        detail::DetailInputs in;
         in.grid = grid;
         if (blendMask) in.blendMask = *blendMask;
-        const detailing::DetailResult r = withTask([&](Task& task) {
-            return detailing::runDetail(p, in, task);
+        const detail::DetailResult r = withTask([&](Task& task) {
+            return detail::runDetail(p, in, task);
         });
         return py::make_tuple(r.bake.surface, pyJson(r.stats));
     }, py::arg("grid"), py::arg("params"), py::arg("blend_mask") = std::nullopt);

@@ -3,9 +3,10 @@
 #include "GridCaster.h"
 #include "Host.h"
 
-#include <rockvdb/core/GridCsg.h>
+#include <rockvdb/core/CsgStage.h>
 #include <rockvdb/core/Image.h>
 #include <rockvdb/core/Mesh.h>
+#include <rockvdb/core/MergeFiles.h>
 #include <rockvdb/core/Preview.h>
 #include <rockvdb/core/VdbIO.h>
 
@@ -22,6 +23,11 @@ namespace pyhost {
 
 void bindGrids(py::module_& m)
 {
+    // rockvdb.distributed records each chunk with the checksum vdb_merge --manifest checks.
+    m.def("file_checksum", [](const std::string& path) {
+        py::gil_scoped_release release;
+        return fileChecksum(path);
+    }, py::arg("path"));
     m.def("write_heightfield", [](const std::string& path, py::array_t<float, py::array::c_style | py::array::forcecast> a) {
         if (a.ndim() != 2) throw ValueError("write_heightfield: expected a 2D array (rows, columns)");
         GrayImage img;
@@ -88,58 +94,30 @@ void bindGrids(py::module_& m)
     }, py::arg("path"), py::arg("op") = "image",
        "Read a float EXR / 16-bit PNG (0..1) as a 2D array (row 0 first)");
 
-    m.def("csg", [](const std::string& op, const std::vector<Grid>& grids, double smooth,
-                    const std::vector<std::vector<Grid>>& ids, double maxMemoryGB) -> py::object {
-        require(std::isfinite(maxMemoryGB) && maxMemoryGB >= 0, "csg", "max_memory", ">= 0 GB",
-                maxMemoryGB);
-        std::vector<openvdb::FloatGrid::ConstPtr> in(grids.begin(), grids.end());
+    m.def("csg", [](const std::string& op, const std::vector<Grid>& grids,
+                    const std::vector<std::vector<Grid>>& ids, const std::string& params) -> py::object {
         if (!ids.empty() && ids.size() != grids.size()) {
             throw ValueError("csg: ids needs one list of id grids per input grid");
         }
-        // Id grids by name, in order of first appearance (as vdb_csg carries them).
-        std::vector<std::string> names;
-        for (const auto& list : ids) {
-            for (const auto& g : list) {
-                if (std::find(names.begin(), names.end(), g->getName()) == names.end()) {
-                    names.push_back(g->getName());
-                }
-            }
+        json rows = parseParams(params, "csg");
+        rows["ids"] = !ids.empty();
+        const CsgParams p = csgSchema().fromJson(rows);
+        std::vector<CsgInput> in;
+        json names = {{"sources", json::array()}};
+        for (size_t i = 0; i < grids.size(); ++i) {
+            in.push_back({grids[i], {}});
+            if (!ids.empty()) in.back().ids.assign(ids[i].begin(), ids[i].end());
+            names["sources"].push_back(gridSource(*grids[i]));
         }
-        Grid g;
-        std::vector<Grid> carried;
-        {
-            py::gil_scoped_release release;
-            g = csgGrids(csgOpFromString(op), in, smooth, maxMemoryGB * 1e9);
-            for (const auto& name : names) {
-                std::vector<openvdb::FloatGrid::ConstPtr> per;
-                for (const auto& list : ids) {
-                    openvdb::FloatGrid::ConstPtr found;
-                    for (const auto& x : list) {
-                        if (x->getName() == name && !found) found = x;
-                    }
-                    per.push_back(found);
-                }
-                carried.push_back(csgAttribute(csgOpFromString(op), in, per, *g, name));
-            }
-        }
-        json sources = json::array();
-        for (const auto& in : grids) {
-            auto p = provenance(*in);
-            sources.push_back(p ? json{{"generator", p->generator},
-                                       {"params", jsonOrText(p->params)}}
-                                : json(nullptr));
-        }
-        const std::string prov = jsonText(json({{"op", op}, {"smooth", smooth}, {"sources", sources}}));
-        stampProvenance(*g, "rockvdb.csg", prov);
+        const StageResult r = withTask([&](Task& task) {
+            return runCsg(csgOpFromString(op), p, in, names, task);
+        });
+        Grid g = openvdb::gridPtrCast<openvdb::FloatGrid>(r.grids[0]);
         if (ids.empty()) return py::cast(g);
         py::list out;
-        for (const auto& c : carried) {
-            stampProvenance(*c, "rockvdb.csg", prov);
-            out.append(py::cast(c));
-        }
+        for (size_t k = 1; k < r.grids.size(); ++k) out.append(py::cast(openvdb::gridPtrCast<openvdb::FloatGrid>(r.grids[k])));
         return py::make_tuple(py::cast(g), out);
-    }, py::arg("op"), py::arg("grids"), py::arg("smooth") = 0.0,
-       py::arg("ids") = std::vector<std::vector<Grid>>{}, py::arg("max_memory") = 0.0,
+    }, py::arg("op"), py::arg("grids"), py::arg("ids"), py::arg("params"),
        "union / intersection / difference of level-set grids (inputs untouched)");
 
     m.def("read", [](const std::string& path, const std::string& name) { return readLevelSet(path, name); },

@@ -7,6 +7,7 @@
 #include <rockvdb/amplify/AmplifyStage.h>
 #include <rockvdb/blocks/BlocksStage.h>
 #include <rockvdb/core/BakeParams.h>
+#include <rockvdb/core/CsgStage.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/HeightfieldStage.h>
 #include <rockvdb/core/Json.h>
@@ -71,9 +72,10 @@ PYBIND11_MODULE(_rockvdb, m)
     // Stage tables: the Python wrappers build their signatures, defaults and docstrings
     // from these (python/rockvdb/__init__.py).
     m.def("schema", [](const std::string& stage) {
+        if (stage == "csg") return jsonText(csgSchema().describe());
         if (stage == "rock_tiles") return jsonText(rockpile::tilesSchema().describe());
         if (stage == "rock_pile") return jsonText(rockpile::pileSchema().describe());
-        if (stage == "detail") return jsonText(detailing::detailSchema().describe());
+        if (stage == "detail") return jsonText(detail::detailSchema().describe());
         if (stage == "block_tile") return jsonText(blocks::blocksSchema().describe());
         if (stage == "bake") return jsonText(fieldBakeSchema().describe());
         if (stage == "heightfield") return jsonText(heightfieldSchema().describe());

@@ -7,7 +7,6 @@
 
 #include <pybind11/stl.h>
 
-#include <cmath>
 
 using nlohmann::json;
 
@@ -18,21 +17,14 @@ void bindRockpile(py::module_& m)
 {
     m.def("rock_tiles", [](const std::string& params, double maxMemoryGB) {
         const rockpile::RockTileParams p = rockpile::tilesSchema().fromJson(parseParams(params, "rockpile"));
-        require(std::isfinite(maxMemoryGB) && maxMemoryGB >= 0, "rockpile", "max_memory", ">= 0 GB",
-                maxMemoryGB);
-        py::gil_scoped_release release;
-        PyTaskHost host;
-        Task task(&host);
-        return rockpile::runTiles(p, false, task, maxMemoryGB * 1e9).rho;
+        return withTask([&](Task& task) { return rockpile::runTiles(p, false, task, maxMemoryGB * 1e9).rho; });
     }, py::arg("params"), py::arg("max_memory") = 0.0);
 
     m.def("rock_library", [](Grid tiles) {
         if (!tiles) throw py::type_error("rockpile: the tile set grid is None");
         const rockpile::TileSet set = rockpile::tilesFromGrid(*tiles);
-        const Grid lib = withTask([&](Task& task) { return rockpile::libraryGrid(set, task); });
-        stampProvenance(*lib, rockpile::kToolName,
-                        jsonText(json{{"tiles", rockpile::tilesSchema().toJson(set.params)}}));
-        return lib;
+        const StageResult r = withTask([&](Task& task) { return rockpile::runLibrary(set, task); });
+        return openvdb::gridPtrCast<openvdb::FloatGrid>(r.grids.at(0));
     }, py::arg("tiles"));
 
     m.def("rock_pile", [](py::object tiles, py::object support, const std::string& params) {

@@ -54,7 +54,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
         case 0: (void)blocks::tileSchema().fromJson(j); break;
         case 1: (void)blocks::blocksSchema().fromJson(j); break;
         case 2: (void)amplify::amplifySchema().fromJson(j); break;
-        case 3: (void)detailing::DetailParams::fromJson(j); break;
+        case 3: (void)detail::DetailParams::fromJson(j); break;
         case 4: (void)rockpile::tilesSchema().fromJson(j); break;
         case 5: (void)rockpile::pileSchema().fromJson(j); break;
         case 6: (void)fractal::rockSchema().fromJson(j); break;
@@ -64,7 +64,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
         case 10: (void)blocks::fracturesFromJson(j); break;
         case 11: (void)blocks::authoredListFromJson(j); break;
         case 12: (void)blocks::tileFromJson(j); break;
-        case 13: (void)detailing::DirectionField::fromSkeletonJson(j); break;
+        case 13: (void)detail::DirectionField::fromSkeletonJson(j); break;
         case 14:
             if (!j.is_array()) break;
             for (size_t i = 0; i < j.size(); ++i) arches::validateEdit(j[i], i);

@@ -43,6 +43,7 @@ TABLE_FUNCTIONS = [
     (rockvdb.heightfield, "heightfield", [], {"path", "stats"}),
     (rockvdb.mesh, "mesh", [], {"grid", "path"}),
     (rockvdb.preview, "preview", [], {"grid", "path", "ids", "palette"}),
+    (rockvdb.csg, "csg", ["ids"], {"op", "grids", "ids"}),
 ]
 
 

@@ -59,8 +59,8 @@ TEST(Detail, ResultsAreValidNarrowBandLevelSets)
     for (const char* opts : {R"({"warp-amplitude": 0.05, "warp-scale": 0.8})",
                              R"({"gabor-amplitude": 0.04, "gabor-frequency": 5, "direction-axis": [0, 0, 1]})",
                              R"({"gabor-amplitude": 0.04, "gabor-frequency": 5, "direction-curvature": true, "tilt": [30, 0]})"}) {
-        const auto p = detailing::DetailParams::fromJson(nlohmann::json::parse(opts));
-        auto out = detailing::detailLevelSet(in, p, s).surface;
+        const auto p = detail::DetailParams::fromJson(nlohmann::json::parse(opts));
+        auto out = detail::detailLevelSet(in, p, s).surface;
         EXPECT_EQ(openvdb::tools::checkLevelSet(*out, 8), "") << opts;
         // Fine ridges have true kinks of the distance in their grooves: most of the band, not
         // all, is Eikonal (an untracked Gabor bake scores ~0.55 here).
@@ -78,14 +78,14 @@ TEST(Detail, CandidateMaskChangesNothing)
     auto in = sphere(dx);
     for (const char* opts : {R"({"warp-amplitude": 0.04})",
                              R"({"warp-amplitude": 0.04, "gabor-amplitude": 0.03, "gabor-frequency": 6, "direction-axis": [1, 0, 0]})"}) {
-        const auto p = detailing::DetailParams::fromJson(nlohmann::json::parse(opts));
+        const auto p = detail::DetailParams::fromJson(nlohmann::json::parse(opts));
         BakeSettings s;
         s.voxelSize = dx;
-        const BakeResult masked = detailing::detailLevelSet(in, p, s);
+        const BakeResult masked = detail::detailLevelSet(in, p, s);
         BakeSettings all = s;
         all.trackerSteps = p.maxGabor() > 0 ? 3 : 0; // what detailLevelSet adds for Gabor
         const FieldPtr f =
-            detailing::detailField(levelSetField(in, p.reach(s.halfWidth * dx)), p, dx);
+            detail::detailField(levelSetField(in, p.reach(s.halfWidth * dx)), p, dx);
         const BakeResult full = bake(*f, all);
         EXPECT_LT(masked.stats.candidateLeaves, full.stats.candidateLeaves / 2) << opts;
         EXPECT_TRUE(rockvdb::test::bitwiseEqual(*masked.surface, *full.surface)) << opts;
@@ -96,7 +96,7 @@ TEST(Detail, GaborNoiseHasItsAnalyticVariance)
 {
     // Sample n over a plane with fixed frequency direction: its standard deviation matches
     // sigma() within 15% (finite sample), and its mean is near zero.
-    detailing::GaborNoise g(4.0, 2.0, 16.0, 7);
+    detail::GaborNoise g(4.0, 2.0, 16.0, 7);
     const int n = 1000;
     std::vector<float> x(n), y(n), z(n, 0.0f), ox(n, 1.0f), oy(n, 0.0f), oz(n, 0.0f),
         nx(n, 0.0f), ny(n, 0.0f), nz(n, 1.0f), iso(n, 0.0f), out(n);
@@ -107,7 +107,7 @@ TEST(Detail, GaborNoiseHasItsAnalyticVariance)
             x[size_t(i)] = float(i) * 0.037f;
             y[size_t(i)] = float(row) * 1.13f;
         }
-        std::vector<detailing::GaborImpulse> imp;
+        std::vector<detail::GaborImpulse> imp;
         g.impulses(Vec3f(0, float(row) * 1.13f, 0), Vec3f(37, float(row) * 1.13f, 0), imp);
         g.eval(imp, n, x.data(), y.data(), z.data(), ox.data(), oy.data(), oz.data(), nx.data(),
                ny.data(), nz.data(), iso.data(), out.data());

@@ -171,9 +171,16 @@ TEST(FractalRock, LevelSetEnclosesTheMeshVolume)
     const openvdb::Vec3d ext = box.extents();
     EXPECT_GT(ext[0] * ext[1] * ext[2], 0.5 * 0.4);
     EXPECT_LT(ext[0] * ext[1] * ext[2], 2.5 * 0.4);
-    // The provenance replays: the table reads back the same parameters.
-    const auto prov = provenance(*r.surface);
+    // The entry (runFractal) makes the same grid and stamps the one provenance, which the
+    // table reads back as the same parameters; the step leaves stamping to it.
+    EXPECT_FALSE(provenance(*r.surface).has_value());
+    const FractalResult entry = runFractal(p, FractalInputs{}, task);
+    ASSERT_EQ(entry.grids.size(), 1u);
+    EXPECT_TRUE(test::bitwiseEqual(*r.surface, *openvdb::gridPtrCast<openvdb::FloatGrid>(entry.grids[0])));
+    const auto prov = provenance(*entry.grids[0]);
     ASSERT_TRUE(prov.has_value());
+    EXPECT_EQ(rockSchema().toJson(rockSchema().fromJson(nlohmann::json::parse(prov->params))),
+              rockSchema().toJson(p));
 }
 
 TEST(FractalRock, NormalMapReproducesTheFinerModel)
