@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <sstream>
 
 namespace rockvdb {
 namespace blocks {
@@ -128,10 +129,16 @@ void addTileRows(Schema<P>& s, Access at)
     // Derived defaults (numbers and reasons: BlockTileParams.cc), in the order they read each
     // other, and the rules between rows.
     using namespace tilegen;
-    auto derived = [&](const char* name, const char* text, auto fill) {
+    auto derived = [&](const char* name, const std::string& text, auto fill) {
         s.derived(name, text, [at, fill](P& p) { fill(at(p)); });
     };
-    derived("point-radius", "0.034 x tile-size",
+    // The texts are made from the factors, so help and rule cannot disagree.
+    auto perSize = [](double factor) {
+        std::ostringstream os;
+        os << factor << " x tile-size";
+        return os.str();
+    };
+    derived("point-radius", perSize(kPointRadiusPerSize),
             [](T& t) { t.pointRadius = kPointRadiusPerSize * t.tileSize; });
     derived("neighbour-radius", "2 x point-radius",
             [](T& t) { t.neighbourRadius = 2.0 * t.pointRadius; });
@@ -147,7 +154,7 @@ void addTileRows(Schema<P>& s, Access at)
     derived("jitter", "the type's", [](T& t) { t.jitterDeg = typeDefaults(t.type).jitter; });
     derived("irregular-fraction", "the type's",
             [](T& t) { t.irregularFraction = typeDefaults(t.type).irregular; });
-    derived("fracture-width", "0.002 x tile-size",
+    derived("fracture-width", perSize(kFractureWidthPerSize),
             [](T& t) { t.fractureWidth = kFractureWidthPerSize * t.tileSize; });
     s.rule([at](const P& p) { checkTileRules(at(p)); });
 }

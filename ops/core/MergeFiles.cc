@@ -22,7 +22,7 @@ using nlohmann::json;
 std::pair<uint32_t, uint64_t> fileChecksum(const std::string& path)
 {
     std::ifstream in(path, std::ios::binary);
-    if (!in) fail<IoError>("merge: cannot open chunk ", path);
+    if (!in) fail<IoError>("checksum: cannot open ", path);
     uLong crc = crc32(0L, Z_NULL, 0);
     uint64_t size = 0;
     std::vector<char> buf(1 << 20);

@@ -249,3 +249,21 @@ def test_stacks_open_and_bake_the_arches_scene_from_both_sides(tmp_path):
     with pytest.raises(ValueError) as e:
         rockvdb.Stacks.load(str(stacks)).bake("surface", repose_sand=30)
     assert str(e.value) == message and "repose-sand made the stacks" in message
+
+
+def test_derived_defaults_are_shown_and_the_docs_quote_their_numbers():
+    """A default that follows other rows is a rule of the table: its help says so, and the
+    numbers docs/blocks.md quotes for them are the rule's (a changed factor fails here)."""
+    import os
+    import re
+    rows = {r["name"]: r for r in table("block_tile")}
+    assert rows["point-radius"]["derived"] == "0.034 x tile-size"
+    assert rows["fracture-width"]["derived"] == "0.002 x tile-size"
+    assert rows["neighbour-radius"]["derived"] == "2 x point-radius"
+    assert "(0 = 0.034 x tile-size)" in rows["point-radius"]["help"]
+    assert "0.034 x tile-size" in rockvdb.block_tile.__doc__
+    assert rows["tile-size"]["derived"] is None
+    page = open(os.path.join(os.path.dirname(__file__), "..", "..", "docs", "blocks.md")).read()
+    for name in ("point-radius", "fracture-width"):
+        factor = re.match(r"([0-9.]+) x tile-size", rows[name]["derived"]).group(1)
+        assert f"{factor}·s" in page, name
