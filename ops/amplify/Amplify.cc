@@ -3,9 +3,14 @@
 #include <rockvdb/core/Combinators.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/GridField.h>
+#include <rockvdb/core/GridUtil.h>
 #include <rockvdb/core/Noise.h>
 
 #include <nlohmann/json.hpp>
+
+#include <openvdb/tools/Prune.h>
+#include <openvdb/tools/SignedFloodFill.h>
+#include <openvdb/tree/LeafManager.h>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -14,7 +19,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <map>
+#include <limits>
 #include <tuple>
 #include <vector>
 
@@ -28,20 +33,33 @@ namespace {
 struct Cell
 {
     int ix, iy, iz;
-    bool operator<(const Cell& o) const { return std::tie(ix, iy, iz) < std::tie(o.ix, o.iy, o.iz); }
 };
 
+// The present flags of every examined (cell, block), in one dense table over the examined
+// cells' box (its size is bounded before it is made): a lookup per candidate block and batch
+// of the bake, so O(1).
 class PresenceGrid final : public blocks::Presence
 {
 public:
-    std::map<Cell, std::vector<uint8_t>> cells; // present flag per block, per examined cell
+    int lo[3] = {0, 0, 0}, dim[3] = {0, 0, 0};
+    size_t blocks = 0;
+    std::vector<uint8_t> flags; // [((ix - lo) · dim[1] + (iy - lo)) · dim[2] + (iz - lo)] · blocks + b
     BBoxd box;
     bool any = false;
 
+    size_t slot(int ix, int iy, int iz) const
+    {
+        return (size_t(ix - lo[0]) * size_t(dim[1]) + size_t(iy - lo[1])) * size_t(dim[2]) +
+               size_t(iz - lo[2]);
+    }
     bool present(int block, int ix, int iy, int iz) const override
     {
-        auto it = cells.find(Cell{ix, iy, iz});
-        return it != cells.end() && it->second[size_t(block)] != 0;
+        // Unsigned comparisons: below lo wraps around to a large value.
+        if (unsigned(ix - lo[0]) >= unsigned(dim[0]) || unsigned(iy - lo[1]) >= unsigned(dim[1]) ||
+            unsigned(iz - lo[2]) >= unsigned(dim[2])) {
+            return false;
+        }
+        return flags[slot(ix, iy, iz) * blocks + size_t(block)] != 0;
     }
     BBoxd bounds() const override { return any ? box : BBoxd(Vec3d(0), Vec3d(-1)); }
 };
@@ -286,7 +304,14 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
             for (int k = lo[2]; k <= hi[2]; ++k) cells.push_back({i, j, k});
 
     const size_t nb = tile.blocks.size();
-    std::vector<std::vector<uint8_t>> flags(cells.size(), std::vector<uint8_t>(nb, 0));
+    auto grid = std::make_shared<PresenceGrid>();
+    for (int a = 0; a < 3; ++a) {
+        grid->lo[a] = lo[a];
+        grid->dim[a] = std::max(0, hi[a] - lo[a] + 1);
+    }
+    grid->blocks = nb;
+    grid->flags.assign(cells.size() * nb, 0); // cells run x, y, z like slot()
+    uint8_t* flags = grid->flags.data();
     const double h = 0.05; // central-difference step for the terrain gradient (m)
     Task quiet;
     parallelFor(task ? *task : quiet, cells.size(), 1, [&](size_t c) {
@@ -315,24 +340,20 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
                 if (len <= 0) continue;
                 if (std::abs(g[2] / len) < rules.maxSlope) ++pass;
             }
-            flags[c][b] = double(pass) > rules.fraction * double(n) ? 1 : 0;
+            flags[c * nb + b] = double(pass) > rules.fraction * double(n) ? 1 : 0;
         }
     });
-    auto grid = std::make_shared<PresenceGrid>();
     const double amp = tile.params.relief.amplitude;
     for (size_t c = 0; c < cells.size(); ++c) {
-        bool any = false;
         const Vec3d shift = Vec3d(cells[c].ix, cells[c].iy, cells[c].iz) * s;
         for (size_t b = 0; b < nb; ++b) {
-            if (!flags[c][b]) continue;
-            any = true;
+            if (!flags[c * nb + b]) continue;
             ++stats.replicated;
             const auto& B = tile.blocks[b];
             const BBoxd bb(Vec3d(B.boundsMin[0], B.boundsMin[1], B.boundsMin[2]) + shift - Vec3d(amp),
                            Vec3d(B.boundsMax[0], B.boundsMax[1], B.boundsMax[2]) + shift + Vec3d(amp));
             if (!grid->any) { grid->box = bb; grid->any = true; } else grid->box.expand(bb);
         }
-        if (any) grid->cells.emplace(cells[c], std::move(flags[c]));
     }
     stats.cells += cells.size();
     for (const auto& b : tile.blocks) {
@@ -360,10 +381,25 @@ openvdb::FloatGrid::Ptr splitMaterial(openvdb::FloatGrid& ids)
     return material;
 }
 
+FieldPtr AmplifiedParts::united() const
+{
+    if (!blocks) return terrain;
+    if (carveGap > 0) return std::make_shared<Carved>(terrain, blocks, float(carveGap));
+    return csg(CsgOp::Union, {terrain, blocks});
+}
+
 FieldPtr amplifiedTerrain(FieldPtr terrain,
                           const std::vector<std::shared_ptr<const BlockTile>>& tiles,
                           const PlacementRules& rules, AmplifyStats& stats,
                           const Strata* strata, double carveGap, Task* task)
+{
+    return amplifiedParts(std::move(terrain), tiles, rules, stats, strata, carveGap, task).united();
+}
+
+AmplifiedParts amplifiedParts(FieldPtr terrain,
+                              const std::vector<std::shared_ptr<const BlockTile>>& tiles,
+                              const PlacementRules& rules, AmplifyStats& stats,
+                              const Strata* strata, double carveGap, Task* task)
 {
     if (!terrain) fail<ValueError>("amplify: the terrain is required");
     if (tiles.empty()) fail<ValueError>("amplify: at least one tile is required");
@@ -376,26 +412,196 @@ FieldPtr amplifiedTerrain(FieldPtr terrain,
         blocks::TileFieldOptions o;
         o.presence = computePresence(*terrain, *tiles[i], rules, stats, strata, int(i), task);
         o.idOffset = float(i) * kMaterialStride;
+        o.cullPerOctant = true;
         if (stats.replicated > before) parts.push_back(blocks::tileField(tiles[i], o));
     }
-    if (parts.size() == 1) return terrain;
     if (carveGap > 0) {
         require(std::isfinite(carveGap) && carveGap < 10, "amplify", "carve gap", "in (0, 10) m",
                 carveGap);
-        FieldPtr t = parts.size() == 2 ? parts[1]
-                                       : csg(CsgOp::Union, std::vector<FieldPtr>(parts.begin() + 1, parts.end()));
-        return std::make_shared<Carved>(terrain, t, float(carveGap));
     }
-    return csg(CsgOp::Union, parts);
+    AmplifiedParts out;
+    out.terrain = terrain;
+    out.carveGap = carveGap;
+    if (parts.size() == 2) out.blocks = parts[1];
+    if (parts.size() > 2) out.blocks = csg(CsgOp::Union, std::vector<FieldPtr>(parts.begin() + 1, parts.end()));
+    return out;
 }
 
-AmplifyResult bakeAmplified(const Field& amplified, BakeSettings settings, AmplifyStats& stats,
-                            openvdb::util::NullInterrupter* interrupt)
+namespace {
+
+using LeafOrigins = std::vector<openvdb::Coord>;
+
+// Leaves of @a a that @a b has not (sorted, as the tree visits them).
+LeafOrigins leavesMissingIn(const openvdb::FloatTree& a, const openvdb::FloatTree& b)
+{
+    LeafOrigins out;
+    openvdb::tree::ValueAccessor<const openvdb::FloatTree> acc(b);
+    for (auto leaf = a.cbeginLeaf(); leaf; ++leaf) {
+        if (!acc.probeConstLeaf(leaf->origin())) out.push_back(leaf->origin());
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+// Sign (±1) of @a field over each leaf of @a origins, read at the leaf's centre: where a
+// part has no leaf its values are beyond the band, one sign over the leaf (a distance
+// cannot change sign between two voxels without a value within a voxel of zero). The
+// grid's own tiles cannot be asked: their signs come from a flood fill, which a chunk's
+// clip leaves open at the chunk's faces. Leaves are evaluated in runs of neighbours, the
+// batch hints bounding them, so each costs a fraction of a voxel's evaluation.
+std::vector<float> signsAt(const Field& field, const LeafOrigins& origins, double dx, float band)
+{
+    std::vector<float> sign(origins.size(), 1.0f);
+    constexpr size_t kRun = 64;
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, (origins.size() + kRun - 1) / kRun),
+                      [&](const tbb::blocked_range<size_t>& r) {
+        BatchBuffer b;
+        alignas(64) float v[kMaxBatch];
+        for (size_t run = r.begin(); run != r.end(); ++run) {
+            const size_t first = run * kRun, last = std::min(origins.size(), first + kRun);
+            Vec3f lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+            b.n = 0;
+            for (size_t k = first; k < last; ++k) {
+                const Vec3f p(float((origins[k].x() + 3.5) * dx), float((origins[k].y() + 3.5) * dx),
+                              float((origins[k].z() + 3.5) * dx));
+                b.x[b.n] = p[0];
+                b.y[b.n] = p[1];
+                b.z[b.n] = p[2];
+                ++b.n;
+                lo = minComponent(lo, p);
+                hi = maxComponent(hi, p);
+            }
+            b.center = (lo + hi) * 0.5f;
+            b.radius = (hi - lo).length() * 0.5f * (1.0f + 1e-5f) + 1e-6f;
+            b.band = band; // only the sign is read: operands beyond the band may be skipped
+            b.reach = band;
+            field.evalBatch(b.view(), v);
+            for (size_t k = first; k < last; ++k) sign[k] = v[k - first] < 0 ? -1.0f : 1.0f;
+        }
+    });
+    return sign;
+}
+
+// The sign found for leaf @a origin, or 0 when the leaf is not in @a origins.
+float signOf(const LeafOrigins& origins, const std::vector<float>& signs, const openvdb::Coord& origin)
+{
+    const auto it = std::lower_bound(origins.begin(), origins.end(), origin);
+    return it != origins.end() && *it == origin ? signs[size_t(it - origins.begin())] : 0.0f;
+}
+
+} // namespace
+
+AmplifyResult uniteWithBlocks(openvdb::FloatGrid::Ptr terrain, const openvdb::FloatGrid& blocks,
+                              const openvdb::FloatGrid& blockIds, const Field& terrainField,
+                              const Field& blocksField)
+{
+    using openvdb::FloatGrid;
+    using LeafT = openvdb::FloatTree::LeafNodeType;
+    const float bg = terrain->background();
+    const double dx = terrain->voxelSize()[0];
+    // Where one part has no leaf, its sign over the other's leaf, from its field.
+    const LeafOrigins terrainOnly = leavesMissingIn(terrain->tree(), blocks.tree());
+    const LeafOrigins blocksOnly = leavesMissingIn(blocks.tree(), terrain->tree());
+    const std::vector<float> blockSign = signsAt(blocksField, terrainOnly, dx, bg);
+    const std::vector<float> terrainSign = signsAt(terrainField, blocksOnly, dx, bg);
+    FloatGrid::Ptr surface = terrain;
+    // Leaves where either has band voxels; new ones take the terrain's (sign-carrying) tiles.
+    surface->tree().topologyUnion(blocks.tree());
+    // The id grids: the surface's topology (OpenVDB's parallel topology copy).
+    auto ids = emptyAttribute(blockIds.getName(), surface->transform().copy(), kNoId);
+    ids->setTree(std::make_shared<openvdb::FloatTree>(surface->tree(), kNoId, kNoId,
+                                                      openvdb::TopologyCopy()));
+    auto material = emptyAttribute("material", surface->transform().copy(), kNoId);
+    material->setTree(std::make_shared<openvdb::FloatTree>(surface->tree(), kNoId, kNoId,
+                                                           openvdb::TopologyCopy()));
+    openvdb::tree::LeafManager<openvdb::FloatTree> leaves(surface->tree());
+    openvdb::tree::LeafManager<openvdb::FloatTree> idLeaves(ids->tree());
+    openvdb::tree::LeafManager<openvdb::FloatTree> materialLeaves(material->tree());
+    // The three trees have one topology: their leaves come in the same order.
+    if (idLeaves.leafCount() != leaves.leafCount() || materialLeaves.leafCount() != leaves.leafCount()) {
+        fail<ValueError>("amplify: internal error: united topologies differ");
+    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.leafCount(), 64),
+                      [&](const tbb::blocked_range<size_t>& range) {
+        auto bacc = blocks.getConstAccessor();
+        auto iacc = blockIds.getConstAccessor();
+        for (size_t k = range.begin(); k != range.end(); ++k) {
+            LeafT& leaf = leaves.leaf(k);
+            LeafT& idLeaf = idLeaves.leaf(k);
+            LeafT& matLeaf = materialLeaves.leaf(k);
+            const openvdb::Coord origin = leaf.origin();
+            const LeafT* bl = bacc.probeConstLeaf(origin);
+            const LeafT* il = iacc.probeConstLeaf(origin);
+            const float btile = bl ? 0.0f : bg * signOf(terrainOnly, blockSign, origin);
+            float* f = leaf.buffer().data();
+            if (const float ts = signOf(blocksOnly, terrainSign, origin)) {
+                std::fill(f, f + LeafT::SIZE, ts * bg);
+            }
+            float* id = idLeaf.buffer().data();
+            float* mat = matLeaf.buffer().data();
+            const float* t = bl ? bl->buffer().data() : nullptr;
+            const float* ti = il ? il->buffer().data() : nullptr;
+            for (openvdb::Index n = 0; n < LeafT::SIZE; ++n) {
+                const float tv = t ? t[n] : btile;
+                const float u = std::min(f[n], tv);
+                const bool on = std::abs(u) < bg;
+                // The block's id where the block is closer: tile·kMaterialStride + block.
+                const float raw = on && tv < f[n] && ti ? ti[n] : kNoId;
+                const float tile = raw < 0 ? -1.0f : std::floor(raw / kMaterialStride);
+                f[n] = on ? u : (u < 0 ? -bg : bg);
+                id[n] = raw < 0 ? kNoId : raw - tile * kMaterialStride;
+                mat[n] = !on ? kNoId : raw < 0 ? kTerrainMaterial : tile + 1.0f;
+                leaf.setActiveState(n, on);
+            }
+            idLeaf.setValueMask(leaf.getValueMask());
+            matLeaf.setValueMask(leaf.getValueMask());
+        }
+    });
+    // Leaves left without band voxels become tiles of their sign; the leaves' own inactive
+    // values already carry it, so the fill only classifies the tiles above them.
+    openvdb::tools::pruneLevelSet(surface->tree());
+    openvdb::tools::signedFloodFill(surface->tree(), true, 1, /*minLevel=*/1);
+    openvdb::tools::pruneInactiveWithValue(ids->tree(), kNoId);
+    openvdb::tools::pruneInactiveWithValue(material->tree(), kNoId);
+    return {surface, ids, material};
+}
+
+AmplifyResult bakeAmplified(const AmplifiedParts& parts, BakeSettings settings,
+                            AmplifyStats& stats, openvdb::util::NullInterrupter* interrupt)
 {
     settings.withAttribute = true;
     settings.attributeName = "block_id";
     const auto t0 = std::chrono::steady_clock::now();
-    BakeResult r = bake(amplified, settings, interrupt);
+    const FieldPtr united = parts.united();
+    BakeResult r;
+    if (!parts.blocks || parts.carveGap > 0 || planRequested()) {
+        r = bake(*united, settings, interrupt);
+    } else {
+        // The box (or chunk) and memory check of the single bake of f̃; both parts fill it.
+        const BakeEstimate e = checkedEstimate(*united, settings);
+        BakeSettings part = settings;
+        part.chunk = ChunkSpec();
+        if (!e.empty) part.region = regionOfBox(e.indexBox, settings.voxelSize);
+        part.withAttribute = false;
+        BakeResult f = bake(*parts.terrain, part, interrupt);
+        part.withAttribute = true;
+        const BakeResult t = bake(*parts.blocks, part, interrupt);
+        const auto t1 = std::chrono::steady_clock::now();
+        AmplifyResult out = uniteWithBlocks(f.surface, *t.surface, *t.attribute, *parts.terrain,
+                                            *parts.blocks);
+        out.surface->setName(settings.gridName);
+        stats.bake = t.stats;
+        stats.bake.candidateLeaves += f.stats.candidateLeaves;
+        stats.bake.fieldEvaluations += f.stats.fieldEvaluations;
+        stats.bake.cullSeconds += f.stats.cullSeconds;
+        stats.bake.fillSeconds += f.stats.fillSeconds;
+        stats.bake.finishSeconds += f.stats.finishSeconds;
+        stats.bake.leaves = out.surface->tree().leafCount();
+        stats.bake.activeVoxels = size_t(out.surface->activeVoxelCount());
+        stats.bakeSeconds += std::chrono::duration<double>(t1 - t0).count();
+        stats.splitSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+        return out;
+    }
     const auto t1 = std::chrono::steady_clock::now();
     AmplifyResult out{r.surface, r.attribute, splitMaterial(*r.attribute)};
     const auto t2 = std::chrono::steady_clock::now();

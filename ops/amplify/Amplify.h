@@ -85,7 +85,7 @@ struct AmplifyStats
     double blockBytes = 0;     ///< memory of the block fields (planes, anchors, bounds)
     double presenceSeconds = 0;
     double bakeSeconds = 0;    ///< band bake of f̃ (cull + fill + finish)
-    double splitSeconds = 0;   ///< block_id / material split
+    double splitSeconds = 0;   ///< union of the parts' grids and block_id / material split
     BakeStats bake;
 };
 
@@ -110,10 +110,38 @@ struct AmplifyResult
     openvdb::FloatGrid::Ptr surface, blockId, material;
 };
 
-/// @brief Bake f̃ (from amplifiedTerrain) over @a settings' region with block ids, and split
-/// them into block_id and material; bake and split times go to @a stats.
-AmplifyResult bakeAmplified(const Field& amplified, BakeSettings settings, AmplifyStats& stats,
+/// f̃'s two parts, kept apart so that each is baked the cheapest way and the grids united.
+struct AmplifiedParts
+{
+    FieldPtr terrain;     ///< f
+    FieldPtr blocks;      ///< t, the present copies of every tile with their ids (null: none)
+    double carveGap = 0;  ///< > 0: the carving variant (see amplifiedTerrain)
+    /// @brief f̃ as one field: f ∪ t, the carved min(t, max(f, gap - t)), or f alone.
+    FieldPtr united() const;
+};
+
+/// @brief Bake f̃ over @a settings' region with block ids, and split them into block_id and
+/// material; bake and split times go to @a stats.
+///
+/// The union f ∪ t is baked as two level sets on the same voxels and united voxel by voxel
+/// (min, the block's id where the block is closer): the terrain is an exact distance and
+/// needs no renormalisation, its exact search runs only over the terrain's own band, and the
+/// blocks are evaluated only over theirs. Both bakes cover the box (or chunk) the single
+/// bake of f̃ would fill, so chunks still merge bit for bit. The carving variant reads the
+/// blocks' field far beyond their band (gap - t) and is baked as one field.
+AmplifyResult bakeAmplified(const AmplifiedParts& parts, BakeSettings settings,
+                            AmplifyStats& stats,
                             openvdb::util::NullInterrupter* interrupt = nullptr);
+
+/// @brief Unite a terrain level set (taken over and modified) and a blocks level set on the
+/// same transform and background, voxel by voxel: value min(f, t), active where |min| <
+/// background; block_id and material as splitMaterial makes them, from the blocks' ids
+/// (tile·kMaterialStride + block) where t < f, terrain (−1, kTerrainMaterial) elsewhere.
+/// Over a leaf that only one grid has, the other's sign is read from its field (once per
+/// leaf), not from its tiles: a chunk's tiles are not signed reliably near its faces.
+AmplifyResult uniteWithBlocks(openvdb::FloatGrid::Ptr terrain, const openvdb::FloatGrid& blocks,
+                              const openvdb::FloatGrid& blockIds, const Field& terrainField,
+                              const Field& blocksField);
 
 /// @brief One line per phase for logs: "#R ...", "bake: ...", "phases: ...".
 std::vector<std::string> describe(const AmplifyStats& stats);
@@ -150,6 +178,13 @@ FieldPtr amplifiedTerrain(FieldPtr terrain,
                           const PlacementRules& rules, AmplifyStats& stats,
                           const Strata* strata = nullptr, double carveGap = 0.0,
                           Task* task = nullptr);
+
+/// @brief As amplifiedTerrain, its parts apart (what bakeAmplified bakes).
+AmplifiedParts amplifiedParts(FieldPtr terrain,
+                              const std::vector<std::shared_ptr<const blocks::BlockTile>>& tiles,
+                              const PlacementRules& rules, AmplifyStats& stats,
+                              const Strata* strata = nullptr, double carveGap = 0.0,
+                              Task* task = nullptr);
 
 } // namespace amplify
 } // namespace rockvdb

@@ -151,10 +151,10 @@ AmplifyRun runAmplify(const AmplifyParams& params, const AmplifyInputs& in, Task
 
     AmplifyRun r;
     task.phase("presence", 0.3);
-    auto field = amplifiedTerrain(ground, in.tiles, rules, r.counts, strata.get(), params.carve,
-                                  &task);
+    const AmplifiedParts parts = amplifiedParts(ground, in.tiles, rules, r.counts, strata.get(),
+                                                params.carve, &task);
     task.phase("bake", 0.7);
-    r.amplified = bakeAmplified(*field, settings, r.counts, task.interrupter());
+    r.amplified = bakeAmplified(parts, settings, r.counts, task.interrupter());
     task.check();
     stampResult(r, kAmplifyTool, {r.amplified.surface, r.amplified.blockId, r.amplified.material},
                 stageProvenance(amplifySchema().toJson(params), in.names));

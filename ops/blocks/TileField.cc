@@ -450,7 +450,50 @@ public:
     bool exact() const override { return false; }
 
 private:
+    // With cullPerOctant, large batches (a baker's padded leaf) are split into octants around
+    // their centre, each culled on its own: a block or plane that can matter for one corner
+    // of a leaf is not evaluated over the other seven. Values within the band are the same
+    // either way (only blocks and planes proven beyond it are skipped).
     void eval(const Batch& b, float* out, float* id) const
+    {
+        if (!mOpt.cullPerOctant || b.n <= kSplitBelow || !std::isfinite(b.radius) ||
+            !std::isfinite(b.band)) {
+            evalOne(b, out, id);
+            return;
+        }
+        BatchBuffer sub;
+        sub.band = b.band;
+        sub.reach = b.reach;
+        alignas(64) int index[kMaxBatch];
+        alignas(64) float subOut[kMaxBatch], subId[kMaxBatch];
+        for (int octant = 0; octant < 8; ++octant) {
+            int m = 0;
+            Vec3f lo(kInf), hi(-kInf);
+            for (int i = 0; i < b.n; ++i) {
+                const int o = (b.x[i] >= b.center[0] ? 4 : 0) | (b.y[i] >= b.center[1] ? 2 : 0) |
+                              (b.z[i] >= b.center[2] ? 1 : 0);
+                if (o != octant) continue;
+                sub.x[m] = b.x[i];
+                sub.y[m] = b.y[i];
+                sub.z[m] = b.z[i];
+                lo = minComponent(lo, Vec3f(b.x[i], b.y[i], b.z[i]));
+                hi = maxComponent(hi, Vec3f(b.x[i], b.y[i], b.z[i]));
+                index[m++] = i;
+            }
+            if (m == 0) continue;
+            sub.n = m;
+            sub.center = (lo + hi) * 0.5f;
+            // Half the box's diagonal, padded for the float rounding of the centre.
+            sub.radius = (hi - lo).length() * 0.5f * (1.0f + 1e-5f) + 1e-6f;
+            evalOne(sub.view(), subOut, id ? subId : nullptr);
+            for (int k = 0; k < m; ++k) out[index[k]] = subOut[k];
+            if (id) for (int k = 0; k < m; ++k) id[index[k]] = subId[k];
+        }
+    }
+
+    static constexpr int kSplitBelow = 256;
+
+    void evalOne(const Batch& b, float* out, float* id) const
     {
         if (std::isfinite(b.band) && b.band > mCap) {
             fail<ValueError>("blocks: the bake's band (", b.band, " m) exceeds the tile field's "

@@ -621,10 +621,14 @@ private:
                 // f/|∇f|: first-order distance; |∇f| ~ 0 only far from the surface. An
                 // L-Lipschitz f bounds the distance below by |f|/L: where f jumps (a lower
                 // bound switching formula) |∇f| is huge and f/|∇f| would fake a surface.
+                // At |f| >= mClampBand the voxel is farther than the band from the surface
+                // (that is what the clamp band means): it stays out, whatever its
+                // neighbours (values beyond the band are only bounds, and may jump).
                 const float v = s.val[p];
                 const float r = g > 1e-6f ? v / g : v;
-                s.out[n] = std::abs(r) >= std::abs(v) * mInvSlope ? r
-                                                                   : v * mInvSlope;
+                s.out[n] = std::abs(v) >= mClampBand ? v
+                         : std::abs(r) >= std::abs(v) * mInvSlope ? r
+                                                                  : v * mInvSlope;
                 if (withId) s.outId[n] = s.id[p];
             }
         }
@@ -782,6 +786,25 @@ BakeEstimate estimateBake(const Field& field, const BakeSettings& s)
     return e;
 }
 
+BBoxd regionOfBox(const CoordBBox& box, double voxelSize)
+{
+    // Half a voxel around the centres: index i is inside iff min <= i·dx < max.
+    return BBoxd(Vec3d(box.min().x() - 0.5, box.min().y() - 0.5, box.min().z() - 0.5) * voxelSize,
+                 Vec3d(box.max().x() + 0.5, box.max().y() + 0.5, box.max().z() + 0.5) * voxelSize);
+}
+
+BakeEstimate checkedEstimate(const Field& field, const BakeSettings& s)
+{
+    const BakeEstimate est = estimateBake(field, s);
+    const double limit = memoryLimitBytes(s.maxMemoryBytes);
+    if (est.bytes > limit) {
+        fail<ValueError>("bake: refusing to bake: about ", formatBytes(est.bytes), " needed (~",
+                         est.activeVoxels, " active voxels at voxel size ", s.voxelSize,
+                         " m) exceeds the ", formatBytes(limit), " limit");
+    }
+    return est;
+}
+
 BakeResult bake(const Field& field, const BakeSettings& s,
                 openvdb::util::NullInterrupter* interrupt)
 {
@@ -792,13 +815,7 @@ BakeResult bake(const Field& field, const BakeSettings& s,
             return bytesOf(estimateActive(b, s, whole.renormalize), s);
         });
     }
-    const BakeEstimate est = estimateBake(field, s);
-    const double limit = memoryLimitBytes(s.maxMemoryBytes);
-    if (est.bytes > limit) {
-        fail<ValueError>("bake: refusing to bake: about ", formatBytes(est.bytes), " needed (~",
-                         est.activeVoxels, " active voxels at voxel size ", s.voxelSize,
-                         " m) exceeds the ", formatBytes(limit), " limit");
-    }
+    checkedEstimate(field, s);
     const Domain d = makeDomain(field, s);
     if (interrupt) interrupt->start("bake");
     Baker baker(field, s, d, interrupt);

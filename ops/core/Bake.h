@@ -88,6 +88,15 @@ struct BakeEstimate
 };
 BakeEstimate estimateBake(const Field& field, const BakeSettings& settings);
 
+/// @brief estimateBake, and the refusal bake() makes when it is over the memory limit.
+/// @throw ValueError as bake() does for an estimate above settings.maxMemoryBytes.
+BakeEstimate checkedEstimate(const Field& field, const BakeSettings& settings);
+
+/// @brief The half-open world region whose voxel centres are exactly @a box at @a voxelSize
+/// (BakeSettings::region): bakes of several fields over one box (their parts) agree voxel
+/// for voxel.
+BBoxd regionOfBox(const openvdb::CoordBBox& box, double voxelSize);
+
 /// @brief Bake @a field into a narrow-band level set.
 /// @throw ValueError for bad settings, an unbounded field without a region, a bake whose
 ///        memory estimate exceeds the limit (the message gives the estimate), or NaN values.

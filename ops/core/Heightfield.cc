@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <mutex>
 
 namespace rockvdb {
 
@@ -157,6 +159,7 @@ public:
         const int cx = h.nx - 1, cy = h.ny - 1;
         mCellMin.resize(size_t(cx) * size_t(cy));
         mCellMax.resize(mCellMin.size());
+        mCellSlope.resize(mCellMin.size());
         double slope = 0;
         const double c = h.cellSize;
         for (int j = 0; j < cy; ++j)
@@ -169,6 +172,7 @@ public:
                 // Gradients of the two triangles of the cell.
                 const double g1 = std::hypot(z10 - z00, z11 - z10) / c;
                 const double g2 = std::hypot(z11 - z01, z01 - z00) / c;
+                mCellSlope[k] = float(std::max(g1, g2));
                 slope = std::max({slope, g1, g2});
             }
         mConeFactor = 1.0 / std::sqrt(1.0 + slope * slope);
@@ -176,10 +180,13 @@ public:
 
     void evalBatch(const Batch& b, float* out) const override
     {
-        // Exact wherever the caller needs values (its band); a lower bound beyond.
-        const double rho = std::isfinite(b.reach) ? std::max(mS.exactDistance, double(b.reach))
-                                                  : mS.exactDistance;
-        for (int i = 0; i < b.n; ++i) out[i] = float(eval1(Vec3d(b.x[i], b.y[i], b.z[i]), rho));
+        // Exact within the caller's reach (a bake's band needs no more); without one, within
+        // exactDistance. A lower bound beyond.
+        const double rho = std::isfinite(b.reach) ? double(b.reach) : mS.exactDistance;
+        const Window& w = window(rho);
+        for (int i = 0; i < b.n; ++i) {
+            out[i] = float(eval1(Vec3d(b.x[i], b.y[i], b.z[i]), rho, w));
+        }
     }
 
     BBoxd bounds() const override
@@ -190,6 +197,52 @@ public:
     bool exact() const override { return true; }
 
 private:
+    // The local cone bound: cone[k] = 1/sqrt(1 + S²), S the steepest triangle within
+    // `radius` cells of cell k (a square window, clipped to the grid). Surface points outside
+    // the window lie at least radius·cellSize away horizontally; inside it the height is
+    // S-Lipschitz along any segment (the window is convex), so they are at least
+    // |v|/sqrt(1 + S²) away. Built once per radius (a bake asks for one or two).
+    struct Window
+    {
+        int radius = 0;
+        double reach = 0; ///< radius·cellSize: the bound's cap
+        std::vector<float> cone;
+    };
+
+    const Window& window(double rho) const
+    {
+        const Heightfield& h = *mHf;
+        const int cx = h.nx - 1, cy = h.ny - 1;
+        const int radius = int(std::min(std::ceil(rho / h.cellSize), double(std::max(cx, cy))));
+        std::lock_guard<std::mutex> lock(mWindowMutex);
+        for (const auto& w : mWindows) if (w->radius == radius) return *w;
+        auto w = std::make_unique<Window>();
+        w->radius = radius;
+        w->reach = radius * h.cellSize;
+        // Separable running maximum (rows, then columns).
+        std::vector<float> rows(mCellSlope.size());
+        for (int j = 0; j < cy; ++j)
+            for (int i = 0; i < cx; ++i) {
+                float m = 0;
+                for (int a = std::max(0, i - radius); a <= std::min(cx - 1, i + radius); ++a) {
+                    m = std::max(m, mCellSlope[size_t(j) * size_t(cx) + size_t(a)]);
+                }
+                rows[size_t(j) * size_t(cx) + size_t(i)] = m;
+            }
+        w->cone.resize(mCellSlope.size());
+        for (int j = 0; j < cy; ++j)
+            for (int i = 0; i < cx; ++i) {
+                float m = 0;
+                for (int a = std::max(0, j - radius); a <= std::min(cy - 1, j + radius); ++a) {
+                    m = std::max(m, rows[size_t(a) * size_t(cx) + size_t(i)]);
+                }
+                w->cone[size_t(j) * size_t(cx) + size_t(i)] =
+                    float(1.0 / std::sqrt(1.0 + double(m) * double(m)));
+            }
+        mWindows.push_back(std::move(w));
+        return *mWindows.back();
+    }
+
     // Height of the triangulated surface at (x, y), clamped to the footprint.
     double heightAt(double x, double y, int& ci, int& cj) const
     {
@@ -215,7 +268,7 @@ private:
         return std::min(pointTriangleDist2(p, a, b, d), pointTriangleDist2(p, a, d, e));
     }
 
-    double surfaceDistance(const Vec3d& p, double rho) const
+    double surfaceDistance(const Vec3d& p, double rho, const Window& win) const
     {
         const Heightfield& h = *mHf;
         const double c = h.cellSize;
@@ -231,15 +284,21 @@ private:
         // |p - p'|: projecting onto the convex footprint column is non-expansive, so
         // |p - q|² >= dh² + |p' - q|² for every q of the terrain. Continuous across the
         // footprint's edge and 1-Lipschitz (the two terms vary along orthogonal directions).
-        const double lb = std::hypot(dh, std::abs(v) * mConeFactor);
-        if (lb > rho) return sign * lb;
-        // Exact: search cells ring by ring around (ci, cj) while a ring can still be closer.
+        // The window's local cone is tighter wherever the steepest slope is elsewhere.
         const int cx = h.nx - 1, cy = h.ny - 1;
+        const double local = std::min(
+            win.reach, std::abs(v) * double(win.cone[size_t(cj) * size_t(cx) + size_t(ci)]));
+        const double vert = std::max(std::abs(v) * mConeFactor, local);
+        const double lb = std::sqrt(dh * dh + vert * vert);
+        if (lb > rho) return sign * lb;
+        // Exact: search cells ring by ring around (ci, cj) while a ring can still be closer
+        // than the best so far and than rho (beyond rho the lower bound is the answer).
         // Rings beyond the grid hold no cells: the search ends there however small the
         // cells are against rho (a 1e-9 m cell size would otherwise ask for 1e8 rings).
         const int gridRing = std::max({ci, cx - 1 - ci, cj, cy - 1 - cj});
         const int maxRing = int(std::min(std::ceil(rho / c) + 1.0, double(gridRing)));
-        double best2 = std::numeric_limits<double>::max();
+        const double rho2 = std::nextafter(rho * rho, std::numeric_limits<double>::infinity());
+        double best2 = rho2;
         for (int r = 0; r <= maxRing; ++r) {
             const double ringGap = std::max(0.0, (r - 1) * c);
             if (ringGap * ringGap >= best2) break;
@@ -260,12 +319,12 @@ private:
             }
         }
         const double best = std::sqrt(best2);
-        return sign * (best <= rho ? best : std::max(rho, lb));
+        return sign * (best2 < rho2 && best <= rho ? best : std::max(rho, lb));
     }
 
-    double eval1(const Vec3d& p, double rho) const
+    double eval1(const Vec3d& p, double rho, const Window& win) const
     {
-        const double s = surfaceDistance(p, rho);
+        const double s = surfaceDistance(p, rho, win);
         if (!mS.closed) return s;
         // Footprint walls and floor: box [0, W] x [0, D] x [base, zmax + 1].
         const Heightfield& h = *mHf;
@@ -282,7 +341,9 @@ private:
     HeightfieldSettings mS;
     float mZMin = 0, mZMax = 0;
     double mBase = 0, mConeFactor = 1;
-    std::vector<float> mCellMin, mCellMax;
+    std::vector<float> mCellMin, mCellMax, mCellSlope;
+    mutable std::mutex mWindowMutex;
+    mutable std::vector<std::unique_ptr<Window>> mWindows;
 };
 
 } // namespace

@@ -11,6 +11,7 @@
 #include "GridCompare.h"
 
 #include <gtest/gtest.h>
+#include <openvdb/tools/Diagnostics.h>
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
@@ -62,6 +63,7 @@ FieldPtr cliffTerrain(bool flat = false, double height = 10.0)
 struct Scene
 {
     FieldPtr terrain, amplified;
+    amplify::AmplifiedParts parts;
     amplify::AmplifyStats stats;
 };
 
@@ -80,7 +82,8 @@ Scene scene(bool flat = false, const amplify::Strata* strata = nullptr, double h
         p.seed = 4;
         tiles.push_back(std::make_shared<const blocks::BlockTile>(blocks::generateTile(p)));
     }
-    s.amplified = amplify::amplifiedTerrain(s.terrain, tiles, rules, s.stats, strata);
+    s.parts = amplify::amplifiedParts(s.terrain, tiles, rules, s.stats, strata);
+    s.amplified = s.parts.united();
     return s;
 }
 
@@ -296,4 +299,152 @@ TEST(Amplify, CarvingReplacesTheSkinNearBlocksOnly)
     size_t blockVoxels = 0;
     for (auto it = C.attribute->cbeginValueOn(); it; ++it) blockVoxels += *it >= 0;
     EXPECT_GT(blockVoxels, 5000u);
+}
+
+namespace {
+
+// A zero crossing of @a acc's grid within one voxel of @a ijk: a sign change among the
+// 27 voxels around it.
+template <typename AccT>
+bool crossingNear(AccT& acc, const openvdb::Coord& ijk)
+{
+    bool neg = false, pos = false;
+    for (int i = -1; i <= 1; ++i)
+        for (int j = -1; j <= 1; ++j)
+            for (int k = -1; k <= 1; ++k) {
+                const float v = acc.getValue(ijk.offsetBy(i, j, k));
+                neg = neg || v < 0;
+                pos = pos || v >= 0;
+            }
+    return neg && pos;
+}
+
+size_t normGradFailures(const openvdb::FloatGrid& g)
+{
+    openvdb::tools::Diagnose<openvdb::FloatGrid> d(g);
+    openvdb::tools::CheckNormGrad<openvdb::FloatGrid> c(g, 0.5, 1.5);
+    d.check(c, false, true, false, false);
+    return size_t(d.failureCount());
+}
+
+// The parts baked apart and united (what vdb_amplify does) against the single bake of the
+// united field (what it did before, renormalising terrain and blocks together): each
+// surface within a voxel of the other (every voxel next to one's zero crossing has a zero
+// crossing of the other within a voxel), the same block id on >= 99 % of the surface
+// voxels, a level set by OpenVDB's checks, no more voxels of bad gradient.
+void expectSameAsSingleBake(const amplify::AmplifiedParts& parts, const char* what)
+{
+    BakeSettings s = settings();
+    amplify::AmplifyStats st;
+    const amplify::AmplifyResult split = amplify::bakeAmplified(parts, s, st);
+    const BakeResult single = bake(*parts.united(), s);
+    auto sacc = single.surface->getConstAccessor();
+    auto nacc = split.surface->getConstAccessor();
+    auto iacc = single.attribute->getConstAccessor();
+    auto bacc = split.blockId->getConstAccessor();
+    auto macc = split.material->getConstAccessor();
+    size_t surface = 0, sameId = 0, blockVoxels = 0, far = 0;
+    for (auto it = split.surface->cbeginValueOn(); it; ++it) {
+        const openvdb::Coord ijk = it.getCoord();
+        if (!crossingNear(nacc, ijk)) continue;
+        ++surface;
+        far += !crossingNear(sacc, ijk);
+        // The single bake's ids hold tile·stride + block; the split ones block and material.
+        const float oldId = iacc.getValue(ijk);
+        const float tile = macc.getValue(ijk) - 1.0f;
+        const float newId = tile < 0 ? -1.0f : tile * amplify::kMaterialStride + bacc.getValue(ijk);
+        sameId += oldId == newId;
+        blockVoxels += newId >= 0;
+    }
+    size_t oldFar = 0;
+    for (auto it = single.surface->cbeginValueOn(); it; ++it) {
+        if (crossingNear(sacc, it.getCoord()) && !crossingNear(nacc, it.getCoord())) ++oldFar;
+    }
+    EXPECT_GT(surface, 10000u) << what;
+    EXPECT_GT(blockVoxels, 1000u) << what;
+    EXPECT_EQ(far, 0u) << what << ": surface voxels without the single bake's surface near";
+    EXPECT_EQ(oldFar, 0u) << what << ": the single bake's surface voxels without ours near";
+    EXPECT_GE(double(sameId), 0.99 * double(surface)) << what << ": " << sameId << " of " << surface;
+    // OpenVDB's level-set checks but the gradient's (blocks have edges: both bakes have
+    // voxels outside its range, ours no more), and ids on the surface's voxels only.
+    EXPECT_EQ(openvdb::tools::checkLevelSet(*split.surface, 8), "") << what;
+    EXPECT_LE(normGradFailures(*split.surface), normGradFailures(*single.surface)) << what;
+    EXPECT_EQ(split.blockId->activeVoxelCount(), split.surface->activeVoxelCount());
+    EXPECT_EQ(split.material->activeVoxelCount(), split.surface->activeVoxelCount());
+}
+
+} // namespace
+
+TEST(Amplify, PartsBakedApartMatchTheSingleBakeOnTheCliff)
+{
+    initialize();
+    expectSameAsSingleBake(scene().parts, "cliff");
+}
+
+TEST(Amplify, PartsBakedApartMatchTheSingleBakeWithStrataOnALevelSetTerrain)
+{
+    initialize();
+    // A second terrain, given as a level set (a 3D terrain's route: trilinear samples), with
+    // two tiles chosen by strata.
+    amplify::Strata st = amplify::Strata::fromJson(
+        nlohmann::json{{"layers", {{{"tile", "equi"}, {"top", 10.0}}, {{"tile", "tab"}}}}},
+        {"equi", "tab"});
+    BakeSettings bs;
+    bs.voxelSize = 0.1;
+    bs.halfWidth = 3;
+    auto hf = cliff();
+    for (auto& z : hf->z) z *= 2.0f;
+    HeightfieldSettings hs;
+    hs.baseDepth = 2.0;
+    auto grid = bake(*heightfieldField(hf, hs), bs).surface;
+    amplify::PlacementRules rules;
+    rules.region = BBoxd(Vec3d(1, 1, -1e30), Vec3d(31, 31, 1e30));
+    auto terrain = amplify::levelSetTerrain(grid, rules);
+    blocks::BlockTileParams p;
+    p.type = blocks::BlockType::Tabular;
+    p.tileSize = 10;
+    p.pointRadius = 0.5;
+    p.seed = 4;
+    auto tab = std::make_shared<const blocks::BlockTile>(blocks::generateTile(p));
+    amplify::AmplifyStats stats;
+    expectSameAsSingleBake(amplify::amplifiedParts(terrain, {smallTile(), tab}, rules, stats, &st),
+                           "level-set terrain with strata");
+}
+
+TEST(Amplify, PartsBakedApartAreTheSameAtOneAndTwoThreadsAndInChunks)
+{
+    initialize();
+    Scene s = scene();
+    const BakeSettings whole = settings();
+    amplify::AmplifyResult one, two;
+    amplify::AmplifyStats st;
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+        one = amplify::bakeAmplified(s.parts, whole, st);
+    }
+    {
+        tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+        two = amplify::bakeAmplified(s.parts, whole, st);
+    }
+    EXPECT_TRUE(bitwiseEqual(*one.surface, *two.surface));
+    EXPECT_TRUE(bitwiseEqual(*one.blockId, *two.blockId));
+    EXPECT_TRUE(bitwiseEqual(*one.material, *two.material));
+    // --chunks 3x2x1: every chunk's voxels are the whole bake's, and together all of them.
+    size_t active = 0;
+    for (int i = 0; i < 6; ++i) {
+        BakeSettings c = whole;
+        c.chunk = ChunkSpec::parse("3x2x1", std::to_string(i) + "/6", "amplify");
+        const amplify::AmplifyResult part = amplify::bakeAmplified(s.parts, c, st);
+        active += size_t(part.surface->activeVoxelCount());
+        auto acc = one.surface->getConstAccessor();
+        auto ids = one.blockId->getConstAccessor();
+        auto pid = part.blockId->getConstAccessor();
+        for (auto it = part.surface->cbeginValueOn(); it; ++it) {
+            float v;
+            ASSERT_TRUE(acc.probeValue(it.getCoord(), v)) << "chunk " << i << " " << it.getCoord() << " part " << *it << " whole " << v << " box " << part.surface->evalActiveVoxelBoundingBox();
+            ASSERT_EQ(v, *it);
+            ASSERT_EQ(ids.getValue(it.getCoord()), pid.getValue(it.getCoord()));
+        }
+    }
+    EXPECT_EQ(active, size_t(one.surface->activeVoxelCount()));
 }

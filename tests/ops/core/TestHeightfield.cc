@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -186,4 +187,95 @@ TEST(Heightfield, SeaCliffProfile)
     SeaCliff bad = c;
     bad.height = 1;
     EXPECT_THROW(seaCliffHeightfield(bad), ValueError);
+}
+
+namespace {
+
+// Distance from p to triangle abc by brute force: the plane's foot point if it falls inside,
+// else the nearest of the three edges (segment distances), in double.
+double segmentDistance(const Vec3d& p, const Vec3d& a, const Vec3d& b)
+{
+    const Vec3d ab = b - a;
+    const double t = std::clamp((p - a).dot(ab) / ab.lengthSqr(), 0.0, 1.0);
+    return (p - (a + ab * t)).length();
+}
+
+double triangleDistance(const Vec3d& p, const Vec3d& a, const Vec3d& b, const Vec3d& c)
+{
+    Vec3d n = (b - a).cross(c - a);
+    n.normalize();
+    const double d = (p - a).dot(n);
+    const Vec3d q = p - n * d;
+    // Barycentric inside test on the plane.
+    auto side = [&](const Vec3d& u, const Vec3d& v) { return (v - u).cross(q - u).dot(n); };
+    if (side(a, b) >= 0 && side(b, c) >= 0 && side(c, a) >= 0) return std::abs(d);
+    return std::min({segmentDistance(p, a, b), segmentDistance(p, b, c), segmentDistance(p, c, a)});
+}
+
+} // namespace
+
+TEST(Heightfield, ExactWithinTheReachAndALowerBoundBeyondOnASteepRoughTerrain)
+{
+    // The search is pruned by a local cone bound and by the reach: neither may lose the
+    // nearest triangle. A 16 x 16 m sea cliff (face steeper than 70 degrees, rough), points
+    // everywhere within 3 m of it: within the batch's reach the field is the distance to
+    // the nearest of all triangles (brute force), beyond it a lower bound of that distance
+    // no smaller than the reach.
+    SeaCliff c;
+    c.nx = c.ny = 33;
+    c.cellSize = 0.5;
+    c.height = 12;
+    c.coast = 8;
+    c.width = 2.5;
+    c.waviness = 1.5;
+    c.roughness = 0.8;
+    c.roughnessFrequency = 0.4;
+    auto hf = std::make_shared<Heightfield>(seaCliffHeightfield(c));
+    HeightfieldSettings hs;
+    hs.closed = false;
+    hs.exactDistance = 0.4;
+    auto f = heightfieldField(hf, hs);
+    std::vector<float> xs, ys, zs;
+    uint64_t state = 12345;
+    auto next = [&] {
+        state = state * 6364136223846793005ull + 1442695040888963407ull;
+        return double(state >> 11) / double(1ull << 53);
+    };
+    for (int k = 0; k < 4000; ++k) {
+        const double x = 0.5 + 15 * next(), y = 0.5 + 15 * next();
+        int i = std::min(int(x / c.cellSize), c.nx - 2), j = std::min(int(y / c.cellSize), c.ny - 2);
+        xs.push_back(float(x));
+        ys.push_back(float(y));
+        zs.push_back(float(hf->at(i, j) + (next() - 0.5) * 6.0));
+    }
+    for (float reach : {0.3f, 0.8f, 1.4f}) {
+        std::vector<float> out(xs.size());
+        for (size_t base = 0; base < xs.size(); base += kMaxBatch) {
+            Batch b{xs.data() + base, ys.data() + base, zs.data() + base,
+                    int(std::min<size_t>(kMaxBatch, xs.size() - base))};
+            b.reach = reach;
+            f->evalBatch(b, out.data() + base);
+        }
+        size_t exact = 0;
+        for (size_t k = 0; k < xs.size(); ++k) {
+            const Vec3d p(xs[k], ys[k], zs[k]);
+            double best = 1e30;
+            const double cs = hf->cellSize;
+            for (int j = 0; j + 1 < hf->ny; ++j)
+                for (int i = 0; i + 1 < hf->nx; ++i) {
+                    const Vec3d a(i * cs, j * cs, hf->at(i, j)), b((i + 1) * cs, j * cs, hf->at(i + 1, j)),
+                        d((i + 1) * cs, (j + 1) * cs, hf->at(i + 1, j + 1)), e(i * cs, (j + 1) * cs, hf->at(i, j + 1));
+                    best = std::min({best, triangleDistance(p, a, b, d), triangleDistance(p, a, d, e)});
+                }
+            const double got = std::abs(double(out[k]));
+            if (best <= reach) {
+                ASSERT_NEAR(got, best, 1e-5) << "at " << p << " reach " << reach;
+                ++exact;
+            } else {
+                ASSERT_LE(got, best + 1e-5) << "not a lower bound at " << p;
+                ASSERT_GE(got, reach - 1e-5) << "below the reach at " << p;
+            }
+        }
+        EXPECT_GT(exact, 300u) << "reach " << reach;
+    }
 }
