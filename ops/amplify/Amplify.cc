@@ -447,36 +447,20 @@ LeafOrigins leavesMissingIn(const openvdb::FloatTree& a, const openvdb::FloatTre
 // part has no leaf its values are beyond the band, one sign over the leaf (a distance
 // cannot change sign between two voxels without a value within a voxel of zero). The
 // grid's own tiles cannot be asked: their signs come from a flood fill, which a chunk's
-// clip leaves open at the chunk's faces. Leaves are evaluated in runs of neighbours, the
-// batch hints bounding them, so each costs a fraction of a voxel's evaluation.
+// clip leaves open at the chunk's faces. One point per batch, of radius 0 and the band's
+// hint, so that every operand that stays beyond the band there is skipped unevaluated.
 std::vector<float> signsAt(const Field& field, const LeafOrigins& origins, double dx, float band)
 {
     std::vector<float> sign(origins.size(), 1.0f);
-    constexpr size_t kRun = 64;
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, (origins.size() + kRun - 1) / kRun),
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, origins.size(), 256),
                       [&](const tbb::blocked_range<size_t>& r) {
-        BatchBuffer b;
-        alignas(64) float v[kMaxBatch];
-        for (size_t run = r.begin(); run != r.end(); ++run) {
-            const size_t first = run * kRun, last = std::min(origins.size(), first + kRun);
-            Vec3f lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-            b.n = 0;
-            for (size_t k = first; k < last; ++k) {
-                const Vec3f p(float((origins[k].x() + 3.5) * dx), float((origins[k].y() + 3.5) * dx),
-                              float((origins[k].z() + 3.5) * dx));
-                b.x[b.n] = p[0];
-                b.y[b.n] = p[1];
-                b.z[b.n] = p[2];
-                ++b.n;
-                lo = minComponent(lo, p);
-                hi = maxComponent(hi, p);
-            }
-            b.center = (lo + hi) * 0.5f;
-            b.radius = (hi - lo).length() * 0.5f * (1.0f + 1e-5f) + 1e-6f;
-            b.band = band; // only the sign is read: operands beyond the band may be skipped
-            b.reach = band;
-            field.evalBatch(b.view(), v);
-            for (size_t k = first; k < last; ++k) sign[k] = v[k - first] < 0 ? -1.0f : 1.0f;
+        for (size_t k = r.begin(); k != r.end(); ++k) {
+            const float x = float((origins[k].x() + 3.5) * dx), y = float((origins[k].y() + 3.5) * dx),
+                        z = float((origins[k].z() + 3.5) * dx);
+            Batch b{&x, &y, &z, 1, Vec3f(x, y, z), 0.0f, band, band};
+            float v = 0;
+            field.evalBatch(b, &v);
+            sign[k] = v < 0 ? -1.0f : 1.0f;
         }
     });
     return sign;

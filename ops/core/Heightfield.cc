@@ -219,28 +219,48 @@ private:
         auto w = std::make_unique<Window>();
         w->radius = radius;
         w->reach = radius * h.cellSize;
-        // Separable running maximum (rows, then columns).
+        // Separable running maximum, rows then columns, each in O(n) whatever the radius.
         std::vector<float> rows(mCellSlope.size());
-        for (int j = 0; j < cy; ++j)
-            for (int i = 0; i < cx; ++i) {
-                float m = 0;
-                for (int a = std::max(0, i - radius); a <= std::min(cx - 1, i + radius); ++a) {
-                    m = std::max(m, mCellSlope[size_t(j) * size_t(cx) + size_t(a)]);
-                }
-                rows[size_t(j) * size_t(cx) + size_t(i)] = m;
-            }
+        std::vector<float> line, out;
+        for (int j = 0; j < cy; ++j) {
+            line.assign(mCellSlope.begin() + ptrdiff_t(size_t(j) * size_t(cx)),
+                        mCellSlope.begin() + ptrdiff_t(size_t(j + 1) * size_t(cx)));
+            runningMax(line, radius, out);
+            std::copy(out.begin(), out.end(), rows.begin() + ptrdiff_t(size_t(j) * size_t(cx)));
+        }
         w->cone.resize(mCellSlope.size());
-        for (int j = 0; j < cy; ++j)
-            for (int i = 0; i < cx; ++i) {
-                float m = 0;
-                for (int a = std::max(0, j - radius); a <= std::min(cy - 1, j + radius); ++a) {
-                    m = std::max(m, rows[size_t(a) * size_t(cx) + size_t(i)]);
-                }
-                w->cone[size_t(j) * size_t(cx) + size_t(i)] =
-                    float(1.0 / std::sqrt(1.0 + double(m) * double(m)));
+        for (int i = 0; i < cx; ++i) {
+            line.resize(size_t(cy));
+            for (int j = 0; j < cy; ++j) line[size_t(j)] = rows[size_t(j) * size_t(cx) + size_t(i)];
+            runningMax(line, radius, out);
+            for (int j = 0; j < cy; ++j) {
+                const double m = out[size_t(j)];
+                w->cone[size_t(j) * size_t(cx) + size_t(i)] = float(1.0 / std::sqrt(1.0 + m * m));
             }
+        }
         mWindows.push_back(std::move(w));
         return *mWindows.back();
+    }
+
+    // out[i] = max of in[i - r .. i + r] (clipped), for values >= 0: van Herk / Gil-Werman,
+    // prefix and suffix maxima over blocks of 2r + 1.
+    static void runningMax(const std::vector<float>& in, int r, std::vector<float>& out)
+    {
+        const size_t n = in.size(), w = size_t(2 * r + 1);
+        std::vector<float> g(n), h(n);
+        for (size_t i = 0; i < n; ++i) g[i] = i % w == 0 ? in[i] : std::max(g[i - 1], in[i]);
+        for (size_t i = n; i-- > 0;) {
+            h[i] = (i + 1) % w == 0 || i + 1 == n ? in[i] : std::max(h[i + 1], in[i]);
+        }
+        out.resize(n);
+        for (size_t i = 0; i < n; ++i) {
+            const size_t lo = i >= size_t(r) ? i - size_t(r) : 0;
+            const size_t hi = std::min(n - 1, i + size_t(r));
+            // [lo, hi] spans at most two blocks: the suffix of lo's and the prefix of hi's.
+            // Within one block it starts the block (else it would be w long and span two)
+            // or ends the line.
+            out[i] = lo / w != hi / w ? std::max(h[lo], g[hi]) : lo % w == 0 ? g[hi] : h[lo];
+        }
     }
 
     // Height of the triangulated surface at (x, y), clamped to the footprint.
@@ -284,7 +304,9 @@ private:
         // |p - p'|: projecting onto the convex footprint column is non-expansive, so
         // |p - q|² >= dh² + |p' - q|² for every q of the terrain. Continuous across the
         // footprint's edge and 1-Lipschitz (the two terms vary along orthogonal directions).
-        // The window's local cone is tighter wherever the steepest slope is elsewhere.
+        // The window's local cone is tighter wherever the steepest slope is elsewhere, but
+        // steps from cell to cell: beyond rho the values are bounds only, which bakes never
+        // read as distances (their reach and clamp band).
         const int cx = h.nx - 1, cy = h.ny - 1;
         const double local = std::min(
             win.reach, std::abs(v) * double(win.cone[size_t(cj) * size_t(cx) + size_t(ci)]));
