@@ -54,9 +54,9 @@ public:
     }
     bool present(int block, int ix, int iy, int iz) const override
     {
-        // Unsigned comparisons: below lo wraps around to a large value.
-        if (unsigned(ix - lo[0]) >= unsigned(dim[0]) || unsigned(iy - lo[1]) >= unsigned(dim[1]) ||
-            unsigned(iz - lo[2]) >= unsigned(dim[2])) {
+        // In 64 bits (no int overflow at extreme cells), unsigned: below lo wraps around.
+        auto outside = [](int i, int l, int d) { return uint64_t(int64_t(i) - l) >= uint64_t(d); };
+        if (outside(ix, lo[0], dim[0]) || outside(iy, lo[1], dim[1]) || outside(iz, lo[2], dim[2])) {
             return false;
         }
         return flags[slot(ix, iy, iz) * blocks + size_t(block)] != 0;
