@@ -364,19 +364,32 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
     return grid;
 }
 
+namespace {
+
+// A bake id (tile·kMaterialStride + block, or kNoId on terrain) as block index and material.
+inline void splitId(float id, float& block, float& material)
+{
+    if (id < 0) {
+        block = kNoId;
+        material = kTerrainMaterial;
+        return;
+    }
+    const float tile = std::floor(id / kMaterialStride);
+    block = id - tile * kMaterialStride;
+    material = tile + 1.0f;
+}
+
+} // namespace
+
 openvdb::FloatGrid::Ptr splitMaterial(openvdb::FloatGrid& ids)
 {
     auto material = ids.deepCopy();
     material->setName("material");
     for (auto it = ids.beginValueOn(); it; ++it) {
-        const float id = it.getValue();
-        if (id < 0) {
-            material->tree().setValueOn(it.getCoord(), kTerrainMaterial);
-            continue;
-        }
-        const float tile = std::floor(id / kMaterialStride);
-        it.setValue(id - tile * kMaterialStride);
-        material->tree().setValueOn(it.getCoord(), tile + 1.0f);
+        float block, mat;
+        splitId(it.getValue(), block, mat);
+        it.setValue(block);
+        material->tree().setValueOn(it.getCoord(), mat);
     }
     return material;
 }
@@ -531,10 +544,9 @@ AmplifyResult uniteWithBlocks(openvdb::FloatGrid::Ptr terrain, const openvdb::Fl
                 const bool on = std::abs(u) < bg;
                 // The block's id where the block is closer: tile·kMaterialStride + block.
                 const float raw = on && tv < f[n] && ti ? ti[n] : kNoId;
-                const float tile = raw < 0 ? -1.0f : std::floor(raw / kMaterialStride);
                 f[n] = on ? u : (u < 0 ? -bg : bg);
-                id[n] = raw < 0 ? kNoId : raw - tile * kMaterialStride;
-                mat[n] = !on ? kNoId : raw < 0 ? kTerrainMaterial : tile + 1.0f;
+                splitId(raw, id[n], mat[n]);
+                if (!on) mat[n] = kNoId;
                 leaf.setActiveState(n, on);
             }
             idLeaf.setValueMask(leaf.getValueMask());
