@@ -651,6 +651,21 @@ private:
             }
             for (auto w : words) any |= w;
         }
+        if (any && mCandidates && mS.candidateVoxels) {
+            // Voxels the candidate mask leaves off stay out (a tile of it: all on).
+            if (const auto* c = mCandidates->probeConstLeaf(origin)) {
+                any = 0;
+                for (int w = 0; w < kLeafVoxels / 64; ++w) {
+                    const uint64_t keep = c->getValueMask().template getWord<uint64_t>(w);
+                    for (uint64_t off = words[w] & ~keep; off; off &= off - 1) {
+                        float& v = s.out[w * 64 + __builtin_ctzll(off)];
+                        v = v < 0 ? -bg : bg;
+                    }
+                    words[w] &= keep;
+                    any |= words[w];
+                }
+            }
+        }
         if (nan && !mNaN.exchange(true)) mNaNLeaf = origin;
         if (!any) return;
 

@@ -55,6 +55,10 @@ struct BakeSettings
     /// know where their surface can be (detail within A of its input) pass it to skip leaves
     /// whose values only bound the distance; it must cover the whole band.
     openvdb::MaskGrid::ConstPtr candidates;
+    /// With candidates: also a voxel mask. A voxel the mask leaves off stays inactive (±the
+    /// background, the field's sign) whatever the field says there (detail: beyond its
+    /// input's widened band the field only holds bounds, which must not fake band voxels).
+    bool candidateVoxels = false;
 
     /// @brief ValueError("bake: ...") unless every setting is usable.
     void validate() const;

@@ -13,6 +13,7 @@
 #include <openvdb/tree/LeafManager.h>
 
 #include <algorithm>
+#include <atomic>
 #include <limits>
 #include <cmath>
 #include <memory>
@@ -617,7 +618,8 @@ FieldPtr detailField(FieldPtr input, const DetailParams& params, double gradient
 }
 
 BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams& params,
-                          const BakeSettings& settings, openvdb::util::NullInterrupter* interrupt)
+                          const BakeSettings& settings, openvdb::util::NullInterrupter* interrupt,
+                          openvdb::FloatGrid::ConstPtr* widened)
 {
     const DetailParams p = params.resolved();
     if (!grid) fail<ValueError>("detail: the input grid is null");
@@ -642,6 +644,7 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
     const openvdb::FloatGrid::ConstPtr wide =
         widenBand(grid, none ? 0.0 : p.reach(settings.halfWidth * settings.voxelSize),
                   settings.maxMemoryBytes);
+    if (widened) *widened = wide;
     FieldPtr f = detailField(levelSetField(wide), p, dx);
     if (none) return bake(*f, settings, interrupt);
     BakeSettings s = settings;
@@ -655,7 +658,10 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
         // pulls compressed values, |∇f| up to 2, into the band), read off the widened input's
         // distances; the rest of space only holds bounds of the distance. Voxels beyond the
         // widened band are left out too: the input's distance and gradient are unknown there.
-        const float limit = float(settings.halfWidth * dx + p.maxWarp() + p.maxGabor() + 3 * dx);
+        // Beyond the widened band (|value| = its background) nothing is known: those voxels
+        // stay out, voxel by voxel (candidateVoxels), or their bounds would fake band voxels.
+        const float limit = std::min(
+            float(settings.halfWidth * dx + p.maxWarp() + p.maxGabor() + 3 * dx), wide->background());
         auto mask = openvdb::MaskGrid::create();
         mask->tree().topologyUnion(wide->tree());
         openvdb::tree::LeafManager<openvdb::MaskTree> leaves(mask->tree());
@@ -669,6 +675,7 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
         });
         openvdb::tools::pruneInactive(mask->tree());
         s.candidates = mask;
+        s.candidateVoxels = true;
     }
     // The Gabor blob term bends the field along the normal (its slope there ranges over
     // 1 ± 6D/R): OpenVDB's LevelSetTracker restores |∇φ| = 1 across the band.
@@ -676,22 +683,49 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
     return bake(*f, s, interrupt);
 }
 
-openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
-                                       const openvdb::FloatGrid& detailed,
-                                       const openvdb::FloatGrid& ids)
+std::vector<openvdb::FloatGrid::Ptr>
+carryAttributes(const openvdb::FloatGrid& input, const openvdb::FloatGrid& detailed,
+                const std::vector<const openvdb::FloatGrid*>& ids,
+                openvdb::util::NullInterrupter* interrupt)
 {
-    auto out = openvdb::FloatGrid::create(ids.background());
-    out->setName(ids.getName());
-    out->setTransform(detailed.transform().copy());
-    out->setGridClass(ids.getGridClass());
-    out->insertMeta(ids);
-    out->tree().topologyUnion(detailed.tree());
-    openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
+    std::vector<openvdb::FloatGrid::Ptr> out;
+    for (const openvdb::FloatGrid* g : ids) {
+        if (!g) fail<ValueError>("detail: an attribute grid is null");
+        auto o = openvdb::FloatGrid::create(g->background());
+        o->setName(g->getName());
+        o->setTransform(detailed.transform().copy());
+        o->setGridClass(g->getGridClass());
+        o->insertMeta(*g);
+        o->tree().topologyUnion(detailed.tree());
+        out.push_back(o);
+    }
+    if (out.empty()) return out;
+    // The walk to the input surface is the same for every grid: done once per voxel, on the
+    // first output's leaves; the others' leaves (same topology) are found by origin.
+    openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out[0]->tree());
     const double dx = input.voxelSize()[0];
+    // Grids on the first one's voxels (block_id and material share them) reuse its search.
+    std::vector<char> sameAsFirst(ids.size(), 0);
+    for (size_t g = 1; g < ids.size(); ++g) {
+        sameAsFirst[g] = ids[g]->transform() == ids[0]->transform() &&
+                         ids[g]->tree().hasSameTopology(ids[0]->tree());
+    }
+    std::atomic<bool> stop{false};
     leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
+        // Interrupted: the rest is skipped (the caller checks and throws).
+        if (stop.load(std::memory_order_relaxed)) return;
+        if (interrupt && interrupt->wasInterrupted()) {
+            stop = true;
+            return;
+        }
         auto in = input.getConstAccessor();
-        auto id = ids.getConstAccessor();
         auto det = detailed.getConstAccessor();
+        std::vector<openvdb::FloatGrid::ConstAccessor> id;
+        std::vector<openvdb::FloatTree::LeafNodeType*> dst{&leaf};
+        for (size_t g = 0; g < ids.size(); ++g) {
+            id.push_back(ids[g]->getConstAccessor());
+            if (g > 0) dst.push_back(out[g]->tree().probeLeaf(leaf.origin()));
+        }
         for (auto it = leaf.beginValueOn(); it; ++it) {
             // First onto the detailed surface (within the displacement of the input's), along
             // the detailed level set's own gradient.
@@ -700,12 +734,16 @@ openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
                            det.getValue(ijk.offsetBy(0, 1, 0)) - det.getValue(ijk.offsetBy(0, -1, 0)),
                            det.getValue(ijk.offsetBy(0, 0, 1)) - det.getValue(ijk.offsetBy(0, 0, -1)));
             Vec3d q = detailed.indexToWorld(ijk);
-            if (gd.length() > 1e-9) q -= gd * (double(det.getValue(ijk)) / gd.length());
+            const double gdl = gd.length();
+            if (gdl > 1e-9) q -= gd * (double(det.getValue(ijk)) / gdl);
             // Walk to the input surface along its gradient (values beyond the input's band
-            // are clamped: a few steps bring the point into it).
+            // are clamped: a few steps bring the point into it). Where every sample is clamped
+            // the gradient vanishes: step along the detailed surface's normal instead, by
+            // the clamped value (towards the input surface, by its sign), and go on.
             for (int step = 0; step < 6; ++step) {
                 const Vec3d i = input.worldToIndex(q);
                 const float f = openvdb::tools::BoxSampler::sample(in, i);
+                if (std::abs(f) < 0.5 * dx) break; // on the input surface: no gradient needed
                 const Vec3d g((openvdb::tools::BoxSampler::sample(in, i + Vec3d(1, 0, 0)) -
                                openvdb::tools::BoxSampler::sample(in, i - Vec3d(1, 0, 0))),
                               (openvdb::tools::BoxSampler::sample(in, i + Vec3d(0, 1, 0)) -
@@ -713,33 +751,55 @@ openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
                               (openvdb::tools::BoxSampler::sample(in, i + Vec3d(0, 0, 1)) -
                                openvdb::tools::BoxSampler::sample(in, i - Vec3d(0, 0, 1))));
                 const double len = g.length();
-                if (len < 1e-9 || std::abs(f) < 0.5 * dx) break;
-                q -= g * (double(f) / len);
+                if (len >= 1e-9) q -= g * (double(f) / len);
+                else if (gdl > 1e-9) q -= gd * (double(f) / gdl);
+                else break;
             }
-            // The nearest active id voxel (the surface point lies in the id band). An active
-            // -1 is a value (bare terrain in block_id), not a hole: skipping it let block ids
-            // bleed onto the terrain round every block, out of step with 'material'.
-            const openvdb::Coord c = openvdb::Coord::round(ids.worldToIndex(q));
-            float v = ids.background();
-            float best = std::numeric_limits<float>::max();
-            // Nearest first: the 3³ neighbourhood, then 5³ where the walk stopped short.
-            for (int r = 1; r <= 2 && best == std::numeric_limits<float>::max(); ++r) {
-                for (int a = -r; a <= r; ++a)
-                    for (int b = -r; b <= r; ++b)
-                        for (int k = -r; k <= r; ++k) {
-                            float w;
-                            if (!id.probeValue(c.offsetBy(a, b, k), w)) continue;
-                            const float d2 = float(a * a + b * b + k * k);
-                            if (d2 < best) {
-                                best = d2;
-                                v = w;
+            bool found = false;
+            openvdb::Coord nearest;
+            for (size_t gi = 0; gi < ids.size(); ++gi) {
+                // The nearest active id voxel (the surface point lies in the id band). An
+                // active -1 is a value (bare terrain in block_id), not a hole: skipping it let
+                // block ids bleed onto the terrain round every block, out of step with
+                // 'material'.
+                const openvdb::FloatGrid& grid = *ids[gi];
+                if (gi > 0 && sameAsFirst[gi]) {
+                    // Same voxels as the first grid: the same nearest voxel.
+                    dst[gi]->setValueOnly(it.pos(), found ? id[gi].getValue(nearest)
+                                                          : grid.background());
+                    continue;
+                }
+                const openvdb::Coord c = openvdb::Coord::round(grid.worldToIndex(q));
+                float v = grid.background();
+                float best = std::numeric_limits<float>::max();
+                // Nearest first: the 3³ neighbourhood, then 5³ where the walk stopped short.
+                for (int r = 1; r <= 2 && best == std::numeric_limits<float>::max(); ++r) {
+                    for (int a = -r; a <= r; ++a)
+                        for (int b = -r; b <= r; ++b)
+                            for (int k = -r; k <= r; ++k) {
+                                float w;
+                                if (!id[gi].probeValue(c.offsetBy(a, b, k), w)) continue;
+                                const float d2 = float(a * a + b * b + k * k);
+                                if (d2 < best) {
+                                    best = d2;
+                                    v = w;
+                                    if (gi == 0) nearest = c.offsetBy(a, b, k);
+                                }
                             }
-                        }
+                }
+                if (gi == 0) found = best != std::numeric_limits<float>::max();
+                dst[gi]->setValueOnly(it.pos(), v);
             }
-            it.setValue(v);
         }
     });
     return out;
+}
+
+openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
+                                       const openvdb::FloatGrid& detailed,
+                                       const openvdb::FloatGrid& ids)
+{
+    return carryAttributes(input, detailed, {&ids}).front();
 }
 
 } // namespace detail

@@ -123,9 +123,11 @@ FieldPtr detailField(FieldPtr input, const DetailParams& p, double gradientStep)
 /// is baked over the input's active bounds grown by the amplitudes. With both amplitudes 0
 /// the input's band values come back unchanged (trilinear samples at voxel centres).
 /// @throw ValueError for a grid that is not a level set or unusable parameters.
+/// @a widened, if given, receives the widened input (carryAttributes walks on it).
 BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams& p,
                           const BakeSettings& settings,
-                          openvdb::util::NullInterrupter* interrupt = nullptr);
+                          openvdb::util::NullInterrupter* interrupt = nullptr,
+                          openvdb::FloatGrid::ConstPtr* widened = nullptr);
 
 /// @brief Attribute grids (block_id, material, ...) of the input carried onto a detailed
 /// level set: each active voxel of @a detailed takes the value of @a ids at the nearest voxel
@@ -134,6 +136,14 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
 openvdb::FloatGrid::Ptr carryAttribute(const openvdb::FloatGrid& input,
                                        const openvdb::FloatGrid& detailed,
                                        const openvdb::FloatGrid& ids);
+
+/// @brief carryAttribute for several grids at once: the walk to the input surface is made
+/// once per voxel and serves every grid (same values as one carryAttribute per grid). An
+/// @a interrupt that fires leaves the grids incomplete: the caller checks it and stops.
+std::vector<openvdb::FloatGrid::Ptr>
+carryAttributes(const openvdb::FloatGrid& input, const openvdb::FloatGrid& detailed,
+                const std::vector<const openvdb::FloatGrid*>& ids,
+                openvdb::util::NullInterrupter* interrupt = nullptr);
 
 } // namespace detail
 } // namespace rockvdb

@@ -206,7 +206,10 @@ DetailResult runDetail(const DetailStageParams& params, const DetailInputs& in, 
 
     task.phase("detail", in.ids.empty() ? 1.0 : 0.9);
     DetailResult r;
-    r.bake = detailLevelSet(in.grid, p, settings, task.interrupter());
+    // The input widened for the bake: the ids' walk to the input surface needs its distances
+    // as far as the detailed band reaches.
+    openvdb::FloatGrid::ConstPtr wide;
+    r.bake = detailLevelSet(in.grid, p, settings, task.interrupter(), &wide);
     task.check();
 
     // Provenance: the table as used (voxel size and band resolved), the inputs' names, and
@@ -221,10 +224,10 @@ DetailResult runDetail(const DetailStageParams& params, const DetailInputs& in, 
     }
     if (!in.ids.empty()) {
         task.phase("ids", 0.1);
-        for (size_t i = 0; i < in.ids.size(); ++i) {
-            task.step(double(i) / double(in.ids.size()));
-            r.ids.push_back(carryAttribute(*in.grid, *r.bake.surface, *in.ids[i]));
-        }
+        std::vector<const openvdb::FloatGrid*> ids;
+        for (const auto& g : in.ids) ids.push_back(g.get());
+        r.ids = carryAttributes(*wide, *r.bake.surface, ids, task.interrupter());
+        task.check();
     }
     openvdb::GridPtrVec grids{r.bake.surface};
     grids.insert(grids.end(), r.ids.begin(), r.ids.end());
