@@ -656,10 +656,10 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
         // Candidate leaves: those with a voxel within the band plus the displacement of the
         // input surface (the surface moves by at most A) plus three voxels (renormalisation
         // pulls compressed values, |∇f| up to 2, into the band), read off the widened input's
-        // distances; the rest of space only holds bounds of the distance. Voxels beyond the
-        // widened band are left out too: the input's distance and gradient are unknown there.
-        // Beyond the widened band (|value| = its background) nothing is known: those voxels
-        // stay out, voxel by voxel (candidateVoxels), or their bounds would fake band voxels.
+        // distances; the rest of space only holds bounds of the distance. Beyond the widened
+        // band (|value| = its background) the input's distance and gradient are unknown:
+        // those voxels stay out, voxel by voxel (candidateVoxels), or the bounds there,
+        // divided by a steep warp gradient, would fake band voxels deep inside.
         const float limit = std::min(
             float(settings.halfWidth * dx + p.maxWarp() + p.maxGabor() + 3 * dx), wide->background());
         auto mask = openvdb::MaskGrid::create();
