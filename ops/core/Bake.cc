@@ -502,7 +502,7 @@ private:
     struct Scratch
     {
         BatchBuffer pts;
-        alignas(64) float val[kMaxBatch];
+        alignas(64) float val[2 * kMaxBatch]; // a padded block, then a masked batch's values
         alignas(64) float id[kMaxBatch];
         alignas(64) float out[kLeafVoxels];
         alignas(64) float outId[kLeafVoxels];
@@ -588,6 +588,108 @@ private:
 #endif
     }
 
+    // Index in the padded 10³ block of leaf voxel n (x-major, like LeafNode::coordToOffset).
+    static int padIndex(int n)
+    {
+        return ((n >> 6) + 1) * 100 + (((n >> 3) & 7) + 1) * 10 + (n & 7) + 1;
+    }
+
+    // The renormalised value at padded index p from the values around it.
+    float renormalized(const float* val, int p) const
+    {
+        const float inv2dx = 0.5f / mDx;
+        const float gx = (val[p + 100] - val[p - 100]) * inv2dx;
+        const float gy = (val[p + 10] - val[p - 10]) * inv2dx;
+        const float gz = (val[p + 1] - val[p - 1]) * inv2dx;
+        const float g = std::sqrt(gx * gx + gy * gy + gz * gz);
+        // f/|∇f|: first-order distance; |∇f| ~ 0 only far from the surface. An L-Lipschitz f
+        // bounds the distance below by |f|/L: where f jumps (a lower bound switching formula)
+        // |∇f| is huge and f/|∇f| would fake a surface. At |f| >= mClampBand the voxel is
+        // farther than the band from the surface (that is what the clamp band means): it
+        // stays out, whatever its neighbours (values beyond the band are only bounds, and
+        // may jump).
+        const float v = val[p];
+        const float r = g > 1e-6f ? v / g : v;
+        return std::abs(v) >= mClampBand ? v
+             : std::abs(r) >= std::abs(v) * mInvSlope ? r
+                                                      : v * mInvSlope;
+    }
+
+    // The candidate voxel mask's voxels of the leaf at `origin` (a tile of it: all), and
+    // with renormalisation their six neighbours, evaluated in one batch; the voxels it leaves
+    // off hold ±background with the sign of mSigns there. Each value is the same as a full
+    // leaf's would be: batches are independent per point, and a point's position does not
+    // depend on the batch that holds it.
+    void fillMasked(const Coord& origin, Scratch& s, bool withId)
+    {
+        const float dx = mDx;
+        const float bg = mD.background;
+        const auto* c = mCandidates->probeConstLeaf(origin);
+        openvdb::MaskTree::LeafNodeType::NodeMaskType on;
+        if (c) on = c->getValueMask();
+        else on.setOn();
+        // Signs of the voxels left off.
+        if (const LeafT* sl = mSigns->probeConstLeaf(origin)) {
+            const float* sv = sl->buffer().data();
+            for (int n = 0; n < kLeafVoxels; ++n) s.out[n] = sv[n] < 0 ? -bg : bg;
+        } else {
+            const float v = mSigns->getValue(origin) < 0 ? -bg : bg;
+            std::fill(s.out, s.out + kLeafVoxels, v);
+        }
+        if (withId) std::fill(s.outId, s.outId + kLeafVoxels, kNoId);
+        if (on.isOff()) return;
+        const bool renorm = mD.renormalize;
+        const int dim = renorm ? kPadDim : kLeafDim;
+        const int start = renorm ? -1 : 0;
+        bool need[kPadDim * kPadDim * kPadDim] = {};
+        for (auto it = on.beginOn(); it; ++it) {
+            const int n = int(it.pos());
+            if (!renorm) {
+                need[n] = true;
+                continue;
+            }
+            const int p = padIndex(n);
+            need[p] = need[p - 1] = need[p + 1] = need[p - 10] = need[p + 10] = need[p - 100] =
+                need[p + 100] = true;
+        }
+        // The same positions as positions<dim>(origin, start, ...) gives.
+        int m = 0, idx[kPadDim * kPadDim * kPadDim];
+        for (int i = 0; i < dim; ++i) {
+            const float x = (float(origin[0]) + float(start + i)) * dx;
+            for (int j = 0; j < dim; ++j) {
+                const float y = (float(origin[1]) + float(start + j)) * dx;
+                for (int k = 0; k < dim; ++k) {
+                    const int p = (i * dim + j) * dim + k;
+                    if (!need[p]) continue;
+                    s.pts.x[m] = x;
+                    s.pts.y[m] = y;
+                    s.pts.z[m] = (float(origin[2]) + float(start + k)) * dx;
+                    idx[m++] = p;
+                }
+            }
+        }
+        s.pts.n = m;
+        s.pts.radius = (renorm ? 4.5f : 3.5f) * 1.7320508f * dx;
+        float* vals = s.val;
+        float* ids = s.id;
+        if (withId) mField.evalIdBatch(s.pts.view(), vals + kPadDim * kPadDim * kPadDim, ids);
+        else mField.evalBatch(s.pts.view(), vals + kPadDim * kPadDim * kPadDim);
+        s.evals += size_t(m);
+        // Scatter into the block (values of points not needed are never read).
+        const float* got = vals + kPadDim * kPadDim * kPadDim;
+        float idAt[kPadDim * kPadDim * kPadDim];
+        for (int q = 0; q < m; ++q) {
+            vals[idx[q]] = got[q];
+            if (withId) idAt[idx[q]] = ids[q];
+        }
+        for (auto it = on.beginOn(); it; ++it) {
+            const int n = int(it.pos());
+            const int p = renorm ? padIndex(n) : n;
+            s.out[n] = renorm ? renormalized(vals, p) : vals[p];
+            if (withId) s.outId[n] = idAt[p];
+        }
+    }
+
     void fillLeaf(const Coord& origin, Scratch& s, LeafT*& leafOut, LeafT** attrOut)
     {
         const float dx = mDx;
@@ -596,7 +698,9 @@ private:
                              float(origin[2] + 3.5) * dx);
         s.pts.band = mClampBand;
         s.pts.reach = mReach;
-        if (!mD.renormalize) {
+        if (mSigns) {
+            fillMasked(origin, s, withId);
+        } else if (!mD.renormalize) {
             positions<kLeafDim>(origin, 0, dx, s.pts.x, s.pts.y, s.pts.z);
             s.pts.n = kLeafVoxels;
             s.pts.radius = 3.5f * 1.7320508f * dx;
@@ -611,28 +715,12 @@ private:
             if (withId) mField.evalIdBatch(s.pts.view(), s.val, s.id);
             else mField.evalBatch(s.pts.view(), s.val);
             s.evals += size_t(np);
-            const float inv2dx = 0.5f / dx;
             for (int n = 0; n < kLeafVoxels; ++n) {
-                const int p = ((n >> 6) + 1) * 100 + (((n >> 3) & 7) + 1) * 10 + (n & 7) + 1;
-                const float gx = (s.val[p + 100] - s.val[p - 100]) * inv2dx;
-                const float gy = (s.val[p + 10] - s.val[p - 10]) * inv2dx;
-                const float gz = (s.val[p + 1] - s.val[p - 1]) * inv2dx;
-                const float g = std::sqrt(gx * gx + gy * gy + gz * gz);
-                // f/|∇f|: first-order distance; |∇f| ~ 0 only far from the surface. An
-                // L-Lipschitz f bounds the distance below by |f|/L: where f jumps (a lower
-                // bound switching formula) |∇f| is huge and f/|∇f| would fake a surface.
-                // At |f| >= mClampBand the voxel is farther than the band from the surface
-                // (that is what the clamp band means): it stays out, whatever its
-                // neighbours (values beyond the band are only bounds, and may jump).
-                const float v = s.val[p];
-                const float r = g > 1e-6f ? v / g : v;
-                s.out[n] = std::abs(v) >= mClampBand ? v
-                         : std::abs(r) >= std::abs(v) * mInvSlope ? r
-                                                                  : v * mInvSlope;
+                const int p = padIndex(n);
+                s.out[n] = renormalized(s.val, p);
                 if (withId) s.outId[n] = s.id[p];
             }
         }
-
         const float bg = mD.background;
         uint64_t words[kLeafVoxels / 64];
         const bool nan = clampAndMask(s.out, bg, words);
@@ -650,21 +738,6 @@ private:
                 }
             }
             for (auto w : words) any |= w;
-        }
-        if (any && mCandidates && mS.candidateVoxels) {
-            // Voxels the candidate mask leaves off stay out (a tile of it: all on).
-            if (const auto* c = mCandidates->probeConstLeaf(origin)) {
-                any = 0;
-                for (int w = 0; w < kLeafVoxels / 64; ++w) {
-                    const uint64_t keep = c->getValueMask().template getWord<uint64_t>(w);
-                    for (uint64_t off = words[w] & ~keep; off; off &= off - 1) {
-                        float& v = s.out[w * 64 + __builtin_ctzll(off)];
-                        v = v < 0 ? -bg : bg;
-                    }
-                    words[w] &= keep;
-                    any |= words[w];
-                }
-            }
         }
         if (nan && !mNaN.exchange(true)) mNaNLeaf = origin;
         if (!any) return;
@@ -709,6 +782,8 @@ private:
     Coord mNaNLeaf;
     const openvdb::MaskTree* mCandidates =
         mS.candidates ? &mS.candidates->tree() : nullptr;
+    const FloatTree* mSigns =
+        mS.candidates && mS.candidateSigns ? &mS.candidateSigns->tree() : nullptr;
     std::atomic<size_t> mEvals{0};
     std::atomic<size_t> mActive{0};
 };

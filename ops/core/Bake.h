@@ -55,10 +55,13 @@ struct BakeSettings
     /// know where their surface can be (detail within A of its input) pass it to skip leaves
     /// whose values only bound the distance; it must cover the whole band.
     openvdb::MaskGrid::ConstPtr candidates;
-    /// With candidates: also a voxel mask. A voxel the mask leaves off stays inactive (±the
-    /// background, the field's sign) whatever the field says there (detail: beyond its
-    /// input's widened band the field only holds bounds, which must not fake band voxels).
-    bool candidateVoxels = false;
+    /// With candidates: also a voxel mask, and the sign of the voxels it leaves off. Those
+    /// voxels are not evaluated: they stay inactive at ±background with the sign this level
+    /// set (same index space) has there. Only the mask's voxels and, when renormalising, their
+    /// six neighbours are evaluated (detail: its surface lies within A of its input, whose
+    /// widened band gives the mask; beyond it the field only holds bounds, which must not
+    /// fake band voxels, and the sign is the input's).
+    openvdb::FloatGrid::ConstPtr candidateSigns;
 
     /// @brief ValueError("bake: ...") unless every setting is usable.
     void validate() const;

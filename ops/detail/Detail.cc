@@ -658,8 +658,9 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
         // pulls compressed values, |∇f| up to 2, into the band), read off the widened input's
         // distances; the rest of space only holds bounds of the distance. Beyond the widened
         // band (|value| = its background) the input's distance and gradient are unknown:
-        // those voxels stay out, voxel by voxel (candidateVoxels), or the bounds there,
-        // divided by a steep warp gradient, would fake band voxels deep inside.
+        // those voxels stay out, voxel by voxel, with the input's sign (candidateSigns), or
+        // the bounds there, divided by a steep warp gradient, would fake band voxels deep
+        // inside. Only the mask's voxels and their neighbours are evaluated.
         const float limit = std::min(
             float(settings.halfWidth * dx + p.maxWarp() + p.maxGabor() + 3 * dx), wide->background());
         auto mask = openvdb::MaskGrid::create();
@@ -675,7 +676,7 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
         });
         openvdb::tools::pruneInactive(mask->tree());
         s.candidates = mask;
-        s.candidateVoxels = true;
+        s.candidateSigns = wide;
     }
     // The Gabor blob term bends the field along the normal (its slope there ranges over
     // 1 ± 6D/R): OpenVDB's LevelSetTracker restores |∇φ| = 1 across the band.
