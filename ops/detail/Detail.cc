@@ -662,7 +662,7 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
         // the bounds there, divided by a steep warp gradient, would fake band voxels deep
         // inside. Only the mask's voxels and their neighbours are evaluated.
         const float limit = std::min(
-            float(settings.halfWidth * dx + p.maxWarp() + p.maxGabor() + 3 * dx), wide->background());
+            float(settings.halfWidth * dx + p.maxWarp() + p.maxGabor() + dx), wide->background());
         auto mask = openvdb::MaskGrid::create();
         mask->tree().topologyUnion(wide->tree());
         openvdb::tree::LeafManager<openvdb::MaskTree> leaves(mask->tree());
