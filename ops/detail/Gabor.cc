@@ -130,36 +130,69 @@ void GaborNoise::eval(const std::vector<GaborImpulse>& imp, int n, const float* 
                       const float* oz, const float* nx, const float* ny, const float* nz,
                       const float* iso, float* out) const
 {
+    for (int b = 0; b < n; b += kMaxBatch) {
+        evalBlock(imp, std::min(n - b, kMaxBatch), x + b, y + b, z + b, ox + b, oy + b, oz + b,
+                  nx + b, ny + b, nz + b, iso + b, out + b);
+    }
+}
+
+void GaborNoise::evalBlock(const std::vector<GaborImpulse>& imp, int n, const float* x,
+                           const float* y, const float* z, const float* ox, const float* oy,
+                           const float* oz, const float* nx, const float* ny, const float* nz,
+                           const float* iso, float* out) const
+{
     const float r2 = float(mR * mR);
     const float env = float(-kPi * mA * mA);
     const float f0 = float(mF); // cycles per metre: cos(2π f0 d·o) = cosTurns(f0 d·o)
     for (int i = 0; i < n; ++i) out[i] = 0.0f;
     bool anyIso = false;
     for (int i = 0; i < n; ++i) anyIso |= iso[i] > 0.0f;
-    // Kernels beyond the truncation radius contribute exactly 0 and are skipped.
+    // Per impulse: d² (and d·o) at every point in one vectorised pass, the points within the
+    // truncation radius gathered, the kernel (exp and cos) evaluated on those only in a
+    // second vectorised pass, and added back. Kernels beyond the radius contribute exactly 0;
+    // each point sums its impulses in the same order, with the same operations, as a loop
+    // over points with a branch would (the values do not depend on the batch).
+    alignas(64) float d2[kMaxBatch], dot[kMaxBatch], val[kMaxBatch];
+    alignas(64) float cd2[kMaxBatch], cdot[kMaxBatch], cvi[kMaxBatch];
+    alignas(64) int idx[kMaxBatch];
     for (const GaborImpulse& g : imp) {
-        if (!anyIso) {
-            for (int i = 0; i < n; ++i) {
-                const float dx = x[i] - g.x, dy = y[i] - g.y, dz = z[i] - g.z;
-                const float d2 = dx * dx + dy * dy + dz * dz;
-                if (d2 >= r2) continue;
-                out[i] += g.w * fastExp(env * d2) *
-                          cosTurns(f0 * (dx * ox[i] + dy * oy[i] + dz * oz[i]));
-            }
-            continue;
-        }
+        const float gx = g.x, gy = g.y, gz = g.z, gw = g.w;
         for (int i = 0; i < n; ++i) {
-            const float dx = x[i] - g.x, dy = y[i] - g.y, dz = z[i] - g.z;
-            const float d2 = dx * dx + dy * dy + dz * dz;
-            if (d2 >= r2) continue;
-            // The impulse's direction projected on the tangent plane at the point.
-            const float on = g.ox * nx[i] + g.oy * ny[i] + g.oz * nz[i];
-            const float px = g.ox - on * nx[i], py = g.oy - on * ny[i], pz = g.oz - on * nz[i];
-            const float vi = cosTurns(f0 * (dx * px + dy * py + dz * pz));
-            const float va = iso[i] < 1.0f
-                                 ? cosTurns(f0 * (dx * ox[i] + dy * oy[i] + dz * oz[i])) : vi;
-            out[i] += g.w * fastExp(env * d2) * (va + iso[i] * (vi - va));
+            const float dx = x[i] - gx, dy = y[i] - gy, dz = z[i] - gz;
+            d2[i] = dx * dx + dy * dy + dz * dz;
+            dot[i] = dx * ox[i] + dy * oy[i] + dz * oz[i];
         }
+        int m = 0;
+        for (int i = 0; i < n; ++i) {
+            idx[m] = i;
+            m += d2[i] < r2 ? 1 : 0;
+        }
+        if (m == 0) continue;
+        for (int k = 0; k < m; ++k) {
+            cd2[k] = d2[idx[k]];
+            cdot[k] = dot[idx[k]];
+        }
+        if (!anyIso) {
+            for (int k = 0; k < m; ++k) {
+                val[k] = gw * fastExp(env * cd2[k]) * cosTurns(f0 * cdot[k]);
+            }
+        } else {
+            for (int k = 0; k < m; ++k) {
+                const int i = idx[k];
+                const float dx = x[i] - gx, dy = y[i] - gy, dz = z[i] - gz;
+                // The impulse's direction projected on the tangent plane at the point.
+                const float on = g.ox * nx[i] + g.oy * ny[i] + g.oz * nz[i];
+                const float px = g.ox - on * nx[i], py = g.oy - on * ny[i], pz = g.oz - on * nz[i];
+                cvi[k] = f0 * (dx * px + dy * py + dz * pz);
+            }
+            for (int k = 0; k < m; ++k) {
+                const int i = idx[k];
+                const float vi = cosTurns(cvi[k]);
+                const float va = iso[i] < 1.0f ? cosTurns(f0 * cdot[k]) : vi;
+                val[k] = gw * fastExp(env * cd2[k]) * (va + iso[i] * (vi - va));
+            }
+        }
+        for (int k = 0; k < m; ++k) out[idx[k]] += val[k];
     }
 }
 

@@ -47,6 +47,11 @@ public:
               float* out) const;
 
 private:
+    void evalBlock(const std::vector<GaborImpulse>& imp, int n, const float* x, const float* y,
+                   const float* z, const float* ox, const float* oy, const float* oz,
+                   const float* nx, const float* ny, const float* nz, const float* iso,
+                   float* out) const; // n <= kMaxBatch
+
     double mF, mA, mR, mMeanPerCell, mSigma;
     uint64_t mSeed;
 };
