@@ -204,7 +204,7 @@ TEST(Detail, GaborNoiseOfAPointDoesNotDependOnItsBatch)
     // The noise at a point is the same bits evaluated alone (its own impulses) or in a batch
     // of 2500 (more than one block of kMaxBatch) with the impulses of the batch's box, for
     // anisotropic, isotropic and blended points: the bake's chunking and masked fills rely
-    // on it, and a reference sum over the impulses in order gives the same value.
+    // on it.
     detail::GaborNoise g(3.0, 1.5, 24.0, 11);
     const int n = 2500;
     std::vector<float> x(n), y(n), z(n), ox(n), oy(n), oz(n), nx(n), ny(n), nz(n), iso(n), out(n);
