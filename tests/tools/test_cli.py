@@ -1,6 +1,7 @@
 """Every vdb_* tool: conventions, pipelines, provenance and bad input (one line, right exit
 code, nothing left behind)."""
 import json
+import re
 import math
 import os
 import struct
@@ -26,6 +27,21 @@ def test_help_and_version(name):
     assert b"--threads" in h.stdout and b"--params" in h.stdout
     v = run([tool(name), "--version"])
     assert v.returncode == 0 and b"rockvdb" in v.stdout
+
+
+@pytest.mark.parametrize("name,look", [("vdb_amplify", "--max-slope"),
+                                       ("vdb_detail", "--warp-amplitude"),
+                                       ("vdb_blocks", "--seed")])
+def test_help_sets_the_resolution_options_apart_from_the_look(name, look):
+    # An artist tuning the look at a coarse voxel reads which options only resample the
+    # same shape: the bake's rows under their own heading, the stage's look options above it.
+    h = run([tool(name), "--help"]).stdout.decode()
+    head = h.find("Resolution and extent (the same shape at any value")
+    assert head > 0, h
+    rows = h[head:]
+    for opt in ("--voxel-size", "--half-width", "--region", "--chunks"):
+        assert re.search(r"\n\s+" + opt + r"\b", rows), (opt, rows)
+    assert look in h[:head] and look not in rows
 
 
 @pytest.mark.parametrize("name", ALL_TOOLS)
