@@ -653,10 +653,10 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
                             xf.indexToWorld(openvdb::Vec3d(0.0)).length() < 1e-9 * dx &&
                             xf.isLinear() && xf.hasUniformScale();
     if (sameVoxels) {
-        // Candidate leaves: those with a voxel within the band plus the displacement of the
-        // input surface (the surface moves by at most A) plus three voxels (renormalisation
-        // pulls compressed values, |∇f| up to 2, into the band), read off the widened input's
-        // distances; the rest of space only holds bounds of the distance. Beyond the widened
+        // Candidate voxels: those within the band plus the displacement of the input surface
+        // (the surface moves by at most A) plus one voxel (the first-order renormalisation's
+        // error; three voxels here added 3670 deep-side voxels of 13 M on the demo and 24 %
+        // more evaluations), read off the widened input's distances; the rest of space only holds bounds of the distance. Beyond the widened
         // band (|value| = its background) the input's distance and gradient are unknown:
         // those voxels stay out, voxel by voxel, with the input's sign (candidateSigns), or
         // the bounds there, divided by a steep warp gradient, would fake band voxels deep
