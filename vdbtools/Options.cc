@@ -210,20 +210,10 @@ std::shared_ptr<CLI::Config> makeConfigJson(CLI::App* app) { return std::make_sh
 json appToJson(const CLI::App* app) { return ConfigJson::toJson(app, true); }
 
 namespace {
-// The bake's rows (core/BakeParams.h): they set how finely and where the same shape is
-// sampled, never the shape. Listed apart in --help so an artist tuning the look knows which
-// options a quick coarse preview may change.
+// The heading of the rows that only set the resolution (ParamInfo::resolution).
 constexpr const char* kResolutionGroup =
     "Resolution and extent (the same shape at any value: tune the look at a coarser "
     "--voxel-size, then bake it fine; the stage's other parameters change the look)";
-bool isResolutionRow(const std::string& name)
-{
-    for (const char* n : {"voxel-size", "half-width", "renormalize", "tracker-steps", "region",
-                          "max-memory", "chunks", "chunk"}) {
-        if (name == n) return true;
-    }
-    return false;
-}
 } // namespace
 
 void Tool::addParams(CLI::App& where, const SchemaBase& schema)
@@ -258,7 +248,7 @@ void Tool::addParams(CLI::App& where, const SchemaBase& schema)
         // An unset (null) default shows nothing, not the storage's empty "[]".
         b.option->default_str(info.defaultValue.is_null() ? std::string()
                                                           : cliText(info.defaultValue));
-        if (isResolutionRow(info.name)) b.option->group(kResolutionGroup);
+        if (info.resolution) b.option->group(kResolutionGroup);
         mBound.push_back(b);
     }
 }

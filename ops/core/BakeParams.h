@@ -55,14 +55,15 @@ void addChunkRows(Schema<P>& s, Access access)
 {
     // Defaults: the members' own (a whole bake), which wholeBakeParams puts back.
     const ChunkParams whole;
-    s.add(param(ChunkParams::kChunksRow, ParamType::Text, "", whole.chunks, Range::any(),
+    auto resolution = [](ParamInfo row) { row.resolution = true; return row; };
+    s.add(resolution(param(ChunkParams::kChunksRow, ParamType::Text, "", whole.chunks, Range::any(),
                 "Split of the whole bake into AxBxC chunks on leaf faces, e.g. 4x4x1 (with chunk; "
-                "empty: chosen for chunk's N)"),
+                "empty: chosen for chunk's N)")),
           [access](const P& p) { return nlohmann::json(access(p).chunks); },
           [access](P& p, const nlohmann::json& j) { access(p).chunks = j.get<std::string>(); });
-    s.add(param(ChunkParams::kChunkRow, ParamType::Text, "", whole.chunk, Range::any(),
+    s.add(resolution(param(ChunkParams::kChunkRow, ParamType::Text, "", whole.chunk, Range::any(),
                 "Bake only chunk i/N (from 0) of the whole; vdb_merge unites the N chunk files "
-                "into the whole bake, bit for bit (empty: the whole)"),
+                "into the whole bake, bit for bit (empty: the whole)")),
           [access](const P& p) { return nlohmann::json(access(p).chunk); },
           [access](P& p, const nlohmann::json& j) { access(p).chunk = j.get<std::string>(); });
 }
@@ -74,8 +75,10 @@ void addBakeRows(Schema<P>& s, BakeParams P::*m, nlohmann::json voxelSize,
                  nlohmann::json halfWidth, const char* sizeNote = "")
 {
     using schema_detail::Conv;
+    // Every bake row samples the same shape: resolution rows (ParamInfo::resolution).
     auto bind = [&](ParamInfo info, auto BakeParams::*field) {
         using T = std::remove_reference_t<decltype(std::declval<BakeParams>().*field)>;
+        info.resolution = true;
         s.add(std::move(info),
               [m, field](const P& p) { return Conv<T>::get((p.*m).*field); },
               [m, field](P& p, const nlohmann::json& j) { Conv<T>::set((p.*m).*field, j); });

@@ -108,19 +108,26 @@ ParamInfo seedRow(std::string help)
 
 ParamInfo voxelSizeRow(json defaultValue, std::string help)
 {
-    return param("voxel-size", ParamType::Real, "m", std::move(defaultValue),
-                 Range::closed(1e-6, 1e6), std::move(help));
+    ParamInfo row = param("voxel-size", ParamType::Real, "m", std::move(defaultValue),
+                          Range::closed(1e-6, 1e6), std::move(help));
+    row.resolution = true;
+    return row;
 }
 
 ParamInfo halfWidthRow(json defaultValue, std::string help)
 {
-    return param("half-width", ParamType::Real, "voxels", std::move(defaultValue),
-                 Range::closed(1, 64), std::move(help));
+    ParamInfo row = param("half-width", ParamType::Real, "voxels", std::move(defaultValue),
+                          Range::closed(1, 64), std::move(help));
+    row.resolution = true;
+    return row;
 }
 
 ParamInfo maxMemoryRow(std::string help)
 {
-    return param("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0), std::move(help));
+    ParamInfo row = param("max-memory", ParamType::Real, "GB", 0.0, Range::atLeast(0),
+                          std::move(help));
+    row.resolution = true;
+    return row;
 }
 
 std::array<ParamInfo, 5> warpRows(double amplitude, double sharpness, std::string sharpnessHelp)

@@ -79,6 +79,10 @@ struct ParamInfo
     /// A derived default: what the row's default stands for ("0.034 x tile-size"), computed
     /// by the table's rule from other rows (Schema::derived). Empty: the default is itself.
     std::string derived;
+    /// The row only sets how finely or where the same shape is sampled (voxel size, band,
+    /// region, chunks, memory limit), never the look: the CLI lists these rows apart, so an
+    /// artist can tune the look at a coarse voxel and bake it fine.
+    bool resolution = false;
     /// The Python keyword: the name with '_' for '-'.
     std::string pythonName() const;
 };

@@ -656,7 +656,8 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
         // Candidate voxels: those within the band plus the displacement of the input surface
         // (the surface moves by at most A) plus one voxel (the first-order renormalisation's
         // error; three voxels here added 3670 deep-side voxels of 13 M on the demo and 24 %
-        // more evaluations), read off the widened input's distances; the rest of space only holds bounds of the distance. Beyond the widened
+        // more evaluations), read off the widened input's distances; the rest of space only
+        // holds bounds of the distance. Beyond the widened
         // band (|value| = its background) the input's distance and gradient are unknown:
         // those voxels stay out, voxel by voxel, with the input's sign (candidateSigns), or
         // the bounds there, divided by a steep warp gradient, would fake band voxels deep

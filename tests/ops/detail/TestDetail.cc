@@ -109,6 +109,19 @@ TEST(Detail, CandidateMaskChangesNothing)
             if (w >= wide->background()) ++strays;
         }
         EXPECT_EQ(masked.surface->activeVoxelCount() + extra, full.surface->activeVoxelCount());
+        // The voxels the mask left off were not evaluated: they hold ±background with the
+        // true side of the detailed sphere (inside |x| < 1 - A, outside |x| > 1 + A).
+        size_t off = 0;
+        for (auto leaf = masked.surface->tree().cbeginLeaf(); leaf; ++leaf) {
+            for (auto it = leaf->cbeginValueOff(); it; ++it) {
+                const double r = masked.surface->indexToWorld(it.getCoord()).length();
+                if (std::abs(r - 1.0) <= p.maxWarp() + dx) continue;
+                ASSERT_EQ(std::abs(*it), masked.surface->background()) << opts;
+                ASSERT_EQ(*it < 0, r < 1.0) << opts << it.getCoord();
+                ++off;
+            }
+        }
+        EXPECT_GT(off, 1000u) << opts;
     }
     EXPECT_GT(strays, 0u) << "no voxel beyond the widened band: the mask is not tested";
 }
