@@ -2,10 +2,10 @@
 
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/ExtendBand.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <openvdb/tools/Composite.h>
-#include <openvdb/tools/FastSweeping.h>
 #include <openvdb/tools/GridTransformer.h>
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/Prune.h>
@@ -89,7 +89,7 @@ FloatGrid::Ptr csgGrids(CsgOp op, const std::vector<FloatGrid::ConstPtr>& grids,
         const float rf = float(r);
         // Values the operator needs: |result| < bg requires operands up to bg + R/6 + R.
         const int dilation = int(std::ceil((7.0 / 6.0) * r / dx)) + 1;
-        // Upper bound of what fast sweeping allocates: every voxel of each input's active
+        // Upper bound of what widening allocates: every voxel of each input's active
         // bounding box grown by the dilation (the widened band can fill it), ~5 B per voxel
         // in leaves, operands and result alive at once. Linear-in-R estimates undercount: a
         // large offset of a small shape grows with the cube of the dilation.
@@ -107,9 +107,9 @@ FloatGrid::Ptr csgGrids(CsgOp op, const std::vector<FloatGrid::ConstPtr>& grids,
                              ", over the ", formatBytes(limit),
                              " allowed; use a smaller --smooth, or raise --max-memory");
         }
-        FloatGrid::Ptr acc = openvdb::tools::dilateSdf(*result, dilation);
+        FloatGrid::Ptr acc = extendBand(*result, dilation);
         for (size_t i = 1; i < in.size(); ++i) {
-            FloatGrid::Ptr b = openvdb::tools::dilateSdf(*in[i], dilation);
+            FloatGrid::Ptr b = extendBand(*in[i], dilation);
             auto out = FloatGrid::create(bg);
             out->setTransform(ref.transform().copy());
             out->tree().topologyUnion(acc->tree());

@@ -2,10 +2,10 @@
 
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/ExtendBand.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <openvdb/tools/ChangeBackground.h>
-#include <openvdb/tools/FastSweeping.h>
 #include <openvdb/tree/LeafManager.h>
 #include <openvdb/tools/GridOperators.h>
 #include <openvdb/tools/Interpolation.h>
@@ -139,9 +139,9 @@ openvdb::FloatGrid::ConstPtr widenBand(openvdb::FloatGrid::ConstPtr grid, double
     const double width = double(grid->background());
     if (!(exactWidth > width)) return grid;
     const int iterations = int(std::ceil((exactWidth - width) / dx - 1e-4)) + 1;
-    // Fast sweeping voxelises active tiles and grows the band layer by layer: the band's
-    // voxels (tiles at their full count) grow by about iterations / (2·half width) of the
-    // band per layer, ~12 bytes each with the sweep's masks.
+    // extendBand voxelises active tiles and grows the band layer by layer: the band's voxels
+    // (tiles at their full count) grow by about iterations / (2·half width) of the band per
+    // layer, ~12 bytes each with the copy, the masks and a layer's new values.
     const double active = double(grid->activeVoxelCount());
     const double halfWidth = std::max(1.0, width / dx);
     const double bytes = active * (1.0 + iterations / halfWidth) * 12.0;
@@ -154,7 +154,7 @@ openvdb::FloatGrid::ConstPtr widenBand(openvdb::FloatGrid::ConstPtr grid, double
                          " active tiles count at their full voxel count; a narrow-band level set "
                          "has none)" : std::string(), "; use a coarser voxel size or raise --max-memory");
     }
-    openvdb::FloatGrid::Ptr g = openvdb::tools::dilateSdf(*grid, iterations);
+    openvdb::FloatGrid::Ptr g = extendBand(*grid, iterations);
     // Beyond the widened band the field must keep growing: background = the new width.
     const float bg = float(width + iterations * dx);
     openvdb::tree::LeafManager<openvdb::FloatTree> leaves(g->tree());

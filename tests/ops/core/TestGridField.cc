@@ -1,5 +1,5 @@
 // A baked level set as a field (core/GridField.h): values inside the band, and the band
-// widened by tools::dilateSdf to true distances as far as callers read them.
+// widened (extendBand) to true distances as far as callers read them.
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/GridField.h>
