@@ -637,8 +637,6 @@ FieldPtr detailField(FieldPtr input, const DetailParams& params, double gradient
                                            blend ? p.blendMask : nullptr);
     }
     const bool gabor = p.gabor.amplitude > 0 || (blend && blend->gaborAmplitude > 0);
-    // Both read the input's gradient at every point: build it now, with every thread.
-    if (warpMax > 0 || gabor) input->prepareGradient();
     if (gabor) {
         f = std::make_shared<GaborDetail>(f, input, p.gabor, p.direction, float(gradientStep),
                                           blend, blend ? p.blendMask : nullptr);
@@ -674,13 +672,18 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
         widenBand(grid, none ? 0.0 : p.reach(settings.halfWidth * settings.voxelSize),
                   settings.maxMemoryBytes);
     if (widened) *widened = wide;
-    FieldPtr f = detailField(levelSetField(wide), p, dx);
-    if (none) return bake(*f, settings, interrupt);
-    BakeSettings s = settings;
     const openvdb::math::Transform& xf = grid->transform();
     const bool sameVoxels = std::abs(settings.voxelSize - dx) < 1e-9 * dx &&
                             xf.indexToWorld(openvdb::Vec3d(0.0)).length() < 1e-9 * dx &&
                             xf.isLinear() && xf.hasUniformScale();
+    const FieldPtr input = levelSetField(wide);
+    // The warp and the frames read the input's gradient at every point: on the input's own
+    // voxels levelSetField takes it on the fly; elsewhere it samples a gradient grid, built
+    // now with every thread.
+    if (!none && !sameVoxels) input->prepareGradient();
+    FieldPtr f = detailField(input, p, dx);
+    if (none) return bake(*f, settings, interrupt);
+    BakeSettings s = settings;
     if (sameVoxels) {
         // Candidate voxels: those within the band plus the displacement of the input surface
         // (the surface moves by at most A) plus one voxel (the first-order renormalisation's

@@ -7,9 +7,13 @@
 #include <rockvdb/core/VdbIO.h>
 
 #include <gtest/gtest.h>
+#include <openvdb/tools/GridOperators.h>
+#include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/LevelSetSphere.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 using namespace rockvdb;
 using openvdb::FloatGrid;
@@ -85,4 +89,64 @@ TEST(LevelSetField, SamplesTheGridAndBoundsBeyondTheBand)
     float v;
     ASSERT_TRUE(acc.probeValue(openvdb::Coord(24, 0, 0), v)); // x = 1.2: on the surface
     EXPECT_NEAR(v, 0.0, 0.01);
+}
+
+TEST(LevelSetField, GradientIsTheGridsCentralDifferenceOnAndOffItsVoxels)
+{
+    initialize();
+    const float dx = 0.05f;
+    auto grid = openvdb::tools::createLevelSetSphere<FloatGrid>(1.0f, openvdb::Vec3f(0.2f, 0, 0), dx, 3.0f);
+    auto f = levelSetField(grid);
+    auto reference = openvdb::tools::gradient(*grid);
+    auto racc = reference->getConstAccessor();
+    // Every active voxel (leaf interiors, faces, edges) and a layer of inactive ones around
+    // the band, at float positions as a bake makes them (i·dx, off by up to ~1e-5 voxel).
+    std::vector<openvdb::Coord> voxels;
+    for (auto it = grid->cbeginValueOn(); it; ++it) voxels.push_back(it.getCoord());
+    for (auto it = grid->cbeginValueOn(); it; ++it) {
+        const openvdb::Coord c = it.getCoord().offsetBy(4, 0, 0);
+        if (!grid->tree().isValueOn(c)) voxels.push_back(c);
+    }
+    size_t checked = 0, inactive = 0;
+    BatchBuffer b;
+    float gx[kMaxBatch], gy[kMaxBatch], gz[kMaxBatch];
+    for (size_t start = 0; start < voxels.size(); start += kMaxBatch) {
+        b.n = int(std::min<size_t>(kMaxBatch, voxels.size() - start));
+        for (int i = 0; i < b.n; ++i) {
+            const openvdb::Coord& c = voxels[start + size_t(i)];
+            b.x[i] = float(c.x()) * dx;
+            b.y[i] = float(c.y()) * dx;
+            b.z[i] = float(c.z()) * dx;
+        }
+        f->gradientBatch(b.view(), dx, gx, gy, gz);
+        for (int i = 0; i < b.n; ++i) {
+            const openvdb::Coord& c = voxels[start + size_t(i)];
+            const openvdb::Vec3f want = racc.getValue(c); // zero off the band
+            ASSERT_EQ(gx[i], want[0]) << c;
+            ASSERT_EQ(gy[i], want[1]) << c;
+            ASSERT_EQ(gz[i], want[2]) << c;
+            inactive += !grid->tree().isValueOn(c);
+            ++checked;
+        }
+    }
+    EXPECT_GT(inactive, 1000u);
+    // Between voxels: the trilinear sample of the gradient grid.
+    BatchBuffer q;
+    q.n = 3;
+    const openvdb::Vec3d pts[3] = {{1.2 + 0.3 * dx, 0.01, 0.02}, {0.2, 1.0 - 0.4 * dx, 0.013}, {-0.79, 0.1, 0.1}};
+    for (int i = 0; i < 3; ++i) {
+        q.x[i] = float(pts[i][0]);
+        q.y[i] = float(pts[i][1]);
+        q.z[i] = float(pts[i][2]);
+    }
+    f->gradientBatch(q.view(), dx, gx, gy, gz);
+    for (int i = 0; i < 3; ++i) {
+        const openvdb::Vec3d idx = grid->worldToIndex(openvdb::Vec3d(q.x[i], q.y[i], q.z[i]));
+        const openvdb::Vec3f want = openvdb::tools::BoxSampler::sample(racc, idx);
+        EXPECT_NEAR(gx[i], want[0], 1e-5f);
+        EXPECT_NEAR(gy[i], want[1], 1e-5f);
+        EXPECT_NEAR(gz[i], want[2], 1e-5f);
+        // A unit normal of the sphere, as the band is a distance.
+        EXPECT_NEAR(openvdb::Vec3f(gx[i], gy[i], gz[i]).length(), 1.0f, 0.05f);
+    }
 }
