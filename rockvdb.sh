@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # rockvdb set-up, build and run.
-#   ./rockvdb.sh demo [--quality draft|default|high]
+#   ./rockvdb.sh demo [--quality preview|draft|default|high]
 #                       install missing Debian packages, build (Release, -j2), bake the demo
 #                       scene to out/demo.vdb and render out/demo.png (ROCKVDB_QUALITY works too)
 #   ./rockvdb.sh test   same set-up, then run every test (C++, Python, CLI, real clients) via CTest,

@@ -17,18 +17,23 @@
 #      with the scene
 #   6. a shaded preview tinted by material: 0 terrain, 1 equidimensional blocks, 2 tabular
 #      blocks, 3 scree rocks, 4 boulders, 5 arch bedrock, 6 arch sand, 7 arch rocks
-# usage: samples/01_demo.sh BUILD_DIR OUT_DIR [--quality draft|default|high]
-#        (or ROCKVDB_QUALITY=draft|default|high); writes OUT_DIR/demo.vdb and demo.png
+# usage: samples/01_demo.sh BUILD_DIR OUT_DIR [--quality preview|draft|default|high]
+#        (or ROCKVDB_QUALITY=...); writes OUT_DIR/demo.vdb and demo.png
 set -euo pipefail
 BUILD="${1:-build}"
 OUT="${2:-out}"
 QUALITY="${ROCKVDB_QUALITY:-default}"
-if [ "${3:-}" = "--quality" ]; then QUALITY="${4:?--quality needs draft, default or high}"; fi
+if [ "${3:-}" = "--quality" ]; then QUALITY="${4:?--quality needs preview, draft, default or high}"; fi
+DETAIL=1
 case "$QUALITY" in
+    # Look-dev: the same blocks, strata, rocks and arch at 30 cm, the cliff without its detail
+    # step (its 8-12 cm warp and ridges are below the voxel, and the Gabor band is above the
+    # voxel's Nyquist limit, which vdb_detail refuses).
+    preview) VOXEL=0.3;  CELLS=4;  HF_CELL=0.5; DETAIL=0 ;;
     draft)   VOXEL=0.25; CELLS=4;  HF_CELL=0.5 ;;  # a quick look (tests use it)
     default) VOXEL=0.1;  CELLS=10; HF_CELL=0.5 ;;  # ~1.5 minutes on 2 cores
     high)    VOXEL=0.05; CELLS=20; HF_CELL=0.25 ;; # the papers' 5 cm (rocks: 20 voxels/cell)
-    *) echo "01_demo.sh: --quality must be draft, default or high (got '$QUALITY')" >&2; exit 2 ;;
+    *) echo "01_demo.sh: --quality must be preview, draft, default or high (got '$QUALITY')" >&2; exit 2 ;;
 esac
 B="$BUILD/vdbtools"
 mkdir -p "$OUT"
@@ -92,6 +97,12 @@ tiles() {
         -o "$OUT/demo_tabular.vdb" --tile "$OUT/demo_tabular.tile"
 }
 cliff() {
+    if [ "$DETAIL" = 0 ]; then
+        "$B/vdb_amplify" -q --terrain "$OUT/demo_terrain.json" \
+            --tiles "$OUT/demo_equi.tile,$OUT/demo_tabular.tile" --strata "$OUT/demo_strata.json" \
+            --voxel-size "$VOXEL" -o "$OUT/demo_cliff.vdb"
+        return
+    fi
     "$B/vdb_amplify" -q --terrain "$OUT/demo_terrain.json" \
         --tiles "$OUT/demo_equi.tile,$OUT/demo_tabular.tile" --strata "$OUT/demo_strata.json" \
         --voxel-size "$VOXEL" -o - |
@@ -129,7 +140,9 @@ preview() {
 
 T0=$(date +%s.%N)
 stage "block tiles (vdb_blocks x2)" "$OUT/demo_tabular.vdb" tiles
-stage "cliff (vdb_amplify | detail)" "$OUT/demo_cliff.vdb" cliff
+CLIFF_STAGE="cliff (vdb_amplify | detail)"
+if [ "$DETAIL" = 0 ]; then CLIFF_STAGE="cliff (vdb_amplify)"; fi
+stage "$CLIFF_STAGE" "$OUT/demo_cliff.vdb" cliff
 stage "rock tiles (vdb_rockpile)" "$OUT/demo_rocks.tiles" rocks
 stage "scree (rockpile pile | csg)" "$OUT/demo_scree.vdb" scree
 stage "boulders (fractal_rock | csg)" "$OUT/demo_boulders.vdb" boulders

@@ -213,7 +213,11 @@ private:
     {
         const Heightfield& h = *mHf;
         const int cx = h.nx - 1, cy = h.ny - 1;
-        const int radius = int(std::min(std::ceil(rho / h.cellSize), double(std::max(cx, cy))));
+        // The smallest radius whose cap radius·cellSize exceeds rho: a cap equal to rho (rho a
+        // multiple of the cell size, e.g. the demo's 0.25 m voxels on 0.5 m cells) could never
+        // prove a point beyond rho, and every point within the cone's reach was searched ring by
+        // ring (the bake of that terrain 3x slower; values the same).
+        const int radius = int(std::min(std::floor(rho / h.cellSize) + 1.0, double(std::max(cx, cy))));
         std::lock_guard<std::mutex> lock(mWindowMutex);
         for (const auto& w : mWindows) if (w->radius == radius) return *w;
         auto w = std::make_unique<Window>();

@@ -120,6 +120,41 @@ def test_vdb_tool_meshes_the_demo_with_its_defaults(demo, tmp_path):
     assert (tmp_path / "demo.obj").stat().st_size > 1_000_000
 
 
+def test_preview_quality_has_the_drafts_look(demo, tmp_path):
+    """--quality preview (look-dev, issue 35): 30 cm voxels and the cliff without its detail
+    step give the scene the draft gives: the same surface, the same blocks and materials at
+    each surface point, the same material shares in the picture."""
+    p = run(["bash", DEMO, BUILD, str(tmp_path), "--quality", "preview"])
+    assert p.returncode == 0, p.stderr
+    assert re.search(r"cliff \(vdb_amplify\)\s+\d+\.\d s", p.stderr), p.stderr
+    draft_dir, draft_err = demo
+    pv = {g.name: g for g in vdb.readAll(str(tmp_path / "demo.vdb"))[0]}
+    dr = {g.name: g for g in vdb.readAll(str(draft_dir / "demo.vdb"))[0]}
+    assert pv["surface"].transform.voxelSize()[0] == pytest.approx(0.3)
+    d_surf, d_block, d_mat = (dr[n].getConstAccessor() for n in ("surface", "block_id", "material"))
+    p_block, p_mat = pv["block_id"].getConstAccessor(), pv["material"].getConstAccessor()
+    n = near = same_block = same_mat = 0
+    for it in pv["surface"].citerOnValues():
+        if it.count != 1 or abs(it.value) > 0.15:
+            continue
+        q = tuple(int(round(c * 0.3 / 0.25)) for c in it.min)  # the draft's nearest voxel
+        n += 1
+        near += abs(d_surf.getValue(q)) < 0.25
+        same_block += p_block.getValue(it.min) == d_block.getValue(q)
+        same_mat += p_mat.getValue(it.min) == d_mat.getValue(q)
+    # Measured: 95 %, 95 %, 97 % of 242 k surface voxels.
+    assert n > 100_000
+    assert near / n > 0.9 and same_block / n > 0.9 and same_mat / n > 0.95, (n, near, same_block, same_mat)
+
+    def shares(err):
+        shown = re.search(r"by material: (.*) \(material ids\)", err)
+        return {float(a): float(b) for a, b in re.findall(r"(\d+) ([\d.]+)%", shown[1])}
+
+    a, b = shares(p.stderr), shares(draft_err)
+    assert set(a) == set(b) == set(ALL)
+    assert all(abs(a[m] - b[m]) <= 0.5 for m in ALL), (a, b)
+
+
 def test_bad_quality_is_a_usage_error(tmp_path):
     p = run(["bash", DEMO, BUILD, str(tmp_path), "--quality", "ultra"])
     assert p.returncode == 2 and "draft, default or high" in p.stderr
