@@ -658,7 +658,7 @@ BakeResult detailLevelSet(openvdb::FloatGrid::ConstPtr grid, const DetailParams&
     }
     // Without detail the input's own band is all the bake reads (a plain resample).
     const bool none = p.maxWarp() <= 0 && p.maxGabor() <= 0;
-    // The input's band is widened by fast sweeping to reach(): refuse amplitudes that would
+    // The input's band is widened layer by layer to reach(): refuse amplitudes that would
     // sweep hundreds of voxel layers (minutes and gigabytes) before the bake's own estimate.
     const double widen = (p.reach(settings.halfWidth * settings.voxelSize) -
                           double(grid->background())) / dx;

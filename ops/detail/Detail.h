@@ -119,7 +119,7 @@ struct DetailParams
 FieldPtr detailField(FieldPtr input, const DetailParams& p, double gradientStep);
 
 /// @brief Detail a level-set grid and re-bake it as a narrow-band level set (renormalised):
-/// the grid's band is first widened (tools::dilateSdf) to params.reach(), the detail field
+/// the grid's band is first widened (widenBand) to params.reach(), the detail field
 /// is baked over the input's active bounds grown by the amplitudes. With both amplitudes 0
 /// the input's band values come back unchanged (trilinear samples at voxel centres).
 /// @throw ValueError for a grid that is not a level set or unusable parameters.

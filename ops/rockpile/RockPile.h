@@ -84,7 +84,7 @@ Vec3d voxelToWorld(const TileSet& set, const Vec3d& v);
 /// from its seed, plus a voxel.
 double maxRockRadius(const TileSet& set);
 
-/// @brief A level set as a support, its band widened (tools::dilateSdf) to the depth the
+/// @brief A level set as a support, its band widened (widenBand) to the depth the
 /// deep-rock test reads: twice the largest rock radius and a little.
 FieldPtr levelSetSupport(openvdb::FloatGrid::ConstPtr grid, const TileSet& set);
 
