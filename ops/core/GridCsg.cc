@@ -12,6 +12,8 @@
 #include <openvdb/tools/SignedFloodFill.h>
 #include <openvdb/tree/LeafManager.h>
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -118,8 +120,7 @@ FloatGrid::Ptr csgGrids(CsgOp op, const std::vector<FloatGrid::ConstPtr>& grids,
             const FloatGrid& A = *acc;
             const FloatGrid& B = *b;
             leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
-                auto aa = A.getConstAccessor();
-                auto bb = B.getConstAccessor();
+                openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> aa(A.tree()), bb(B.tree());
                 for (auto it = leaf.beginValueOn(); it; ++it) {
                     const auto ijk = it.getCoord();
                     const float va = aa.getValue(ijk), vb = bb.getValue(ijk);
@@ -173,38 +174,43 @@ FloatGrid::Ptr csgAttribute(CsgOp op, const std::vector<FloatGrid::ConstPtr>& su
         sameXf[i] = surfaces[i]->transform() == result.transform() &&
                     (!ids[i] || ids[i]->transform() == result.transform());
     }
+    // Accessors per range of leaves, unregistered: a registered accessor per leaf cost more
+    // than the leaf's look-ups (its tree's registry is a concurrent hash map).
+    using Accessor = openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>;
     openvdb::tree::LeafManager<openvdb::FloatTree> leaves(out->tree());
-    leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
-        std::vector<FloatGrid::ConstAccessor> phi, id;
+    tbb::parallel_for(leaves.leafRange(), [&](const auto& range) {
+        std::vector<Accessor> phi, id;
         for (size_t i = 0; i < n; ++i) {
-            phi.push_back(surfaces[i]->getConstAccessor());
-            id.push_back((ids[i] ? ids[i] : surfaces[i])->getConstAccessor());
+            phi.emplace_back(surfaces[i]->tree());
+            id.emplace_back((ids[i] ? ids[i] : surfaces[i])->tree());
         }
-        for (auto it = leaf.beginValueOn(); it; ++it) {
-            const openvdb::Coord ijk = it.getCoord();
-            const openvdb::Vec3d p = result.transform().indexToWorld(ijk);
-            auto value = [&](size_t i) -> float {
-                if (sameXf[i]) return phi[i].getValue(ijk);
-                const openvdb::Vec3d q = surfaces[i]->transform().worldToIndex(p);
-                return openvdb::tools::BoxSampler::sample(phi[i], q);
-            };
-            size_t win = 0;
-            if (op != CsgOp::Difference) {
-                float best = value(0);
-                for (size_t i = 1; i < n; ++i) {
-                    const float v = value(i);
-                    if (op == CsgOp::Union ? v < best : v > best) {
-                        best = v;
-                        win = i;
+        for (auto leafIt = range.begin(); leafIt; ++leafIt) {
+            for (auto it = leafIt->beginValueOn(); it; ++it) {
+                const openvdb::Coord ijk = it.getCoord();
+                const openvdb::Vec3d p = result.transform().indexToWorld(ijk);
+                auto value = [&](size_t i) -> float {
+                    if (sameXf[i]) return phi[i].getValue(ijk);
+                    const openvdb::Vec3d q = surfaces[i]->transform().worldToIndex(p);
+                    return openvdb::tools::BoxSampler::sample(phi[i], q);
+                };
+                size_t win = 0;
+                if (op != CsgOp::Difference) {
+                    float best = value(0);
+                    for (size_t i = 1; i < n; ++i) {
+                        const float v = value(i);
+                        if (op == CsgOp::Union ? v < best : v > best) {
+                            best = v;
+                            win = i;
+                        }
                     }
                 }
+                float v = -1.0f;
+                if (ids[win]) {
+                    v = sameXf[win] ? id[win].getValue(ijk)
+                                    : id[win].getValue(ids[win]->transform().worldToIndexCellCentered(p));
+                }
+                it.setValue(v);
             }
-            float v = -1.0f;
-            if (ids[win]) {
-                v = sameXf[win] ? id[win].getValue(ijk)
-                                : id[win].getValue(ids[win]->transform().worldToIndexCellCentered(p));
-            }
-            it.setValue(v);
         }
     });
     return out;
