@@ -257,7 +257,13 @@ json SchemaBase::describe() const
         rows.push_back({{"name", p.name}, {"python", p.pythonName()}, {"type", typeName(p.type)},
                         {"unit", p.unit}, {"default", p.defaultValue}, {"count", p.count},
                         {"range", range}, {"choices", p.choices}, {"help", p.help},
-                        {"derived", p.derived.empty() ? json() : json(p.derived)}});
+                        {"derived", p.derived.empty() ? json() : json(p.derived)},
+                        // The range as numbers (null: unbounded), for front-ends that set
+                        // limits on a widget (the Blender add-on); "range" is its text.
+                        {"min", std::isfinite(p.range.min) ? json(p.range.min) : json()},
+                        {"max", std::isfinite(p.range.max) ? json(p.range.max) : json()},
+                        {"min_open", p.range.minOpen}, {"max_open", p.range.maxOpen},
+                        {"resolution", p.resolution}});
     }
     return {{"op", mOp}, {"summary", mSummary}, {"params", rows}};
 }

@@ -130,8 +130,8 @@ public:
     /// @throw ValueError for an unknown key (suggesting the closest name) or a bad value.
     nlohmann::json resolve(const nlohmann::json& j) const;
 
-    /// @brief The table as JSON: [{name, python, type, unit, default, count, range, choices,
-    /// help}], for Python signatures and docstrings and for docs.
+    /// @brief The table as JSON: [{name, python, type, unit, default, count, range, choices, help,
+    /// derived, min, max, min_open, max_open, resolution}]: Python, the Blender add-on, docs.
     nlohmann::json describe() const;
 
 protected:

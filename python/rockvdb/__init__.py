@@ -21,6 +21,16 @@ rock_pile (aperiodic rock piles, arches §5), fractal_rock / fractal_scatter / f
 
 Errors: ValueError for bad values, TypeError (naming the parameter and the type expected) for
 wrong types, IOError for files, KeyboardInterrupt when interrupted.
+
+Off the main thread (a UI's worker), a Job reports progress and cancels: the calls a thread
+makes inside ``with job:`` report ``job.progress`` (0..1) and ``job.phase``, and raise
+KeyboardInterrupt soon after another thread calls ``job.cancel()``:
+
+    job = rockvdb.Job()
+    def work():
+        with job:
+            grids = rockvdb.fractal_rock(seed=3)
+    threading.Thread(target=work).start()   # then poll job.progress, or job.cancel()
 """
 import json as _json
 import numbers as _numbers
@@ -32,7 +42,11 @@ from . import _rockvdb
 
 __version__ = _rockvdb.__version__
 
-__all__ = ["BlockTile", "Field", "amplify", "block_tile", "box", "capsule", "coverage", "csg",
+Job = _rockvdb.Job
+Job.__doc__ = ("A stage call watched from another thread: enter it (with job:) on the thread "
+               "that calls; read progress (0..1) and phase, or cancel(), from any other.")
+
+__all__ = ["BlockTile", "Field", "Job", "amplify", "block_tile", "box", "capsule", "coverage", "csg",
            "detail", "expression", "fractal_carve", "fractal_rock", "fractal_scatter", "heightfield", "load_tile", "mesh", "plane",
            "polytope", "preview",
            "provenance", "read", "read_image", "rock_library", "rock_pile", "rock_tiles",

@@ -16,6 +16,8 @@
 
 #include <atomic>
 #include <chrono>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 
@@ -27,16 +29,31 @@ namespace pyhost {
 /// A level set (or id grid) as the bindings pass it; None is refused by GridCaster.h.
 using Grid = openvdb::FloatGrid::Ptr;
 
+/// A call that another Python thread watches and may cancel (rockvdb.Job): a front-end that
+/// runs a stage off its UI thread (the Blender add-on) reads the progress and cancels.
+struct PyJob
+{
+    std::atomic<bool> cancelled{false};
+    std::atomic<double> progress{0.0};
+    std::mutex mutex; ///< guards phase
+    std::string phase;
+};
+
+/// The job entered (`with job:`) on this thread, if any: the calls this thread makes report
+/// to it and stop when it is cancelled.
+inline thread_local std::shared_ptr<PyJob> tCurrentJob;
+
 /// A Task's host in Python: Ctrl-C (the interpreter's pending SIGINT, or any signal whose
 /// handler raises) cancels; polled from the calling thread, which works in every TBB loop, at
 /// most every 50 ms, with the GIL taken just for the check. Stages then raise
 /// KeyboardInterrupt. Python delivers signals to the main thread only: calls from other
-/// Python threads run to the end.
+/// Python threads run to the end, unless they run in a rockvdb.Job that is cancelled.
 class PyTaskHost : public TaskHost
 {
 public:
     bool cancelled() override
     {
+        if (mJob && mJob->cancelled.load()) mCancelled.store(true);
         if (mCancelled.load()) return true;
         if (std::this_thread::get_id() != mCaller) return false;
         const auto now = std::chrono::steady_clock::now();
@@ -50,7 +67,18 @@ public:
         return mCancelled.load();
     }
 
+    void progress(const char* phase, double fraction) override
+    {
+        if (!mJob) return;
+        {
+            std::lock_guard<std::mutex> lock(mJob->mutex);
+            mJob->phase = phase;
+        }
+        mJob->progress.store(fraction);
+    }
+
 private:
+    std::shared_ptr<PyJob> mJob = tCurrentJob;
     std::thread::id mCaller = std::this_thread::get_id();
     std::chrono::steady_clock::time_point mNext{};
     std::atomic<bool> mCancelled{false};

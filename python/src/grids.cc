@@ -23,6 +23,35 @@ namespace pyhost {
 
 void bindGrids(py::module_& m)
 {
+    // The Blender add-on's id points: every voxel of @a surface within @a band voxels of its
+    // zero crossing, at its centre (world, float32 N x 3), and each id grid's value there
+    // (N x k), in the tree's voxel order.
+    m.def("surface_ids", [](const Grid& surface, const std::vector<Grid>& ids, double band) {
+        std::vector<float> pts, vals;
+        {
+            py::gil_scoped_release release;
+            const float dx = float(band * surface->voxelSize()[0]);
+            std::vector<openvdb::FloatGrid::ConstAccessor> acc;
+            for (const auto& g : ids) acc.push_back(g->getConstAccessor());
+            for (auto it = surface->tree().cbeginValueOn(); it; ++it) {
+                if (!it.isVoxelValue() || std::abs(*it) > dx) continue;
+                const openvdb::Coord ijk = it.getCoord();
+                const openvdb::Vec3d p = surface->transform().indexToWorld(ijk);
+                pts.insert(pts.end(), {float(p[0]), float(p[1]), float(p[2])});
+                for (size_t k = 0; k < ids.size(); ++k) {
+                    vals.push_back(acc[k].getValue(
+                        ids[k]->transform().worldToIndexCellCentered(p)));
+                }
+            }
+        }
+        const size_t n = pts.size() / 3, k = ids.size();
+        py::array_t<float> P({n, size_t(3)}), V({n, k});
+        std::copy(pts.begin(), pts.end(), P.mutable_data());
+        if (!vals.empty()) std::copy(vals.begin(), vals.end(), V.mutable_data());
+        return py::make_tuple(P, V);
+    }, py::arg("surface"), py::arg("ids"), py::arg("band") = 1.0,
+       "Voxel centres within band voxels of a level set's surface and the id grids' values there");
+
     // rockvdb.distributed records each chunk with the checksum vdb_merge --manifest checks.
     m.def("file_checksum", [](const std::string& path) {
         py::gil_scoped_release release;

@@ -30,6 +30,7 @@ static std::thread::id gImportThread;
 
 static bool pyReadInterrupt()
 {
+    if (tCurrentJob && tCurrentJob->cancelled.load()) return true;
     if (std::this_thread::get_id() != gImportThread || !Py_IsInitialized()) return false;
     py::gil_scoped_acquire gil;
     if (PyErr_CheckSignals() == 0) return false;
@@ -59,6 +60,26 @@ PYBIND11_MODULE(_rockvdb, m)
         }
     });
     m.attr("__version__") = version();
+
+    // rockvdb.Job: `with job:` on a worker thread, job.cancel() / job.progress from another.
+    py::class_<PyJob, std::shared_ptr<PyJob>>(m, "Job")
+        .def(py::init<>())
+        .def("cancel", [](PyJob& j) { j.cancelled.store(true); })
+        .def_property_readonly("cancelled", [](const PyJob& j) { return j.cancelled.load(); })
+        .def_property_readonly("progress", [](const PyJob& j) { return j.progress.load(); })
+        .def_property_readonly("phase", [](PyJob& j) {
+            std::lock_guard<std::mutex> lock(j.mutex);
+            return j.phase;
+        })
+        .def("__enter__", [](std::shared_ptr<PyJob> j) {
+            if (tCurrentJob) throw ValueError("Job: this thread is already in a job");
+            tCurrentJob = j;
+            return j;
+        })
+        .def("__exit__", [](PyJob&, py::args) {
+            tCurrentJob.reset();
+            return false;
+        });
 
     bindFields(m);
     bindGrids(m);

@@ -1,0 +1,220 @@
+"""A stage's grids as Blender objects.
+
+One result is three objects, the first the one an artist handles:
+  <name>         a mesh object: a Volume to Mesh modifier on the grids' 'surface' (threshold
+                 0, vdb_mesh's adaptivity), then a geometry-nodes modifier that copies the id
+                 grids onto the mesh's points as attributes 'material', 'block_id', 'rock_id'
+                 (each vertex takes the id of the nearest surface voxel), and a material that
+                 tints by them (Attribute node: Cycles and Eevee);
+  <name> grids   the Volume object holding the grids, read from a cache .vdb next to the .blend
+                 (//rockvdb_cache/, or Blender's temporary folder for an unsaved file), hidden;
+  <name> ids     the id grids' surface voxels as points with those attributes, hidden.
+The mesh object carries the custom properties rockvdb_stage, rockvdb_version,
+rockvdb_params (the stage's parameters, as each grid's rockvdb:params holds them) and
+rockvdb_operator (the operator's properties, for Regenerate)."""
+import json
+import os
+import uuid
+
+import bpy
+import numpy as np
+
+import rockvdb
+from rockvdb import _rockvdb
+
+ID_GRIDS = ("material", "block_id", "rock_id")
+
+
+def cache_dir():
+    if bpy.data.filepath:
+        return bpy.path.abspath("//rockvdb_cache")
+    return os.path.join(bpy.app.tempdir or "/tmp", "rockvdb_cache")
+
+
+def cache_path(name):
+    d = cache_dir()
+    os.makedirs(d, exist_ok=True)
+    safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
+    return os.path.join(d, f"{safe}_{uuid.uuid4().hex[:8]}.vdb")
+
+
+def mesh_adaptivity():
+    """vdb_mesh's default adaptivity (its table): the meshes the add-on and vdb_mesh make
+    agree."""
+    rows = json.loads(_rockvdb.schema("mesh"))["params"]
+    return float(next(r["default"] for r in rows if r["name"] == "adaptivity"))
+
+
+def _link(obj, collection):
+    collection.objects.link(obj)
+    return obj
+
+
+def _id_points(grids):
+    """The id grids' values at the surface voxels (|phi| <= half a voxel: about one voxel per
+    surface column, enough for the nearest-point look-up): (points N x 3, {name: values N})."""
+    surface = next(g for g in grids if g.name == "surface")
+    ids = [g for g in grids if g.name in ID_GRIDS]
+    if not ids:
+        return np.zeros((0, 3), np.float32), {}
+    pts, values = _rockvdb.surface_ids(surface, ids, 0.5)
+    return pts, {g.name: values[:, i] for i, g in enumerate(ids)}
+
+
+def _ids_tree(name, points_obj, attributes):
+    """Geometry nodes: each point of the mesh takes, for every id attribute, the value of the
+    nearest point of @a points_obj."""
+    ng = bpy.data.node_groups.new(name, "GeometryNodeTree")
+    ng.inputs.new("NodeSocketGeometry", "Geometry")
+    ng.outputs.new("NodeSocketGeometry", "Geometry")
+    N, L = ng.nodes, ng.links
+    gin, gout = N.new("NodeGroupInput"), N.new("NodeGroupOutput")
+    info = N.new("GeometryNodeObjectInfo")
+    info.inputs["Object"].default_value = points_obj
+    info.transform_space = "RELATIVE"
+    nearest = N.new("GeometryNodeSampleNearest")
+    nearest.domain = "POINT"
+    L.new(info.outputs["Geometry"], nearest.inputs["Geometry"])
+    L.new(N.new("GeometryNodeInputPosition").outputs["Position"], nearest.inputs["Sample Position"])
+    geometry = gin.outputs[0]
+    for attr in attributes:
+        named = N.new("GeometryNodeInputNamedAttribute")
+        named.data_type = "FLOAT"
+        named.inputs["Name"].default_value = attr
+        sample = N.new("GeometryNodeSampleIndex")
+        sample.data_type, sample.domain = "FLOAT", "POINT"
+        L.new(info.outputs["Geometry"], sample.inputs["Geometry"])
+        L.new(named.outputs[1], sample.inputs[1])           # the float "Attribute" / "Value"
+        L.new(nearest.outputs["Index"], sample.inputs["Index"])
+        store = N.new("GeometryNodeStoreNamedAttribute")
+        store.data_type, store.domain = "FLOAT", "POINT"
+        store.inputs["Name"].default_value = attr
+        L.new(geometry, store.inputs["Geometry"])
+        L.new(sample.outputs[0], store.inputs[3])            # the float "Value"
+        geometry = store.outputs[0]
+    L.new(geometry, gout.inputs[0])
+    return ng
+
+
+def _material(name, attribute):
+    """Rock grey tinted by an id attribute: each id its own hue (White Noise of the id)."""
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    N, L = mat.node_tree.nodes, mat.node_tree.links
+    bsdf = N.get("Principled BSDF")
+    bsdf.inputs["Roughness"].default_value = 0.85
+    if attribute is None:
+        bsdf.inputs["Base Color"].default_value = (0.42, 0.40, 0.37, 1.0)
+        return mat
+    attr = N.new("ShaderNodeAttribute")
+    attr.attribute_type, attr.attribute_name = "GEOMETRY", attribute
+    noise = N.new("ShaderNodeTexWhiteNoise")
+    noise.noise_dimensions = "1D"
+    L.new(attr.outputs["Fac"], noise.inputs["W"])
+    mix = N.new("ShaderNodeMixRGB")
+    mix.inputs["Fac"].default_value = 0.35
+    mix.inputs["Color1"].default_value = (0.42, 0.40, 0.37, 1.0)
+    L.new(noise.outputs["Color"], mix.inputs["Color2"])
+    L.new(mix.outputs["Color"], bsdf.inputs["Base Color"])
+    return mat
+
+
+def _points_mesh(name, pts, values):
+    me = bpy.data.meshes.new(name)
+    me.vertices.add(len(pts))
+    me.vertices.foreach_set("co", np.ascontiguousarray(pts, np.float32).ravel())
+    for attr, v in values.items():
+        a = me.attributes.new(attr, "FLOAT", "POINT")
+        a.data.foreach_set("value", np.ascontiguousarray(v, np.float32))
+    return me
+
+
+def stage_params(grids):
+    """The stage's parameters as the grids' provenance holds them (JSON text), and version."""
+    for g in grids:
+        if g.name == "surface" and "rockvdb:params" in g.metadata:
+            return g["rockvdb:params"], g["rockvdb:version"], g["rockvdb:generator"]
+    return "{}", rockvdb.__version__, ""
+
+
+def build(context, stage, label, grids, operator_props, target=None):
+    """Objects for @a grids (the new result, or @a target's replaced in place). Returns the
+    mesh object."""
+    path = cache_path(label)
+    rockvdb.write(path, grids)
+    pts, values = _id_points(grids)
+    params, version, generator = stage_params(grids)
+    collection = context.collection or context.scene.collection
+
+    if target is not None and target.get("rockvdb_stage") == stage:
+        obj = target
+        vol_obj = obj.get("rockvdb_volume")
+        pts_obj = obj.get("rockvdb_points")
+        old = bpy.path.abspath(vol_obj.data.filepath)
+        vol_obj.data.filepath = path
+        vol_obj.data.grids.load()
+        old_mesh = pts_obj.data
+        pts_obj.data = _points_mesh(obj.name + " ids", pts, values)
+        bpy.data.meshes.remove(old_mesh)
+        if old.startswith(cache_dir()) and os.path.exists(old) and old != path:
+            os.remove(old)
+        if set(values) != set(obj.get("rockvdb_ids", [])):
+            _set_ids(obj, pts_obj, values)
+    else:
+        vol = bpy.data.volumes.new(label + " grids")
+        vol.filepath = path
+        vol_obj = _link(bpy.data.objects.new(label + " grids", vol), collection)
+        obj = _link(bpy.data.objects.new(label, bpy.data.meshes.new(label)), collection)
+        pts_obj = _link(bpy.data.objects.new(label + " ids", _points_mesh(label + " ids", pts, values)),
+                        collection)
+        for child in (vol_obj, pts_obj):
+            child.parent = obj
+            child.hide_viewport = child.hide_render = True
+            child.hide_select = True
+        mod = obj.modifiers.new("rockvdb surface", "VOLUME_TO_MESH")
+        mod.object = vol_obj
+        mod.grid_name = "surface"
+        mod.threshold = 0.0
+        mod.resolution_mode = "GRID"
+        mod.adaptivity = mesh_adaptivity()
+        mod.use_smooth_shade = True
+        obj["rockvdb_volume"] = vol_obj
+        obj["rockvdb_points"] = pts_obj
+        _set_ids(obj, pts_obj, values)
+        for o in context.view_layer.objects:
+            o.select_set(False)
+        obj.select_set(True)
+        context.view_layer.objects.active = obj
+    obj["rockvdb_stage"] = stage
+    obj["rockvdb_generator"] = generator
+    obj["rockvdb_version"] = version
+    obj["rockvdb_params"] = params
+    obj["rockvdb_operator"] = json.dumps(operator_props)
+    obj["rockvdb_cache"] = path
+    return obj
+
+
+def _set_ids(obj, pts_obj, values):
+    """The ids modifier and the tinting material for the id attributes in @a values."""
+    attrs = [a for a in ID_GRIDS if a in values]
+    old = obj.modifiers.get("rockvdb ids")
+    if old is not None:
+        obj.modifiers.remove(old)
+    if attrs:
+        mod = obj.modifiers.new("rockvdb ids", "NODES")
+        mod.node_group = _ids_tree(obj.name + " ids", pts_obj, attrs)
+    obj["rockvdb_ids"] = attrs
+    mat = _material(obj.name, attrs[0] if attrs else None)
+    if obj.data.materials:
+        obj.data.materials[0] = mat
+    else:
+        obj.data.materials.append(mat)
+
+
+def grids_of(obj):
+    """The grids of a rockvdb result object (read from its cache .vdb), as pyopenvdb grids."""
+    vol_obj = obj.get("rockvdb_volume")
+    if vol_obj is None:
+        raise ValueError(f"'{obj.name}' is not a rockvdb result")
+    import pyopenvdb
+    return pyopenvdb.readAll(bpy.path.abspath(vol_obj.data.filepath))[0]

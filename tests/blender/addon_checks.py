@@ -1,0 +1,209 @@
+"""Run by headless Blender: the rockvdb add-on registered, every operator run, its results and
+properties reported as JSON for test_addon.py to judge against the C++ tables and the CLI.
+usage: blender -b --factory-startup --python addon_checks.py -- ADDON_DIR OUT_DIR
+(PYTHONPATH: the rockvdb package)"""
+import json
+import os
+import shutil
+import sys
+import time
+import traceback
+
+argv = sys.argv[sys.argv.index("--") + 1:]
+sys.path.insert(0, argv[0])
+OUT = argv[1]
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+import rockvdb_blender  # noqa: E402
+from rockvdb_blender import Run, stages  # noqa: E402
+
+report = {"errors": []}
+
+
+def registered():
+    return sorted(c for c in dir(bpy.types) if c.startswith("ROCKVDB_OT_"))
+
+
+def props_of(idname):
+    """Every property of an operator: type, default, limits, length, enum items."""
+    rna = getattr(bpy.ops.rockvdb, idname).get_rna_type()
+    out = {}
+    for p in rna.properties:
+        if p.identifier == "rna_type":
+            continue
+        d = {"type": p.type, "hidden": p.is_hidden}
+        if p.type in ("INT", "FLOAT"):
+            d["length"] = p.array_length
+            d["default"] = list(p.default_array) if p.array_length else p.default
+            d["min"], d["max"] = p.hard_min, p.hard_max
+            d["subtype"], d["unit"] = p.subtype, p.unit
+        elif p.type == "BOOLEAN":
+            d["default"] = p.default
+        elif p.type == "ENUM":
+            d["default"] = p.default
+            d["items"] = [i.identifier for i in p.enum_items]
+        elif p.type == "STRING":
+            d["default"] = p.default
+        d["description"] = p.description
+        out[p.identifier] = d
+    return out
+
+
+def evaluated(obj):
+    me = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
+    attrs = {}
+    for a in me.attributes:
+        if a.name in ("material", "block_id", "rock_id"):
+            v = np.zeros(len(me.vertices), np.float32)
+            a.data.foreach_get("value", v)
+            attrs[a.name] = sorted(set(int(x) for x in np.unique(v)))
+    lo = [min(v.co[i] for v in me.vertices) for i in range(3)] if me.vertices else None
+    hi = [max(v.co[i] for v in me.vertices) for i in range(3)] if me.vertices else None
+    return {"vertices": len(me.vertices), "attributes": attrs, "min": lo, "max": hi,
+            "tint": [n.attribute_name for m in obj.data.materials for n in m.node_tree.nodes
+                     if n.type == "ATTRIBUTE"]}
+
+
+def result(name, obj, copy=True):
+    """A result object's report; its cache .vdb copied to OUT/name.vdb."""
+    r = evaluated(obj)
+    r.update({k: obj[k] for k in ("rockvdb_stage", "rockvdb_version", "rockvdb_generator",
+                                  "rockvdb_params", "rockvdb_cache")})
+    vol = obj["rockvdb_volume"]
+    vol.data.grids.load()
+    r["volume_grids"] = sorted(g.name for g in vol.data.grids)
+    r["modifiers"] = [(m.type, getattr(m, "grid_name", None), getattr(m, "threshold", None),
+                       getattr(m, "adaptivity", None)) for m in obj.modifiers]
+    r["hidden_children"] = sorted(c.name for c in obj.children if c.hide_viewport and c.hide_render)
+    if copy:
+        shutil.copy(obj["rockvdb_cache"], os.path.join(OUT, name + ".vdb"))
+    return r
+
+
+def op_error(call):
+    """The one-line report a failing operator call gives (bpy raises it as RuntimeError)."""
+    try:
+        call()
+    except RuntimeError as e:
+        return str(e)
+    return None
+
+
+def scene_names():
+    return sorted(o.name for o in bpy.data.objects)
+
+
+try:
+    # A saved file: the caches go to //rockvdb_cache beside it (and outlive this Blender).
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, "scene.blend"))
+    # Register, unregister, register again: nothing left behind, nothing doubled.
+    rockvdb_blender.register()
+    report["registered"] = registered()
+    report["menu"] = hasattr(bpy.types, "VIEW3D_MT_rockvdb_add")
+    rockvdb_blender.unregister()
+    report["after_unregister"] = registered() + (["menu"] if hasattr(bpy.types, "VIEW3D_MT_rockvdb_add") else [])
+    rockvdb_blender.register()
+    report["registered_again"] = registered()
+
+    report["props"] = {s.name: props_of(s.name) for s in stages.STAGES}
+    report["undo"] = {s.name: "UNDO" in getattr(bpy.types, f"ROCKVDB_OT_{s.name}").bl_options
+                      for s in stages.STAGES}
+    R = report["results"] = {}
+
+    # Defaults, nothing selected: a fractal rock, a block tile.
+    bpy.ops.object.select_all(action="DESELECT")
+    bpy.context.view_layer.objects.active = None
+    bpy.ops.rockvdb.fractal_rock()
+    rock = bpy.context.active_object
+    R["fractal_rock"] = result("fractal_rock", rock)
+    bpy.ops.rockvdb.fractal_rock(seed=5, roughness=0.3)
+    R["fractal_rock_seed5"] = result("fractal_rock_seed5", bpy.context.active_object)
+
+    bpy.context.view_layer.objects.active = None
+    bpy.ops.rockvdb.block_tile(tile_size=6.0, voxel_size=0.1)   # the default tile is 20 m at 5 cm
+    R["block_tile"] = result("block_tile", bpy.context.active_object)
+    bpy.ops.rockvdb.block_tile(type="tabular", tile_size=6.0, voxel_size=0.1)
+    R["block_tile_tabular"] = result("block_tile_tabular", bpy.context.active_object)
+
+    # Detail on the active result (defaults, then a warp).
+    bpy.context.view_layer.objects.active = rock
+    bpy.ops.rockvdb.detail()
+    R["detail"] = result("detail", bpy.context.active_object)
+    bpy.context.view_layer.objects.active = rock
+    bpy.ops.rockvdb.detail(warp_amplitude=0.03)
+    R["detail_warp"] = result("detail_warp", bpy.context.active_object)
+
+    # A rock pile inside a cube; fractal rocks scattered on a grid sheet and on the plane.
+    bpy.ops.mesh.primitive_cube_add(size=3.0, location=(0, 0, 1.5))
+    bpy.ops.rockvdb.rock_pile(tiles_cube_size=1.5, tiles_voxels_per_cell=8)
+    R["rock_pile"] = result("rock_pile", bpy.context.active_object)
+    bpy.ops.mesh.primitive_cube_add(size=3.0, location=(0, 0, 1.5))
+    bpy.ops.rockvdb.rock_pile(tiles_cube_size=1.5, tiles_voxels_per_cell=8, material=3)
+    R["rock_pile_material"] = result("rock_pile_material", bpy.context.active_object)
+    bpy.ops.mesh.primitive_grid_add(size=8, x_subdivisions=16, y_subdivisions=16, location=(0, 0, 1))
+    bpy.ops.rockvdb.fractal_scatter(count=6, voxel_size=0.05, seed=2)
+    R["fractal_scatter_mesh"] = result("fractal_scatter_mesh", bpy.context.active_object)
+    bpy.ops.object.select_all(action="DESELECT")
+    bpy.context.view_layer.objects.active = None
+    bpy.ops.rockvdb.fractal_scatter(count=6, voxel_size=0.05, seed=2, area=(-4, -4, 4, 4),
+                                    use_area=True, material=4)
+    R["fractal_scatter_plane"] = result("fractal_scatter_plane", bpy.context.active_object)
+
+    # Regenerate in place: same object, same grids (copied before, the cache is replaced).
+    bpy.context.view_layer.objects.active = rock
+    before_names = scene_names()
+    shutil.copy(rock["rockvdb_cache"], os.path.join(OUT, "regen_before.vdb"))
+    bpy.ops.rockvdb.regenerate()
+    report["regenerate"] = {"same_object": bpy.context.active_object == rock,
+                            "scene_unchanged": scene_names() == before_names,
+                            "new_cache": rock["rockvdb_cache"] != R["fractal_rock"]["rockvdb_cache"]}
+    shutil.copy(rock["rockvdb_cache"], os.path.join(OUT, "regen_after.vdb"))
+
+    # Export: the grids with their provenance.
+    bpy.ops.rockvdb.export_vdb(filepath=os.path.join(OUT, "exported.vdb"))
+
+    # Bad input: one-line reports, nothing added.
+    before_names = scene_names()
+    bpy.ops.object.select_all(action="DESELECT")
+    bpy.context.view_layer.objects.active = None
+    report["bad"] = {
+        "scatter_count": op_error(lambda: bpy.ops.rockvdb.fractal_scatter()),
+        "pile_no_mesh": op_error(lambda: bpy.ops.rockvdb.rock_pile()),
+        "detail_no_result": op_error(lambda: bpy.ops.rockvdb.detail()),
+        "bad_choice_json": op_error(lambda: bpy.ops.rockvdb.block_tile(tile_size=6.0, voxel_size=0.1,
+                                                                         use_fractures=True, fractures="[1, 2")),
+        "open_bound": op_error(lambda: bpy.ops.rockvdb.fractal_rock(h_up=0.0)),
+    }
+    report["bad_scene_unchanged"] = scene_names() == before_names
+
+    # Cancel mid-run (what Esc does in the modal operator): the worker stops within a second
+    # and nothing is added.
+    op = stages.STAGES[[s.name for s in stages.STAGES].index("block_tile")]
+    before_names = scene_names()
+
+    class Props:  # the block-tile operator's properties at their defaults, 2 cm voxels
+        pass
+    p = Props()
+    for row in op.rows():
+        setattr(p, row["prop"], row["default"])
+        if row["default"] is None:
+            setattr(p, "use_" + row["prop"], False)
+    p.voxel_size = 0.02
+    run = Run(op, op.keywords(p), {}).start()
+    time.sleep(1.0)
+    progress = run.job.progress
+    t0 = time.time()
+    run.cancel()
+    report["cancel"] = {"seconds": time.time() - t0, "cancelled": run.cancelled,
+                        "finished_before": run.grids is not None, "error": run.error,
+                        "progress_seen": progress, "scene_unchanged": scene_names() == before_names}
+
+    rockvdb_blender.unregister()
+    report["final_unregister"] = registered()
+except Exception:
+    report["errors"].append(traceback.format_exc())
+
+with open(os.path.join(OUT, "report.json"), "w") as f:
+    json.dump(report, f, indent=1, default=str)
