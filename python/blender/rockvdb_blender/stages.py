@@ -115,7 +115,10 @@ def _gather_support(op, context):
     pts, tris = _mesh_arrays(obj, context)
     path = results.cache_path(obj.name + "_support")[:-4] + ".obj"
     _write_obj(path, pts, tris)
-    return {"support": path, "source": obj.name}
+    # The tile set is saved beside it too, and the pile reads it from there: the pile's
+    # provenance then names both files, and vdb_rockpile --params replays it.
+    tiles = results.cache_path(obj.name + "_rocks")[:-4] + ".tiles"
+    return {"support": path, "tiles": tiles, "source": obj.name}
 
 
 def _gather_result(op, context):
@@ -139,10 +142,11 @@ def _run_fractal_scatter(kw, inputs):
     ground = inputs.get("ground")
     if "mesh" in inputs:
         pts, tris = inputs["mesh"]
-        dx = kw[""].get("voxel_size") or 0.01
+        # The ground at the rocks' own voxel size and band.
         ground = pyopenvdb.FloatGrid.createLevelSetFromPolygons(
-            pts, triangles=tris, transform=pyopenvdb.createLinearTransform(voxelSize=dx),
-            halfWidth=3.0)
+            pts, triangles=tris,
+            transform=pyopenvdb.createLinearTransform(voxelSize=kw[""]["voxel_size"]),
+            halfWidth=kw[""]["half_width"])
         ground.name = "surface"
     return list(rockvdb.fractal_scatter(ground, **kw[""]))
 
@@ -153,8 +157,8 @@ def _run_block_tile(kw, inputs):
 
 
 def _run_rock_pile(kw, inputs):
-    tiles = rockvdb.rock_tiles(**kw["tiles_"])
-    return list(rockvdb.rock_pile(tiles, inputs["support"], **kw[""]))
+    rockvdb.rock_tiles(path=inputs["tiles"], **kw["tiles_"])
+    return list(rockvdb.rock_pile(inputs["tiles"], inputs["support"], **kw[""]))
 
 
 def _run_detail(kw, inputs):

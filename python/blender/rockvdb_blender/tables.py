@@ -130,6 +130,15 @@ def annotations(rows):
     return ann
 
 
+def decimal(value):
+    """A Blender float property's value as the number it shows: Blender keeps 32-bit floats
+    (0.3 is 0.30000001192...), the stages take doubles, and the CLI's 0.3 is the double 0.3.
+    The shortest decimal that reads back as the same 32-bit float is what was typed (or the
+    table's default), so the add-on and the CLI bake the same grids for the same numbers."""
+    import numpy as np
+    return float(repr(np.float32(value)))
+
+
 def keywords(op, rows):
     """The stage keywords an operator's properties give (rows in their Python spelling):
     unset rows only when their use_ box is on, JSON text parsed."""
@@ -138,7 +147,11 @@ def keywords(op, rows):
         if row["default"] is None and not getattr(op, "use_" + row["prop"]):
             continue
         value = getattr(op, row["prop"])
-        if row["type"] in ("floats", "ints"):
+        if row["type"] == "float":
+            value = decimal(value)
+        elif row["type"] == "floats":
+            value = [decimal(v) for v in value]
+        elif row["type"] == "ints":
             value = list(value)
         elif row["type"] == "json":
             text = value.strip()

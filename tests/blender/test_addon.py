@@ -1,0 +1,254 @@
+"""The Blender add-on (python/blender/rockvdb_blender) in headless Blender: addon_checks.py
+registers it, runs every operator and reports; these tests judge the report against the C++
+stage tables and the CLI tools, which run here, outside Blender."""
+import inspect
+import json
+import os
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from conftest import BUILD, assert_bitwise_equal, run, tool
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ADDON = os.path.join(HERE, "..", "..", "python", "blender")
+PYDIR = os.path.join(BUILD, "python")
+
+pytestmark = pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
+
+STAGES = ["fractal_rock", "fractal_scatter", "block_tile", "rock_pile", "detail"]
+
+
+@pytest.fixture(scope="module")
+def out(tmp_path_factory):
+    d = tmp_path_factory.mktemp("addon")
+    p = subprocess.run(["blender", "-b", "--factory-startup", "--python",
+                        os.path.join(HERE, "addon_checks.py"), "--", ADDON, str(d)],
+                       env=dict(os.environ, PYTHONPATH=PYDIR), capture_output=True, text=True,
+                       timeout=900)
+    assert (d / "report.json").exists(), (p.returncode, p.stdout[-3000:], p.stderr[-3000:])
+    return d
+
+
+@pytest.fixture(scope="module")
+def report(out):
+    r = json.loads((out / "report.json").read_text())
+    assert r["errors"] == [], r["errors"][0]
+    return r
+
+
+def grids(path):
+    import pyopenvdb
+    return {g.name: g for g in pyopenvdb.readAll(str(path))[0]}
+
+
+def params_of(path):
+    return json.loads(grids(path)["surface"]["rockvdb:params"])
+
+
+def test_registers_and_unregisters_cleanly(report):
+    ops = sorted(f"ROCKVDB_OT_{s}" for s in STAGES + ["regenerate", "export_vdb"])
+    assert report["registered"] == ops
+    assert report["menu"]
+    assert report["after_unregister"] == []
+    assert report["registered_again"] == ops
+    assert report["final_unregister"] == []
+    assert all(report["undo"][s] for s in STAGES)
+
+
+def _table_rows():
+    """{stage: [(property name, row)]}: the rows each operator must show, computed here from
+    the tables and the rockvdb functions' signatures (outside Blender)."""
+    import rockvdb
+    from rockvdb import _rockvdb
+
+    def rows(table, fn, prefix=""):
+        taken = {p.name for p in inspect.signature(fn).parameters.values()
+                 if p.kind == p.KEYWORD_ONLY}
+        return [(prefix + r["python"], r) for r in json.loads(_rockvdb.schema(table))["params"]
+                if r["python"] in taken and r["name"] not in ("chunks", "chunk")]
+    return {
+        "fractal_rock": rows("fractal_rock", rockvdb.fractal_rock),
+        "fractal_scatter": rows("fractal_scatter", rockvdb.fractal_scatter),
+        "block_tile": rows("block_tile", rockvdb.block_tile),
+        "rock_pile": rows("rock_tiles", rockvdb.rock_tiles, "tiles_") + rows("rock_pile", rockvdb.rock_pile),
+        "detail": rows("detail", rockvdb.detail),
+    }
+
+
+def test_properties_equal_the_tables(report):
+    """Every row of every stage is a property with the row's default, limits, length and
+    help; no property repeats a row under another name."""
+    tables = _table_rows()
+    for stage, rows in tables.items():
+        props = report["props"][stage]
+        extra = set(props) - {name for name, _ in rows} - {"target", "source"} - \
+            {"use_" + name for name, r in rows if r["default"] is None}
+        assert not extra, (stage, extra)
+        assert len(rows) > 5
+        for name, r in rows:
+            p = props[name]
+            assert r["help"] in p["description"], (stage, name)
+            unset = r["default"] is None
+            if unset:
+                assert props["use_" + name]["default"] is False
+            if r["type"] in ("int", "ints", "float", "floats"):
+                assert p["type"] == ("INT" if r["type"] in ("int", "ints") else "FLOAT"), name
+                assert p["length"] == (r["count"] if r["type"] in ("ints", "floats") else 0), name
+                if not unset:
+                    want = r["default"] if isinstance(r["default"], list) else [r["default"]]
+                    got = p["default"] if isinstance(p["default"], list) else [p["default"]]
+                    # Blender keeps 32-bit floats: the default as a float32.
+                    assert np.array_equal(np.float32(got), np.float32(want)), (stage, name, got, want)
+                integer = r["type"] in ("int", "ints")
+                if r["min"] is not None:
+                    lo = r["min"] + (1 if integer and r["min_open"] else 0)
+                    assert np.float32(p["min"]) == np.float32(lo), (stage, name, p["min"], r["range"])
+                if r["max"] is not None:
+                    hi = r["max"] - (1 if integer and r["max_open"] else 0)
+                    assert np.float32(p["max"]) == np.float32(hi), (stage, name, p["max"], r["range"])
+                if r["unit"] == "m":
+                    assert p["unit"] == "LENGTH", name
+            elif r["type"] == "bool":
+                assert p["type"] == "BOOLEAN" and p["default"] == r["default"], name
+            elif r["choices"]:
+                assert p["type"] == "ENUM" and p["items"] == r["choices"], name
+                assert p["default"] == r["default"], name
+            else:
+                assert p["type"] == "STRING", name
+                if r["type"] == "str":
+                    assert p["default"] == r["default"], name
+
+
+def test_addon_no_default_written_twice():
+    """The add-on's source names no stage row's default: its properties come from the tables
+    (a number written beside a row name would be a second truth)."""
+    import re
+    src = ""
+    for f in os.listdir(os.path.join(ADDON, "rockvdb_blender")):
+        if f.endswith(".py"):
+            src += open(os.path.join(ADDON, "rockvdb_blender", f)).read()
+    for stage, rows in _table_rows().items():
+        for name, r in rows:
+            assert not re.search(rf"(?<![.\w]){name}\s*=\s*[-0-9(\[]", src), (stage, name)
+            assert not re.search(rf"[\"']{r['name']}[\"']\s*:\s*[-0-9(\[]", src), (stage, name)
+
+
+def test_results_hold_their_grids_meshed_and_tinted(report):
+    R = report["results"]
+    want = {"fractal_rock": ["surface"], "block_tile": ["block_id", "surface"],
+            "detail": ["surface"], "rock_pile": ["rock_id", "surface"],
+            "rock_pile_material": ["material", "rock_id", "surface"],
+            "fractal_scatter_mesh": ["rock_id", "surface"],
+            "fractal_scatter_plane": ["material", "rock_id", "surface"]}
+    for name, names in want.items():
+        r = R[name]
+        assert r["volume_grids"] == names, name
+        assert r["modifiers"][0] == ["VOLUME_TO_MESH", "surface", 0.0, 0.0], name
+        assert r["vertices"] > 1000, name
+        assert len(r["hidden_children"]) == 2, name
+        ids = [g for g in ("material", "block_id", "rock_id") if g in names]
+        assert sorted(r["attributes"]) == sorted(ids), name
+        assert r["tint"] == ids[:1], name
+    # ids reach the mesh: many blocks and rocks, one material where one was asked for
+    assert len(R["block_tile"]["attributes"]["block_id"]) > 30
+    assert len(R["rock_pile"]["attributes"]["rock_id"]) > 30
+    assert R["rock_pile_material"]["attributes"]["material"] == [3]
+    assert R["fractal_scatter_plane"]["attributes"]["material"] == [4]
+    assert len(R["fractal_scatter_plane"]["attributes"]["rock_id"]) == 6
+    # non-defaults change the result; detail with zero amplitudes keeps the rock's surface
+    assert R["fractal_rock_seed5"]["vertices"] != R["fractal_rock"]["vertices"]
+    assert R["detail"]["vertices"] == R["fractal_rock"]["vertices"]
+    assert R["detail_warp"]["vertices"] != R["detail"]["vertices"]
+    assert R["block_tile_tabular"]["vertices"] != R["block_tile"]["vertices"]
+
+
+def test_scatter_rests_on_the_active_mesh_or_the_plane(report):
+    """The grid sheet sits at z = 1; without a selection the ground is z = 0. Rocks are sunk
+    by embed (15 % of their height), so their lowest points are just below the ground."""
+    R = report["results"]
+    assert 0.6 < R["fractal_scatter_mesh"]["min"][2] < 1.0
+    assert -0.4 < R["fractal_scatter_plane"]["min"][2] < 0.0
+
+
+CLI = {"vdb_fractal_rock": "vdb_fractal_rock", "vdb_blocks": "vdb_blocks",
+       "vdb_rockpile": "vdb_rockpile"}
+
+
+@pytest.mark.parametrize("name", ["fractal_rock", "fractal_rock_seed5", "block_tile",
+                                  "block_tile_tabular", "rock_pile_material",
+                                  "fractal_scatter_plane"])
+def test_cli_replays_the_addon_bit_for_bit_and_meshes_alike(report, out, tmp_path, name):
+    """The result's own provenance through the CLI (--params) gives the same grids, and
+    vdb_mesh of the CLI's file has the vertices Blender's Volume to Mesh made (within 1 %)."""
+    r = report["results"][name]
+    mine = out / f"{name}.vdb"
+    params = tmp_path / "params.json"
+    params.write_text(json.dumps(params_of(mine)))
+    again = tmp_path / "cli.vdb"
+    run([tool(r["rockvdb_generator"]), "-q", "--params", str(params), "-o", str(again)], check=True)
+    a, b = grids(mine), grids(again)
+    assert sorted(a) == sorted(b)
+    for g in a:
+        assert_bitwise_equal(a[g], b[g])
+    obj = tmp_path / "cli.obj"
+    run([tool("vdb_mesh"), str(again), "-q", "-o", str(obj)], check=True)
+    verts = sum(1 for line in open(obj) if line.startswith("v "))
+    assert abs(verts - r["vertices"]) <= 0.01 * verts, (verts, r["vertices"])
+
+
+def test_defaults_are_the_clis_defaults(report, tmp_path):
+    """The add-on's operators at their defaults pass the parameters the CLI's defaults are
+    (Blender's 32-bit floats read back as the decimals the table gives)."""
+    cli = tmp_path / "rock.vdb"
+    run([tool("vdb_fractal_rock"), "-q", "-o", str(cli)], check=True)
+    assert json.loads(report["results"]["fractal_rock"]["rockvdb_params"]) == params_of(cli)
+    cli = tmp_path / "tile.vdb"
+    run([tool("vdb_blocks"), "-q", "--tile-size", "6", "--voxel-size", "0.1", "-o", str(cli)],
+        check=True)
+    assert json.loads(report["results"]["block_tile"]["rockvdb_params"]) == params_of(cli)
+    cli = tmp_path / "scatter.vdb"
+    run([tool("vdb_fractal_rock"), "-q", "--count", "6", "--voxel-size", "0.05", "--seed", "2",
+         "--area=-4,-4,4,4", "--material", "4", "-o", str(cli)], check=True)
+    assert json.loads(report["results"]["fractal_scatter_plane"]["rockvdb_params"]) == params_of(cli)
+
+
+def test_regenerate_in_place_gives_the_same_bits(report, out):
+    assert report["regenerate"] == {"same_object": True, "scene_unchanged": True, "new_cache": True}
+    a, b = grids(out / "regen_before.vdb"), grids(out / "regen_after.vdb")
+    assert sorted(a) == sorted(b) == ["surface"]
+    assert_bitwise_equal(a["surface"], b["surface"])
+
+
+def test_export_writes_the_grids_with_the_clis_provenance(report, out):
+    exported = grids(out / "exported.vdb")
+    assert sorted(exported) == ["surface"]
+    assert_bitwise_equal(exported["surface"], grids(out / "regen_after.vdb")["surface"])
+    s = exported["surface"]
+    assert s["rockvdb:generator"] == "vdb_fractal_rock"
+    assert json.loads(s["rockvdb:params"]) == json.loads(report["results"]["fractal_rock"]["rockvdb_params"])
+    p = run([tool("vdb_info"), "--json", str(out / "exported.vdb")], check=True)
+    assert json.loads(p.stdout)[0]["grids"][0]["rockvdb"]["generator"] == "vdb_fractal_rock"
+
+
+def test_bad_input_is_a_one_line_report_and_adds_nothing(report):
+    bad = report["bad"]
+    assert bad["scatter_count"].startswith("Error: rockvdb.fractal_scatter: ")
+    assert "count >= 1" in bad["scatter_count"]
+    assert "select a mesh object" in bad["pile_no_mesh"]
+    assert "select a rockvdb result" in bad["detail_no_result"]
+    assert "fractures: not valid JSON" in bad["bad_choice_json"]
+    assert "h-up must be in (0, 1)" in bad["open_bound"]
+    for message in bad.values():
+        assert message.count("\n") == 1 and message.endswith("\n"), message
+    assert report["bad_scene_unchanged"]
+
+
+def test_cancel_stops_within_a_second_and_adds_nothing(report):
+    c = report["cancel"]
+    assert c["cancelled"] and not c["finished_before"] and c["error"] is None
+    assert 0 < c["progress_seen"] < 1
+    assert c["seconds"] < 1.0
+    assert c["scene_unchanged"]
