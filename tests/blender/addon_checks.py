@@ -1,6 +1,6 @@
 """Run by headless Blender: the rockvdb add-on registered, every operator run, its results and
 properties reported as JSON for test_addon.py to judge against the C++ tables and the CLI.
-usage: blender -b --factory-startup --python addon_checks.py -- ADDON_DIR OUT_DIR
+usage: blender -b --factory-startup --python addon_checks.py -- ADDON_DIR OUT_DIR SCENE.json
 (PYTHONPATH: the rockvdb package)"""
 import json
 import os
@@ -12,6 +12,7 @@ import traceback
 argv = sys.argv[sys.argv.index("--") + 1:]
 sys.path.insert(0, argv[0])
 OUT = argv[1]
+SCENE = argv[2]  # a vdb_arches scene file
 
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
@@ -127,6 +128,26 @@ try:
     bpy.ops.rockvdb.block_tile(type="tabular", tile_size=6.0, voxel_size=0.1)
     R["block_tile_tabular"] = result("block_tile_tabular", bpy.context.active_object)
 
+    # Amplify a bumpy sheet with the first tile (as a level set), and with both tiles in two
+    # strata (as a heightfield, the sheet moved to x, y >= 0).
+    bpy.ops.mesh.primitive_grid_add(size=10, x_subdivisions=10, y_subdivisions=10, location=(6, 6, 0))
+    sheet = bpy.context.active_object
+    sheet.data.vertices[60].co.z = 3.0
+    bpy.ops.rockvdb.amplify(tiles="Block Tile", voxel_size=0.1)
+    R["amplify"] = result("amplify", bpy.context.active_object)
+    bpy.context.view_layer.objects.active = sheet
+    bpy.ops.rockvdb.amplify(voxel_size=0.1, terrain_as="HEIGHTFIELD", cell_size=0.5, use_strata=True,
+                            strata='{"layers": [{"tile": "Block_Tile", "top": 1}, {"tile": "Block_Tile_001"}]}')
+    R["amplify_heightfield"] = result("amplify_heightfield", bpy.context.active_object)
+    # Material stacks of the sheet, and of a vdb_arches scene file.
+    bpy.context.view_layer.objects.active = sheet
+    bpy.ops.rockvdb.stacks(cell_size=0.5, use_cell_size=True)
+    R["stacks"] = result("stacks", bpy.context.active_object)
+    bpy.ops.object.select_all(action="DESELECT")
+    bpy.context.view_layer.objects.active = None
+    bpy.ops.rockvdb.stacks(scene=SCENE)
+    R["stacks_scene"] = result("stacks_scene", bpy.context.active_object)
+
     # Detail on the active result (defaults, then a warp).
     bpy.context.view_layer.objects.active = rock
     bpy.ops.rockvdb.detail()
@@ -165,6 +186,8 @@ try:
     bpy.ops.rockvdb.export_vdb(filepath=os.path.join(OUT, "exported.vdb"))
 
     # Bad input: one-line reports, nothing added.
+    bpy.ops.mesh.primitive_grid_add(size=4, location=(0, 0, 0))
+    centred = bpy.context.active_object
     before_names = scene_names()
     bpy.ops.object.select_all(action="DESELECT")
     bpy.context.view_layer.objects.active = None
@@ -172,6 +195,11 @@ try:
         "scatter_count": op_error(lambda: bpy.ops.rockvdb.fractal_scatter()),
         "pile_no_mesh": op_error(lambda: bpy.ops.rockvdb.rock_pile()),
         "detail_no_result": op_error(lambda: bpy.ops.rockvdb.detail()),
+        "stacks_no_terrain": op_error(lambda: bpy.ops.rockvdb.stacks()),
+        "amplify_heightfield_origin": op_error(lambda: bpy.ops.rockvdb.amplify(
+            {"active_object": centred}, tiles="Block Tile", terrain_as="HEIGHTFIELD")),
+        "amplify_unknown_tile": op_error(lambda: bpy.ops.rockvdb.amplify(
+            {"active_object": centred}, tiles="Nope")),
         "bad_choice_json": op_error(lambda: bpy.ops.rockvdb.block_tile(tile_size=6.0, voxel_size=0.1,
                                                                          use_fractures=True, fractures="[1, 2")),
         "open_bound": op_error(lambda: bpy.ops.rockvdb.fractal_rock(h_up=0.0)),

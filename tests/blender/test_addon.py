@@ -10,7 +10,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from conftest import BUILD, assert_bitwise_equal, run, tool
+from conftest import BUILD, arches_small_scene, assert_bitwise_equal, run, tool
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ADDON = os.path.join(HERE, "..", "..", "python", "blender")
@@ -18,14 +18,16 @@ PYDIR = os.path.join(BUILD, "python")
 
 pytestmark = pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
 
-STAGES = ["fractal_rock", "fractal_scatter", "block_tile", "rock_pile", "detail"]
+STAGES = ["fractal_rock", "fractal_scatter", "block_tile", "rock_pile", "amplify", "stacks",
+          "detail"]
 
 
 @pytest.fixture(scope="module")
 def out(tmp_path_factory):
     d = tmp_path_factory.mktemp("addon")
+    scene = arches_small_scene(d)
     p = subprocess.run(["blender", "-b", "--factory-startup", "--python",
-                        os.path.join(HERE, "addon_checks.py"), "--", ADDON, str(d)],
+                        os.path.join(HERE, "addon_checks.py"), "--", ADDON, str(d), str(scene)],
                        env=dict(os.environ, PYTHONPATH=PYDIR), capture_output=True, text=True,
                        timeout=900)
     assert (d / "report.json").exists(), (p.returncode, p.stdout[-3000:], p.stderr[-3000:])
@@ -74,6 +76,10 @@ def _table_rows():
         "fractal_scatter": rows("fractal_scatter", rockvdb.fractal_scatter),
         "block_tile": rows("block_tile", rockvdb.block_tile),
         "rock_pile": rows("rock_tiles", rockvdb.rock_tiles, "tiles_") + rows("rock_pile", rockvdb.rock_pile),
+        "amplify": rows("amplify", rockvdb.amplify),
+        "stacks": [(n, r) for n, r in rows("arches", rockvdb.Stacks)] +
+                  [(r["python"], r) for r in json.loads(_rockvdb.schema("arches"))["params"]
+                   if r["python"] == "terrain"],
         "detail": rows("detail", rockvdb.detail),
     }
 
@@ -84,7 +90,8 @@ def test_properties_equal_the_tables(report):
     tables = _table_rows()
     for stage, rows in tables.items():
         props = report["props"][stage]
-        extra = set(props) - {name for name, _ in rows} - {"target", "source"} - \
+        own = {"amplify": {"tiles", "terrain_as"}, "stacks": {"scene", "mesh_voxel"}}.get(stage, set())
+        extra = set(props) - {name for name, _ in rows} - {"target", "source"} - own - \
             {"use_" + name for name, r in rows if r["default"] is None}
         assert not extra, (stage, extra)
         assert len(rows) > 5
@@ -142,7 +149,9 @@ def test_results_hold_their_grids_meshed_and_tinted(report):
             "detail": ["surface"], "rock_pile": ["rock_id", "surface"],
             "rock_pile_material": ["material", "rock_id", "surface"],
             "fractal_scatter_mesh": ["rock_id", "surface"],
-            "fractal_scatter_plane": ["material", "rock_id", "surface"]}
+            "fractal_scatter_plane": ["material", "rock_id", "surface"],
+            "amplify": ["block_id", "material", "surface"],
+            "amplify_heightfield": ["block_id", "material", "surface"]}
     for name, names in want.items():
         r = R[name]
         assert r["volume_grids"] == names, name
@@ -152,6 +161,17 @@ def test_results_hold_their_grids_meshed_and_tinted(report):
         ids = [g for g in ("material", "block_id", "rock_id") if g in names]
         assert sorted(r["attributes"]) == sorted(ids), name
         assert r["tint"] == ids[:1], name
+    # material stacks: the ground 'surface' meshed, tinted by 'material'
+    for name in ("stacks", "stacks_scene"):
+        r = R[name]
+        assert "surface" in r["volume_grids"] and "material" in r["volume_grids"], name
+        assert r["modifiers"][0] == ["VOLUME_TO_MESH", "surface", 0.0, 0.0], name
+        assert r["tint"] == ["material"] and r["vertices"] > 500, name
+    assert R["stacks"]["attributes"]["material"] == [3]             # bedrock only
+    assert {2, 3, 4} <= set(R["stacks_scene"]["attributes"]["material"])  # sand, bedrock, rocks
+    # amplify: terrain (material 0) and blocks; two strata, two tiles' materials
+    assert R["amplify"]["attributes"]["material"] == [0, 1]
+    assert R["amplify_heightfield"]["attributes"]["material"] == [0, 1, 2]
     # ids reach the mesh: many blocks and rocks, one material where one was asked for
     assert len(R["block_tile"]["attributes"]["block_id"]) > 30
     assert len(R["rock_pile"]["attributes"]["rock_id"]) > 30
@@ -179,7 +199,8 @@ CLI = {"vdb_fractal_rock": "vdb_fractal_rock", "vdb_blocks": "vdb_blocks",
 
 @pytest.mark.parametrize("name", ["fractal_rock", "fractal_rock_seed5", "block_tile",
                                   "block_tile_tabular", "rock_pile_material",
-                                  "fractal_scatter_plane"])
+                                  "fractal_scatter_plane", "fractal_scatter_mesh", "amplify",
+                                  "amplify_heightfield", "stacks", "stacks_scene"])
 def test_cli_replays_the_addon_bit_for_bit_and_meshes_alike(report, out, tmp_path, name):
     """The result's own provenance through the CLI (--params) gives the same grids, and
     vdb_mesh of the CLI's file has the vertices Blender's Volume to Mesh made (within 1 %)."""
@@ -241,6 +262,9 @@ def test_bad_input_is_a_one_line_report_and_adds_nothing(report):
     assert "select a rockvdb result" in bad["detail_no_result"]
     assert "fractures: not valid JSON" in bad["bad_choice_json"]
     assert "h-up must be in (0, 1)" in bad["open_bound"]
+    assert "select a mesh object" in bad["stacks_no_terrain"]
+    assert "a heightfield starts at the world origin" in bad["amplify_heightfield_origin"]
+    assert "'Nope' is neither a Block Tile result nor a .tile file" in bad["amplify_unknown_tile"]
     for message in bad.values():
         assert message.count("\n") == 1 and message.endswith("\n"), message
     assert report["bad_scene_unchanged"]

@@ -13,8 +13,8 @@ bl_info = {
     "version": (0, 1, 0),
     "blender": (3, 4, 0),
     "location": "View3D > Add > rockvdb, and View3D > Sidebar > rockvdb",
-    "description": "Procedural rocks and rocky terrain as OpenVDB level sets (fractal rocks, "
-                   "block tiles, rock piles, surface detail)",
+    "description": "Procedural rocks and rocky terrain as OpenVDB level sets: fractal rocks, "
+                   "block tiles, rock piles, amplified terrain, material stacks, surface detail",
     "category": "Add Mesh",
 }
 
@@ -110,6 +110,8 @@ class _StageOperator:
 
     def draw(self, context):
         layout = self.layout
+        for name in self.stage.extra:
+            layout.prop(self, name)
         for table, rows, prefix in self.stage.groups:
             box = layout.box()
             box.label(text=tables.table(table)["summary"].split(":")[0])
@@ -133,6 +135,8 @@ class _StageOperator:
         obj = results.build(context, self.stage.name, self.stage.label, run.grids, props, target)
         if run.inputs.get("source"):
             obj["rockvdb_source"] = run.inputs["source"]
+        if run.inputs.get("tile"):
+            obj["rockvdb_tile"] = run.inputs["tile"]
         return {"FINISHED"}
 
     def _prepare(self, context):
@@ -187,7 +191,7 @@ class _StageOperator:
 
 
 def _make_operator(stage):
-    ann = {}
+    ann = dict(stage.extra)
     for _, rows, _ in stage.groups:
         ann.update(tables.annotations(rows))
     ann["target"] = bpy.props.StringProperty(options={"HIDDEN", "SKIP_SAVE"},

@@ -31,11 +31,23 @@ def cache_dir():
     return os.path.join(bpy.app.tempdir or "/tmp", "rockvdb_cache")
 
 
+def safe_name(name):
+    return "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
+
+
+def unique_name(label):
+    """The name Blender gives a new object called @a label: itself, else label.001, ..."""
+    name, n = label, 0
+    while name in bpy.data.objects:
+        n += 1
+        name = f"{label}.{n:03d}"
+    return name
+
+
 def cache_path(name):
     d = cache_dir()
     os.makedirs(d, exist_ok=True)
-    safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
-    return os.path.join(d, f"{safe}_{uuid.uuid4().hex[:8]}.vdb")
+    return os.path.join(d, f"{safe_name(name)}_{uuid.uuid4().hex[:8]}.vdb")
 
 
 def mesh_adaptivity():

@@ -17,11 +17,16 @@ class Stage:
     needs: None, "mesh" (the active mesh object), "result" (the active rockvdb result);
     run(kw, inputs) -> grids, called off the UI thread."""
 
-    def __init__(self, name, label, icon, tables_, needs, gather, run, optional=False):
+    def __init__(self, name, label, icon, tables_, needs, gather, run, optional=False,
+                 extra=None, positional=()):
         self.name, self.label, self.icon = name, label, icon
         self.needs, self.optional = needs, optional
         self.gather_fn, self.run_fn = gather, run
-        self.groups = [(t, tables.rows_of(t, f, prefix), prefix) for t, f, prefix in tables_]
+        self.groups = [(t, tables.rows_of(t, f, prefix, positional), prefix)
+                       for t, f, prefix in tables_]
+        # The add-on's own properties (how a scene object becomes the stage's input), drawn
+        # above the table's rows: {name: bpy property}.
+        self.extra = extra or {}
         self.summary = " ".join(tables.table(t)["summary"] for t, _, _ in tables_)
 
     def rows(self):
@@ -77,6 +82,47 @@ def _write_obj(path, pts, tris):
     os.replace(tmp, path)
 
 
+def _mesh_level_set(mesh, voxel_size, half_width, path):
+    """A closed triangle mesh (points, triangles; world space) as a level set 'surface',
+    written to @a path (the stage reads it from there, so its provenance names a file and the
+    CLI replays it). Worker thread."""
+    import pyopenvdb
+    pts, tris = mesh
+    grid = pyopenvdb.FloatGrid.createLevelSetFromPolygons(
+        pts, triangles=tris, transform=pyopenvdb.createLinearTransform(voxelSize=voxel_size),
+        halfWidth=half_width)
+    grid.name = "surface"
+    rockvdb.write(path, [grid])
+    return path
+
+
+def _heightfield(obj, context, cell):
+    """The active mesh's heights sampled every @a cell metres from the world origin (pixel
+    (i, j) at x = i·cell, y = j·cell, as rockvdb reads heightfields), by rays cast down; a
+    column the mesh does not cover takes its lowest height."""
+    from mathutils import Vector
+    from mathutils.bvhtree import BVHTree
+    pts, tris = _mesh_arrays(obj, context)
+    lo, hi = pts.min(0), pts.max(0)  # (per axis)
+    if lo[0] < -0.5 * cell or lo[1] < -0.5 * cell:
+        raise ValueError(f"a heightfield starts at the world origin: move '{obj.name}' to x, y "
+                         f">= 0 (its corner is at {lo[0]:.3g}, {lo[1]:.3g}), or amplify it as "
+                         "a level set")
+    bvh = BVHTree.FromPolygons([tuple(p) for p in pts], [tuple(t) for t in tris.tolist()])
+    nx, ny = int(hi[0] / cell) + 1, int(hi[1] / cell) + 1
+    if nx * ny > 16_000_000:
+        raise ValueError(f"a {nx} x {ny} heightfield is too large: raise the cell size")
+    z = np.full((ny, nx), lo[2], np.float32)
+    top = float(hi[2]) + 1.0
+    down = Vector((0.0, 0.0, -1.0))
+    for j in range(ny):
+        for i in range(nx):
+            hit = bvh.ray_cast(Vector((i * cell, j * cell, top)), down)
+            if hit[0] is not None:
+                z[j, i] = hit[0].z
+    return z
+
+
 def _active_mesh(context, optional=False):
     obj = context.active_object
     if obj is None or obj.type != "MESH" or obj.get("rockvdb_stage"):
@@ -100,12 +146,72 @@ def _gather_none(op, context):
 
 
 def _gather_ground(op, context):
-    """fractal_scatter's ground: the active mesh closed into a solid and made a level set at
-    the stage's voxel size, or (nothing selected) the plane z = 0."""
+    """fractal_scatter's ground: the active mesh (an open sheet closed downward) made a level
+    set at the rocks' voxel size, or (nothing selected) the plane z = 0."""
     obj = _active_mesh(context, optional=True)
     if obj is None:
         return {"ground": None, "source": ""}
-    return {"mesh": _mesh_arrays(obj, context, close_depth=1.0), "source": obj.name}
+    return {"mesh": _mesh_arrays(obj, context, close_depth=1.0), "source": obj.name,
+            "level_set": results.cache_path(obj.name + "_ground")}
+
+
+def _gather_tile(op, context):
+    """Where the block tile is saved (its .tile, for amplify to read): a folder of its own, so
+    the file's stem, which strata name tiles by, is the object's name."""
+    import uuid
+    target = bpy.data.objects.get(op.target) if op.target else None
+    name = target.name if target is not None else results.unique_name(op.stage.label)
+    folder = os.path.join(results.cache_dir(), uuid.uuid4().hex[:8])
+    os.makedirs(folder, exist_ok=True)
+    return {"tile": os.path.join(folder, results.safe_name(name) + ".tile")}
+
+
+def _gather_amplify(op, context):
+    """amplify's terrain (the active mesh, as a level set or a heightfield) and tiles (the
+    named Block Tile results or .tile files; none named: every Block Tile in the scene)."""
+    obj = _active_mesh(context)
+    names = [n.strip() for n in op.tiles.split(",") if n.strip()]
+    if not names:
+        names = sorted(o.name for o in context.scene.objects if o.get("rockvdb_tile"))
+        if not names:
+            raise ValueError("no block tiles: make one (Add > rockvdb > Block Tile) or name "
+                             ".tile files in Tiles")
+    tiles = []
+    for n in names:
+        o = bpy.data.objects.get(n)
+        if o is not None and o.get("rockvdb_tile"):
+            tiles.append(o["rockvdb_tile"])
+        elif n.endswith(".tile") and os.path.isfile(bpy.path.abspath(n)):
+            tiles.append(bpy.path.abspath(n))
+        else:
+            raise ValueError(f"tiles: '{n}' is neither a Block Tile result nor a .tile file")
+    inputs = {"tiles": tiles, "source": obj.name}
+    if op.terrain_as == "HEIGHTFIELD":
+        z = _heightfield(obj, context, op.cell_size)
+        path = results.cache_path(obj.name + "_heights")[:-4] + ".exr"
+        rockvdb.write_heightfield(path, z)
+        inputs["terrain"] = path
+    else:
+        inputs["mesh"] = _mesh_arrays(obj, context, close_depth=op.base_depth)
+        inputs["level_set"] = results.cache_path(obj.name + "_terrain")
+    return inputs
+
+
+def _gather_stacks(op, context):
+    """The material stacks' terrain: a vdb_arches scene file, the terrain row's node, or the
+    active mesh (an open sheet closed downward) as a level set."""
+    if op.scene:
+        scene = bpy.path.abspath(op.scene)
+        if not os.path.isfile(scene):
+            raise ValueError(f"scene: no file '{scene}'")
+        # A scene's keys hold unless a property was set (as with vdb_arches' options).
+        given = [r["python"] for r in op.stage.rows() if op.properties.is_property_set(r["prop"])]
+        return {"scene": scene, "given": given, "source": ""}
+    if op.use_terrain:
+        return {"source": ""}
+    obj = _active_mesh(context)
+    return {"mesh": _mesh_arrays(obj, context, close_depth=1.0), "source": obj.name,
+            "level_set": results.cache_path(obj.name + "_terrain"), "mesh_voxel": op.mesh_voxel}
 
 
 def _gather_support(op, context):
@@ -138,22 +244,44 @@ def _run_fractal_rock(kw, inputs):
 
 
 def _run_fractal_scatter(kw, inputs):
-    import pyopenvdb
     ground = inputs.get("ground")
-    if "mesh" in inputs:
-        pts, tris = inputs["mesh"]
-        # The ground at the rocks' own voxel size and band.
-        ground = pyopenvdb.FloatGrid.createLevelSetFromPolygons(
-            pts, triangles=tris,
-            transform=pyopenvdb.createLinearTransform(voxelSize=kw[""]["voxel_size"]),
-            halfWidth=kw[""]["half_width"])
-        ground.name = "surface"
+    if "mesh" in inputs:  # the ground at the rocks' own voxel size and band
+        ground = _mesh_level_set(inputs["mesh"], kw[""]["voxel_size"], kw[""]["half_width"],
+                                 inputs["level_set"])
     return list(rockvdb.fractal_scatter(ground, **kw[""]))
 
 
 def _run_block_tile(kw, inputs):
     tile = rockvdb.block_tile(**kw[""])
+    tile.save(inputs["tile"])
     return [tile.surface, tile.block_id]
+
+
+def _run_amplify(kw, inputs):
+    terrain = inputs.get("terrain")
+    if "mesh" in inputs:  # the terrain at the bake's voxel size and band
+        terrain = _mesh_level_set(inputs["mesh"], kw[""]["voxel_size"], kw[""]["half_width"],
+                                  inputs["level_set"])
+    return list(rockvdb.amplify(terrain, inputs["tiles"], **kw[""]))
+
+
+def _run_stacks(kw, inputs):
+    kw = dict(kw[""])
+    if "scene" in inputs:
+        kw = {k: v for k, v in kw.items() if k in inputs["given"]}
+        kw.pop("terrain", None)
+        bake = {k: kw.pop(k) for k in list(kw) if k in rockvdb.Stacks.BAKE_ROWS}
+        stacks = rockvdb.Stacks.from_scene(inputs["scene"], **kw)
+    else:
+        terrain = kw.pop("terrain", None)
+        if "mesh" in inputs:
+            # The mesh at the stacks' voxel size, else their cell size, else the mesh voxel.
+            voxel = kw.get("voxel_size") or kw.get("cell_size") or inputs["mesh_voxel"]
+            terrain = _mesh_level_set(inputs["mesh"], voxel, kw["half_width"], inputs["level_set"])
+        bake = {k: kw.pop(k) for k in list(kw) if k in rockvdb.Stacks.BAKE_ROWS}
+        stacks = rockvdb.Stacks(terrain, **kw)
+    grids = stacks.bake("all", **bake)
+    return list(grids.values())
 
 
 def _run_rock_pile(kw, inputs):
@@ -177,10 +305,37 @@ STAGES = [
           [("fractal_scatter", rockvdb.fractal_scatter, "")], "mesh", _gather_ground,
           _run_fractal_scatter, optional=True),
     Stage("block_tile", "Block Tile", "MOD_EXPLODE",
-          [("block_tile", rockvdb.block_tile, "")], None, _gather_none, _run_block_tile),
+          [("block_tile", rockvdb.block_tile, "")], None, _gather_tile, _run_block_tile),
     Stage("rock_pile", "Rock Pile", "OUTLINER_OB_POINTCLOUD",
           [("rock_tiles", rockvdb.rock_tiles, "tiles_"), ("rock_pile", rockvdb.rock_pile, "")],
           "mesh", _gather_support, _run_rock_pile),
+    Stage("amplify", "Amplify Terrain", "MOD_OCEAN",
+          [("amplify", rockvdb.amplify, "")], "mesh", _gather_amplify, _run_amplify,
+          extra={
+              "tiles": bpy.props.StringProperty(
+                  name="Tiles", description="Block Tile results (object names) or .tile files, "
+                  "comma-separated; strata name them by object name or file stem. Empty: every "
+                  "Block Tile result in the scene"),
+              "terrain_as": bpy.props.EnumProperty(
+                  name="Terrain as", description="How the active mesh becomes the terrain",
+                  items=[("LEVEL_SET", "Level set", "The mesh (an open sheet closed downward by "
+                          "base depth) as a level set at the bake's voxel size: overhangs kept"),
+                         ("HEIGHTFIELD", "Heightfield", "Its heights sampled every cell size "
+                          "from the world origin (the mesh at x, y >= 0): the exact distance "
+                          "to the heightfield's triangles")])}),
+    Stage("stacks", "Material Stacks", "MOD_DATA_TRANSFER",
+          [("arches", rockvdb.Stacks, "")], "mesh", _gather_stacks, _run_stacks,
+          positional=("terrain",),
+          extra={
+              "scene": bpy.props.StringProperty(
+                  name="Scene file", subtype="FILE_PATH",
+                  description="A vdb_arches scene (.json): its terrain, parameters and edits; "
+                  "properties set here override its keys. Empty: the Terrain row, else the "
+                  "active mesh"),
+              "mesh_voxel": bpy.props.FloatProperty(
+                  name="Mesh voxel", unit="LENGTH", min=1e-4, default=0.25,
+                  description="Voxel size at which the active mesh becomes the terrain level set "
+                  "when neither voxel size nor cell size is set")}),
     Stage("detail", "Detail", "MOD_DISPLACE",
           [("detail", rockvdb.detail, "")], "result", _gather_result, _run_detail),
 ]

@@ -26,12 +26,13 @@ def table(stage):
     return json.loads(_rockvdb.schema(stage))
 
 
-def rows_of(stage, function, prefix=""):
+def rows_of(stage, function, prefix="", positional=()):
     """The rows of @a stage's table that @a function (a rockvdb stage function) takes as
-    keywords, in table order, each with "prop": the property's name (prefix + python name)."""
+    keywords (and the @a positional ones it takes as rows), in table order, each with "prop":
+    the property's name (prefix + python name)."""
     import inspect
     taken = {p.name for p in inspect.signature(function).parameters.values()
-             if p.kind == p.KEYWORD_ONLY}
+             if p.kind == p.KEYWORD_ONLY} | set(positional)
     out = []
     for row in table(stage)["params"]:
         if row["python"] in taken and row["name"] not in SKIPPED:
