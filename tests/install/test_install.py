@@ -2,8 +2,11 @@
 PREFIX/bin, the package where /usr/bin/python3 finds it with PYTHONPATH=PREFIX/lib/python3.X/
 dist-packages (already on sys.path for the default prefix, /usr/local)."""
 import os
+import shutil
 import subprocess
 import sys
+
+import pytest
 
 from conftest import BUILD
 
@@ -36,3 +39,58 @@ def test_install_prefix_tools_and_python_package(tmp_path):
     r = subprocess.run(["/usr/bin/python3", "-c", "import sys; print(sys.path)"], env=env,
                        capture_output=True, text=True, check=True)
     assert f"/usr/local/lib/python{sys.version_info[0]}.{sys.version_info[1]}/dist-packages" in r.stdout
+
+
+BLENDER_RUN = """
+import bpy, addon_utils, json, sys
+prefs = bpy.context.preferences
+{setup}
+mod = addon_utils.enable("rockvdb_blender", default_set=True, handle_error=None)
+import rockvdb
+bpy.ops.object.select_all(action="DESELECT")
+bpy.context.view_layer.objects.active = None
+r = bpy.ops.rockvdb.fractal_rock(seed=4)
+obj = bpy.context.active_object
+json.dump({{"addon": mod.__file__ if mod else None, "rockvdb": rockvdb.__file__,
+           "result": list(r), "stage": obj.get("rockvdb_stage") if obj else None}},
+          open(sys.argv[-1], "w"))
+"""
+
+
+def _blender(tmp_path, setup, env_extra=None):
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(env_extra or {})
+    report = tmp_path / "blender.json"
+    p = subprocess.run(["blender", "-b", "--factory-startup", "--python-expr",
+                        BLENDER_RUN.format(setup=setup), "--", str(report)],
+                       cwd=str(tmp_path), env=env, capture_output=True, text=True, timeout=600)
+    assert report.exists(), p.stdout[-3000:] + p.stderr[-3000:]
+    import json
+    return json.loads(report.read_text())
+
+
+@pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
+def test_install_blender_addon_with_the_one_documented_setting(tmp_path):
+    """cmake --install, then Blender with Preferences > File Paths > Scripts set to
+    PREFIX/share/rockvdb/blender (nothing else: no PYTHONPATH) enables the add-on, which finds
+    the installed rockvdb package, and runs an operator. The zip installs through Blender's
+    Install Add-on (into a scratch user folder) and works the same."""
+    prefix = tmp_path / "prefix"
+    p = subprocess.run(["cmake", "--install", BUILD, "--prefix", str(prefix)],
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stdout + p.stderr
+    scripts = prefix / "share" / "rockvdb" / "blender"
+    site = prefix / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / "dist-packages"
+    r = _blender(tmp_path, f"prefs.filepaths.script_directory = r'{scripts}'\n"
+                           "bpy.utils.refresh_script_paths()")
+    assert r["addon"].startswith(str(scripts / "addons" / "rockvdb_blender"))
+    assert r["rockvdb"].startswith(str(site))
+    assert r["result"] == ["FINISHED"] and r["stage"] == "fractal_rock"
+    user = tmp_path / "user"
+    zipped = scripts / "rockvdb_blender.zip"
+    r = _blender(tmp_path, f"bpy.ops.preferences.addon_install(filepath=r'{zipped}')",
+                 {"BLENDER_USER_SCRIPTS": str(user / "scripts"),
+                  "BLENDER_USER_CONFIG": str(user / "config")})
+    assert r["addon"].startswith(str(user / "scripts" / "addons" / "rockvdb_blender"))
+    assert r["rockvdb"].startswith(str(site))
+    assert r["result"] == ["FINISHED"] and r["stage"] == "fractal_rock"
