@@ -116,7 +116,7 @@ def _material(name, attribute):
     bsdf = N.get("Principled BSDF")
     bsdf.inputs["Roughness"].default_value = 0.85
     if attribute is None:
-        bsdf.inputs["Base Color"].default_value = (0.42, 0.40, 0.37, 1.0)
+        bsdf.inputs["Base Color"].default_value = (0.30, 0.28, 0.26, 1.0)
         return mat
     attr = N.new("ShaderNodeAttribute")
     attr.attribute_type, attr.attribute_name = "GEOMETRY", attribute
@@ -124,8 +124,8 @@ def _material(name, attribute):
     noise.noise_dimensions = "1D"
     L.new(attr.outputs["Fac"], noise.inputs["W"])
     mix = N.new("ShaderNodeMixRGB")
-    mix.inputs["Fac"].default_value = 0.35
-    mix.inputs["Color1"].default_value = (0.42, 0.40, 0.37, 1.0)
+    mix.inputs["Fac"].default_value = 0.5
+    mix.inputs["Color1"].default_value = (0.30, 0.28, 0.26, 1.0)
     L.new(noise.outputs["Color"], mix.inputs["Color2"])
     L.new(mix.outputs["Color"], bsdf.inputs["Base Color"])
     return mat
