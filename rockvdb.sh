@@ -18,7 +18,7 @@ PACKAGES=(
     libcgal-dev libgmp-dev libmpfr-dev libpng-dev libcli11-dev nlohmann-json3-dev
     pybind11-dev libboost-python-dev python3-dev python3-openvdb python3-numpy python3-pytest
     libgtest-dev libbenchmark-dev libjemalloc-dev
-    libopenvdb-tools blender
+    libopenvdb-tools blender xvfb
     clang libclang-rt-14-dev dpkg-dev
     python3-distributed python3-dask
 )

@@ -276,3 +276,30 @@ def test_cancel_stops_within_a_second_and_adds_nothing(report):
     assert 0 < c["progress_seen"] < 1
     assert c["seconds"] < 1.0
     assert c["scene_unchanged"]
+
+
+@pytest.mark.skipif(not shutil.which("xvfb-run"), reason="xvfb not installed")
+def test_modal_run_keeps_blender_responsive_esc_cancels_and_undo_removes(tmp_path):
+    """Blender with a window (Xvfb): an operator started as from the menu returns
+    RUNNING_MODAL and the event loop keeps ticking while the stage works on its thread; Esc
+    ends the worker and adds nothing; a finished result is one undo step."""
+    out = tmp_path / "modal.json"
+    build_addons = os.path.join(BUILD, "blender")
+    p = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x800x24", "blender",
+                        "--factory-startup", "--enable-event-simulate", "--python",
+                        os.path.join(HERE, "modal_checks.py"), "--", str(out)],
+                       env=dict(os.environ, PYTHONPATH=PYDIR, BLENDER_USER_SCRIPTS=build_addons),
+                       capture_output=True, text=True, timeout=600, cwd=str(tmp_path))
+    assert out.exists(), (p.returncode, p.stdout[-3000:], p.stderr[-3000:])
+    r = json.loads(out.read_text())
+    assert r["errors"] == [], r["errors"][0]
+    assert r["invoke"] == ["RUNNING_MODAL"]
+    assert r["tick_after"] < 1.5                      # the UI was not blocked
+    assert r["workers_during"] == ["rockvdb block_tile"]
+    assert r["during"] == r["start"]                  # nothing before the grids are complete
+    assert r["workers_after_esc"] == [] and r["after_esc"] == r["start"]
+    assert r["invoke_rock"] == ["RUNNING_MODAL"]
+    assert r["workers_after_rock"] == []
+    assert sorted(set(r["after_rock"]) - set(r["start"])) == \
+        ["Fractal Rock", "Fractal Rock grids", "Fractal Rock ids"]
+    assert r["after_undo"] == r["start"]

@@ -64,7 +64,7 @@ class Run:
         self.job = rockvdb.Job()
         self.grids = self.error = None
         self.cancelled = False
-        self.thread = threading.Thread(target=self._work, daemon=True)
+        self.thread = threading.Thread(target=self._work, daemon=True, name=f"rockvdb {stage.name}")
 
     def _work(self):
         try:
