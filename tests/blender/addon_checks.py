@@ -70,6 +70,7 @@ def evaluated(obj):
 def result(name, obj, copy=True):
     """A result object's report; its cache .vdb copied to OUT/name.vdb."""
     r = evaluated(obj)
+    r["name"] = obj.name
     r.update({k: obj[k] for k in ("rockvdb_stage", "rockvdb_version", "rockvdb_generator",
                                   "rockvdb_params", "rockvdb_cache")})
     vol = obj["rockvdb_volume"]
@@ -182,7 +183,17 @@ try:
                             "new_cache": rock["rockvdb_cache"] != R["fractal_rock"]["rockvdb_cache"]}
     shutil.copy(rock["rockvdb_cache"], os.path.join(OUT, "regen_after.vdb"))
 
-    # Export: the grids with their provenance.
+    # Regenerate a result made from a scene object (the pile in its cube), with another
+    # object active: it reads the same cube again.
+    pile = bpy.data.objects[R["rock_pile"]["name"]]
+    shutil.copy(pile["rockvdb_cache"], os.path.join(OUT, "regen_pile_before.vdb"))
+    bpy.context.view_layer.objects.active = pile
+    bpy.ops.rockvdb.regenerate()
+    report["regenerate_pile_same_object"] = bpy.context.active_object == pile
+    shutil.copy(pile["rockvdb_cache"], os.path.join(OUT, "regen_pile_after.vdb"))
+
+    # Export the rock: its grids with their provenance.
+    bpy.context.view_layer.objects.active = rock
     bpy.ops.rockvdb.export_vdb(filepath=os.path.join(OUT, "exported.vdb"))
 
     # Bad input: one-line reports, nothing added.

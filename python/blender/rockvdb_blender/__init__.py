@@ -112,9 +112,9 @@ class _StageOperator:
         layout = self.layout
         for name in self.stage.extra:
             layout.prop(self, name)
-        for table, rows, prefix in self.stage.groups:
+        for (table, rows, prefix), summary in zip(self.stage.groups, self.stage.summaries):
             box = layout.box()
-            box.label(text=tables.table(table)["summary"].split(":")[0])
+            box.label(text=summary.split(":")[0])
             tables.draw_rows(box, self, rows, resolution=False)
             if any(r["resolution"] for r in rows):
                 box.label(text="Resolution (not the look):")
@@ -132,6 +132,8 @@ class _StageOperator:
             return {"CANCELLED"}
         target = bpy.data.objects.get(self.target) if self.target else None
         props = _operator_props(self)
+        # Regenerate reads the same input object, whatever is active then.
+        props["source"] = run.inputs.get("source", "")
         obj = results.build(context, self.stage.name, self.stage.label, run.grids, props, target)
         if run.inputs.get("source"):
             obj["rockvdb_source"] = run.inputs["source"]

@@ -27,7 +27,8 @@ class Stage:
         # The add-on's own properties (how a scene object becomes the stage's input), drawn
         # above the table's rows: {name: bpy property}.
         self.extra = extra or {}
-        self.summary = " ".join(tables.table(t)["summary"] for t, _, _ in tables_)
+        self.summaries = [tables.table(t)["summary"] for t, _, _ in tables_]
+        self.summary = " ".join(self.summaries)
 
     def rows(self):
         return [r for _, rows, _ in self.groups for r in rows]
@@ -123,8 +124,12 @@ def _heightfield(obj, context, cell):
     return z
 
 
-def _active_mesh(context, optional=False):
-    obj = context.active_object
+def _active_mesh(context, optional=False, source=""):
+    """The input mesh: the object named @a source (a result's stored input, for Regenerate),
+    else the active object."""
+    obj = bpy.data.objects.get(source) if source else context.active_object
+    if source and obj is None:
+        raise ValueError(f"the input object '{source}' is gone")
     if obj is None or obj.type != "MESH" or obj.get("rockvdb_stage"):
         if optional:
             return None
@@ -148,7 +153,7 @@ def _gather_none(op, context):
 def _gather_ground(op, context):
     """fractal_scatter's ground: the active mesh (an open sheet closed downward) made a level
     set at the rocks' voxel size, or (nothing selected) the plane z = 0."""
-    obj = _active_mesh(context, optional=True)
+    obj = _active_mesh(context, optional=True, source=op.source)
     if obj is None:
         return {"ground": None, "source": ""}
     return {"mesh": _mesh_arrays(obj, context, close_depth=1.0), "source": obj.name,
@@ -169,7 +174,7 @@ def _gather_tile(op, context):
 def _gather_amplify(op, context):
     """amplify's terrain (the active mesh, as a level set or a heightfield) and tiles (the
     named Block Tile results or .tile files; none named: every Block Tile in the scene)."""
-    obj = _active_mesh(context)
+    obj = _active_mesh(context, source=op.source)
     names = [n.strip() for n in op.tiles.split(",") if n.strip()]
     if not names:
         names = sorted(o.name for o in context.scene.objects if o.get("rockvdb_tile"))
@@ -209,7 +214,7 @@ def _gather_stacks(op, context):
         return {"scene": scene, "given": given, "source": ""}
     if op.use_terrain:
         return {"source": ""}
-    obj = _active_mesh(context)
+    obj = _active_mesh(context, source=op.source)
     return {"mesh": _mesh_arrays(obj, context, close_depth=1.0), "source": obj.name,
             "level_set": results.cache_path(obj.name + "_terrain"), "mesh_voxel": op.mesh_voxel}
 
@@ -217,7 +222,7 @@ def _gather_stacks(op, context):
 def _gather_support(op, context):
     """rock_pile's support: the active closed mesh, saved as .obj beside the cache (the pile's
     provenance names that file, so a replay finds it)."""
-    obj = _active_mesh(context)
+    obj = _active_mesh(context, source=op.source)
     pts, tris = _mesh_arrays(obj, context)
     path = results.cache_path(obj.name + "_support")[:-4] + ".obj"
     _write_obj(path, pts, tris)
@@ -230,7 +235,7 @@ def _gather_support(op, context):
 def _gather_result(op, context):
     obj = _active_result(context) if not op.source else bpy.data.objects.get(op.source)
     if obj is None:
-        raise ValueError(f"no object '{op.source}' to detail")
+        raise ValueError(f"the input object '{op.source}' is gone")
     grids = results.grids_of(obj)
     return {"grids": grids, "source": obj.name}
 
