@@ -230,14 +230,16 @@ try:
         if row["default"] is None:
             setattr(p, "use_" + row["prop"], False)
     p.voxel_size = 0.02
-    run = Run(op, op.keywords(p), {}).start()
+    cache = os.path.join(OUT, "cancelled.vdb")
+    run = Run(op, op.keywords(p), {"cache": cache}).start()
     time.sleep(1.0)
     progress = run.job.progress
     t0 = time.time()
     run.cancel()
-    report["cancel"] = {"seconds": time.time() - t0, "cancelled": run.cancelled,
+    report["cancel"] = {"seconds": time.time() - t0, "cancelled": run.interrupted,
                         "finished_before": run.grids is not None, "error": run.error,
-                        "progress_seen": progress, "scene_unchanged": scene_names() == before_names}
+                        "progress_seen": progress, "scene_unchanged": scene_names() == before_names,
+                        "cache_written": os.path.exists(cache)}
 
     rockvdb_blender.unregister()
     report["final_unregister"] = registered()

@@ -63,15 +63,17 @@ class Run:
         self.stage, self.kw, self.inputs = stage, kw, inputs
         self.job = rockvdb.Job()
         self.grids = self.error = None
-        self.cancelled = False
+        self.cancelled = self.interrupted = False
         self.thread = threading.Thread(target=self._work, daemon=True, name=f"rockvdb {stage.name}")
 
     def _work(self):
         try:
             with self.job:
-                self.grids = self.stage.run_fn(self.kw, self.inputs)
-        except KeyboardInterrupt:
-            self.cancelled = True
+                grids = self.stage.run_fn(self.kw, self.inputs)
+                # The cache file and the id points, here too: the UI thread only makes objects.
+                self.grids = results.prepare(grids, self.inputs["cache"])
+        except KeyboardInterrupt:  # the stage saw the cancel and stopped
+            self.cancelled = self.interrupted = True
         except Exception as e:  # every failure becomes the operator's one-line report
             self.error = _one_line(e)
 
@@ -85,6 +87,13 @@ class Run:
     def cancel(self, timeout=5.0):
         self.job.cancel()
         self.thread.join(timeout)
+        if self.grids is not None:  # it had finished: its cache file is nobody's
+            try:
+                os.remove(self.grids["path"])
+            except OSError:
+                pass
+            self.grids = None
+        self.cancelled = True
 
 
 def _operator_props(op):
@@ -143,7 +152,9 @@ class _StageOperator:
 
     def _prepare(self, context):
         try:
-            return Run(self.stage, self.stage.keywords(self), self._inputs(context))
+            inputs = self._inputs(context)
+            inputs["cache"] = results.cache_path(self.stage.label)
+            return Run(self.stage, self.stage.keywords(self), inputs)
         except Exception as e:
             self.report({"ERROR"}, f"rockvdb.{self.stage.name}: {_one_line(e)}")
             return None

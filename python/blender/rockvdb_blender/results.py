@@ -149,12 +149,18 @@ def stage_params(grids):
     return "{}", rockvdb.__version__, ""
 
 
-def build(context, stage, label, grids, operator_props, target=None):
-    """Objects for @a grids (the new result, or @a target's replaced in place). Returns the
-    mesh object."""
-    path = cache_path(label)
+def prepare(grids, path):
+    """What build() needs that takes no bpy, for the worker thread: the grids written to the
+    cache file @a path, and the id points."""
     rockvdb.write(path, grids)
-    pts, values = _id_points(grids)
+    return {"path": path, "grids": grids, "ids": _id_points(grids)}
+
+
+def build(context, stage, label, prepared, operator_props, target=None):
+    """Objects for the prepare()d grids (the new result, or @a target's replaced in place).
+    Returns the mesh object."""
+    path, grids = prepared["path"], prepared["grids"]
+    pts, values = prepared["ids"]
     params, version, generator = stage_params(grids)
     collection = context.collection or context.scene.collection
 
