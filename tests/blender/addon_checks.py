@@ -183,6 +183,15 @@ try:
                             "new_cache": rock["rockvdb_cache"] != R["fractal_rock"]["rockvdb_cache"]}
     shutil.copy(rock["rockvdb_cache"], os.path.join(OUT, "regen_after.vdb"))
 
+    # Regenerate stacks made from a scene file whose quantum is not the table's: the scene's
+    # keys still hold (only what the call set is stored and passed again).
+    stacks = bpy.data.objects[R["stacks_scene"]["name"]]
+    shutil.copy(stacks["rockvdb_cache"], os.path.join(OUT, "regen_stacks_before.vdb"))
+    bpy.context.view_layer.objects.active = stacks
+    bpy.ops.rockvdb.regenerate()
+    report["regenerate_stacks_operator"] = json.loads(stacks["rockvdb_operator"])
+    shutil.copy(stacks["rockvdb_cache"], os.path.join(OUT, "regen_stacks_after.vdb"))
+
     # Regenerate a result made from a scene object (the pile in its cube), with another
     # object active: it reads the same cube again.
     pile = bpy.data.objects[R["rock_pile"]["name"]]

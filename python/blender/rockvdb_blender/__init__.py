@@ -97,10 +97,12 @@ class Run:
 
 
 def _operator_props(op):
-    """The operator's properties as JSON-able values (stored on the result for Regenerate)."""
+    """The properties the call set (by the caller, the panel or the redo panel), as JSON-able
+    values, stored on the result for Regenerate: the others take their defaults again, and a
+    scene file's keys hold where the call did not override them."""
     out = {}
     for key in op.__annotations__:
-        if key in ("target",):
+        if key in ("target",) or not op.properties.is_property_set(key):
             continue
         v = getattr(op, key)
         out[key] = list(v) if hasattr(v, "__len__") and not isinstance(v, str) else v
