@@ -93,6 +93,11 @@ def op_error(call):
     return None
 
 
+def none_selected():
+    bpy.ops.object.select_all(action="DESELECT")
+    bpy.context.view_layer.objects.active = None
+
+
 def scene_names():
     return sorted(o.name for o in bpy.data.objects)
 
@@ -172,6 +177,31 @@ try:
     bpy.ops.rockvdb.fractal_scatter(count=6, voxel_size=0.05, seed=2, area=(-4, -4, 4, 4),
                                     use_area=True, material=4)
     R["fractal_scatter_plane"] = result("fractal_scatter_plane", bpy.context.active_object)
+
+    # The same scatter as instances: rocks instanced on points, the level set's mesh hidden.
+    none_selected()
+    bpy.ops.rockvdb.fractal_scatter(count=6, voxel_size=0.05, seed=2, area=(-4, -4, 4, 4),
+                                    use_area=True, material=4, instances=True)
+    scatter = bpy.context.active_object
+    inst = scatter["rockvdb_instances"]
+    dg = bpy.context.evaluated_depsgraph_get()
+    found = []
+    lo, hi = [1e9] * 3, [-1e9] * 3
+    ids = []
+    for di in dg.object_instances:
+        if di.is_instance and di.parent and di.parent.original == inst:
+            m = di.matrix_world.copy()
+            found.append([m.translation[k] for k in range(3)])
+            ids.append(di.object.original.data.attributes["rock_id"].data[0].value)
+            for v in di.object.original.data.vertices:
+                w = m @ v.co
+                lo = [min(lo[k], w[k]) for k in range(3)]
+                hi = [max(hi[k], w[k]) for k in range(3)]
+    report["instances"] = {"translations": found, "min": lo, "max": hi, "rock_ids": ids,
+                           "rocks": len(inst.modifiers[0].node_group.nodes["Collection Info"]
+                                        .inputs["Collection"].default_value.objects),
+                           "surface_shown": scatter.modifiers["rockvdb surface"].show_viewport,
+                           "result": result("scatter_instances", scatter)}
 
     # Regenerate in place: same object, same grids (copied before, the cache is replaced).
     bpy.context.view_layer.objects.active = rock

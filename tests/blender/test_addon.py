@@ -90,7 +90,8 @@ def test_properties_equal_the_tables(report):
     tables = _table_rows()
     for stage, rows in tables.items():
         props = report["props"][stage]
-        own = {"amplify": {"tiles", "terrain_as"}, "stacks": {"scene", "mesh_voxel"}}.get(stage, set())
+        own = {"amplify": {"tiles", "terrain_as"}, "stacks": {"scene", "mesh_voxel"},
+               "fractal_scatter": {"instances"}}.get(stage, set())
         extra = set(props) - {name for name, _ in rows} - {"target", "source"} - own - \
             {"use_" + name for name, r in rows if r["default"] is None}
         assert not extra, (stage, extra)
@@ -234,6 +235,36 @@ def test_defaults_are_the_clis_defaults(report, tmp_path):
     run([tool("vdb_fractal_rock"), "-q", "--count", "6", "--voxel-size", "0.05", "--seed", "2",
          "--area=-4,-4,4,4", "--material", "4", "-o", str(cli)], check=True)
     assert json.loads(report["results"]["fractal_scatter_plane"]["rockvdb_params"]) == params_of(cli)
+
+
+def test_scatter_as_instances_places_each_rock_where_the_level_set_has_it(report, out):
+    """With instances, each rock is its own mesh instanced at the stage's position and
+    orientation: the instances sit at the positions the stage reports, and together they span
+    the level set's mesh (within two voxels), which is hidden."""
+    import rockvdb
+    stats = {}
+    rockvdb.fractal_scatter(None, count=6, voxel_size=0.05, seed=2, area=(-4, -4, 4, 4),
+                            material=4, stats=stats)
+    inst = report["instances"]
+    assert inst["rocks"] == 6 and not inst["surface_shown"]
+    got = sorted(map(tuple, np.round(inst["translations"], 4)))
+    want = sorted(map(tuple, np.round(np.asarray(stats["positions"]), 4)))
+    assert got == want
+    level_set = report["results"]["fractal_scatter_plane"]
+    assert np.allclose(inst["min"], level_set["min"], atol=0.1)
+    assert np.allclose(inst["max"], level_set["max"], atol=0.1)
+    # the level set itself is the scatter's, bit for bit (grids unchanged by the option)
+    assert inst["result"]["rockvdb_params"] == level_set["rockvdb_params"]
+    a, b = grids(out / "scatter_instances.vdb"), grids(out / "fractal_scatter_plane.vdb")
+    for g in a:
+        assert_bitwise_equal(a[g], b[g])
+    # each instance carries the rock_id the level set has at its seed (the tint agrees)
+    acc = a["rock_id"].getConstAccessor()
+    for t, rid in zip(inst["translations"], inst["rock_ids"]):
+        i, j, k = (int(round(c / 0.05)) for c in t)
+        # up from the seed (inside the rock, below its band) to the rock's first id voxel
+        above = next(v for v in (acc.getValue((i, j, k + d)) for d in range(200)) if v != -1)
+        assert above == rid
 
 
 def test_regenerate_in_place_gives_the_same_bits(report, out):

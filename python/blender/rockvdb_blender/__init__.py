@@ -70,8 +70,12 @@ class Run:
         try:
             with self.job:
                 grids = self.stage.run_fn(self.kw, self.inputs)
+                extra = {}
+                if isinstance(grids, tuple):  # (grids, what else the stage made)
+                    grids, extra = grids
                 # The cache file and the id points, here too: the UI thread only makes objects.
                 self.grids = results.prepare(grids, self.inputs["cache"])
+                self.grids.update(extra)
         except KeyboardInterrupt:  # the stage saw the cancel and stopped
             self.cancelled = self.interrupted = True
         except Exception as e:  # every failure becomes the operator's one-line report

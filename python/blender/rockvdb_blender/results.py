@@ -203,6 +203,7 @@ def build(context, stage, label, prepared, operator_props, target=None):
             o.select_set(False)
         obj.select_set(True)
         context.view_layer.objects.active = obj
+    _set_instances(obj, collection, prepared.get("instances"))
     obj["rockvdb_stage"] = stage
     obj["rockvdb_generator"] = generator
     obj["rockvdb_version"] = version
@@ -236,3 +237,85 @@ def grids_of(obj):
         raise ValueError(f"'{obj.name}' is not a rockvdb result")
     import pyopenvdb
     return pyopenvdb.readAll(bpy.path.abspath(vol_obj.data.filepath))[0]
+
+
+def _instancer_tree(name, rocks):
+    """Geometry nodes on the instance points: Instance on Points of the rocks collection's
+    children, picked by the point's 'rock', rotated by 'rotation' (Euler XYZ), scaled by
+    'pscale'."""
+    ng = bpy.data.node_groups.new(name, "GeometryNodeTree")
+    ng.inputs.new("NodeSocketGeometry", "Geometry")
+    ng.outputs.new("NodeSocketGeometry", "Geometry")
+    N, L = ng.nodes, ng.links
+    gin, gout = N.new("NodeGroupInput"), N.new("NodeGroupOutput")
+    info = N.new("GeometryNodeCollectionInfo")
+    info.inputs["Collection"].default_value = rocks
+    info.inputs["Separate Children"].default_value = True
+    info.inputs["Reset Children"].default_value = True
+    inst = N.new("GeometryNodeInstanceOnPoints")
+    L.new(gin.outputs[0], inst.inputs["Points"])
+    L.new(info.outputs[0], inst.inputs["Instance"])
+    inst.inputs["Pick Instance"].default_value = True
+
+    def named(attr, kind, socket):
+        n = N.new("GeometryNodeInputNamedAttribute")
+        n.data_type = kind
+        n.inputs["Name"].default_value = attr
+        out = next(o for o in n.outputs if o.enabled)
+        L.new(out, inst.inputs[socket])
+    named("rock", "INT", "Instance Index")
+    named("rotation", "FLOAT_VECTOR", "Rotation")
+    named("pscale", "FLOAT", "Scale")
+    L.new(inst.outputs[0], gout.inputs[0])
+    return ng
+
+
+def _set_instances(obj, collection, instances):
+    """The result's instances (made again on Regenerate): a collection '<name> rocks' of one
+    mesh per rock (not linked to the scene: only instanced) and a child '<name> instances' of
+    points with 'rock', 'rotation' and 'pscale', instancing it. The level set's own mesh is
+    hidden while instances show."""
+    from mathutils import Quaternion
+    old = obj.get("rockvdb_instances")
+    if old is not None:
+        rocks = old.modifiers[0].node_group.nodes["Collection Info"].inputs["Collection"].default_value
+        for o in list(rocks.objects):
+            bpy.data.objects.remove(o)
+        bpy.data.collections.remove(rocks)
+        bpy.data.objects.remove(old)
+        del obj["rockvdb_instances"]
+    surface_mod = obj.modifiers.get("rockvdb surface")
+    if surface_mod is not None:
+        surface_mod.show_viewport = surface_mod.show_render = instances is None
+    if instances is None:
+        return
+    rocks = bpy.data.collections.new(obj.name + " rocks")
+    mat = obj.data.materials[0] if obj.data.materials else None
+    for i, r in enumerate(instances["rocks"]):
+        me = bpy.data.meshes.new(f"{obj.name} rock {i:04d}")
+        me.from_pydata(r["points"].tolist(), [], r["triangles"].tolist())
+        me.polygons.foreach_set("use_smooth", [True] * len(me.polygons))
+        # The rock's id, as the level set's rock_id grid holds it (placement order), so the
+        # tint material colours the instances as it does the level set's mesh.
+        a = me.attributes.new("rock_id", "FLOAT", "POINT")
+        a.data.foreach_set("value", [float(i)] * len(me.vertices))
+        if mat is not None:
+            me.materials.append(mat)
+        rocks.objects.link(bpy.data.objects.new(me.name, me))
+    n = len(instances["rocks"])
+    pm = bpy.data.meshes.new(obj.name + " instances")
+    pm.vertices.add(n)
+    pm.vertices.foreach_set("co", np.ascontiguousarray(instances["positions"], np.float32).ravel())
+    rot = [Quaternion((q[3], q[0], q[1], q[2])).to_euler("XYZ") for q in instances["orients"]]
+    for attr, kind, values in (("rock", "INT", np.arange(n, dtype=np.int32)),
+                               ("rotation", "FLOAT_VECTOR",
+                                np.array([tuple(e) for e in rot], np.float32).ravel()),
+                               ("pscale", "FLOAT", np.asarray(instances["pscale"], np.float32))):
+        a = pm.attributes.new(attr, kind, "POINT")
+        a.data.foreach_set("vector" if kind == "FLOAT_VECTOR" else "value", values)
+    inst = _link(bpy.data.objects.new(obj.name + " instances", pm), collection)
+    inst.parent = obj
+    inst.hide_select = True
+    mod = inst.modifiers.new("rockvdb instances", "NODES")
+    mod.node_group = _instancer_tree(obj.name + " instances", rocks)
+    obj["rockvdb_instances"] = inst

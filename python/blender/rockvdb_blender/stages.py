@@ -155,9 +155,9 @@ def _gather_ground(op, context):
     set at the rocks' voxel size, or (nothing selected) the plane z = 0."""
     obj = _active_mesh(context, optional=True, source=op.source)
     if obj is None:
-        return {"ground": None, "source": ""}
+        return {"ground": None, "source": "", "instances": op.instances}
     return {"mesh": _mesh_arrays(obj, context, close_depth=1.0), "source": obj.name,
-            "level_set": results.cache_path(obj.name + "_ground")}
+            "level_set": results.cache_path(obj.name + "_ground"), "instances": op.instances}
 
 
 def _gather_tile(op, context):
@@ -253,7 +253,37 @@ def _run_fractal_scatter(kw, inputs):
     if "mesh" in inputs:  # the ground at the rocks' own voxel size and band
         ground = _mesh_level_set(inputs["mesh"], kw[""]["voxel_size"], kw[""]["half_width"],
                                  inputs["level_set"])
-    return list(rockvdb.fractal_scatter(ground, **kw[""]))
+    if not inputs.get("instances"):
+        return list(rockvdb.fractal_scatter(ground, **kw[""]))
+    stats = {}
+    *grids, mesh = rockvdb.fractal_scatter(ground, stats=stats, mesh=True, **kw[""])
+    return grids, {"instances": _scatter_instances(mesh, stats)}
+
+
+def _quat_to_matrix(q):
+    """Rotation matrix of a unit quaternion (x, y, z, w)."""
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def _scatter_instances(mesh, stats):
+    """The scattered rocks as instances: each rock's mesh in its own frame (its seed at the
+    origin, unrotated: R^T (p - position)), and per instance its position, orientation
+    (quaternion x, y, z, w, as the CLI's points grid 'orient') and scale (pscale 1)."""
+    pts, tris, rock = mesh["points"], mesh["triangles"], mesh["rock"]
+    rocks = []
+    for r, (pos, q) in enumerate(zip(stats["positions"], stats["orients"])):
+        faces = tris[rock == r]
+        used = np.unique(faces)
+        remap = np.full(len(pts), -1, np.int64)
+        remap[used] = np.arange(len(used))
+        local = (pts[used] - pos) @ _quat_to_matrix(q)  # row vectors: R^T (p - pos)
+        rocks.append({"points": local.astype(np.float32), "triangles": remap[faces]})
+    return {"rocks": rocks, "positions": np.asarray(stats["positions"], np.float64),
+            "orients": np.asarray(stats["orients"], np.float64),
+            "pscale": np.ones(len(rocks), np.float32)}
 
 
 def _run_block_tile(kw, inputs):
@@ -308,7 +338,13 @@ STAGES = [
           [("fractal_rock", rockvdb.fractal_rock, "")], None, _gather_none, _run_fractal_rock),
     Stage("fractal_scatter", "Fractal Scatter", "PARTICLES",
           [("fractal_scatter", rockvdb.fractal_scatter, "")], "mesh", _gather_ground,
-          _run_fractal_scatter, optional=True),
+          _run_fractal_scatter, optional=True,
+          extra={
+              "instances": bpy.props.BoolProperty(
+                  name="As instances", description="Also make the rocks Blender instances: a "
+                  "collection of the rocks, each its own mesh in its own frame, instanced on "
+                  "points at their positions and orientations (P, orient, pscale). The level "
+                  "set is kept (export, ids) and its mesh hidden")}),
     Stage("block_tile", "Block Tile", "MOD_EXPLODE",
           [("block_tile", rockvdb.block_tile, "")], None, _gather_tile, _run_block_tile),
     Stage("rock_pile", "Rock Pile", "OUTLINER_OB_POINTCLOUD",
