@@ -813,7 +813,8 @@ rock_pile = _stage_function(
     "rockvdb.Field (e.g. rockvdb.sphere(2)), or a path (.vdb level set, .json expression, "
     "closed .obj / .stl / .ply mesh).",
     "Returns (surface, rock_id), or (surface, rock_id, material) with material >= 0; stats (a "
-    "dict) receives counts, times, and each placed rock's library index and seed position. "
+    "dict) receives counts, times, and each placed rock's library index (rocks), seed position "
+    "(positions) and shift (shifts: voxels added to the library rock's canonical voxels). "
     "Ctrl-C raises KeyboardInterrupt.",
     before=["tiles", "support"], after=[("stats", None)])
 

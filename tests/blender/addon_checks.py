@@ -93,6 +93,36 @@ def op_error(call):
     return None
 
 
+def instances_of(name, obj):
+    """What a result's instances evaluate to: each instance's translation and its point's
+    rock_id, the world bounds of the instanced rocks, the rocks collection's size."""
+    inst = obj["rockvdb_instances"]
+    dg = bpy.context.evaluated_depsgraph_get()
+    pts = [v.co.copy() for v in inst.data.vertices]
+    ids = [d.value for d in inst.data.attributes["rock_id"].data]
+    found, rock_ids, samples = [], [], []
+    lo, hi = [1e9] * 3, [-1e9] * 3
+    for di in dg.object_instances:
+        if di.is_instance and di.parent and di.parent.original == inst:
+            m = di.matrix_world.copy()
+            t = m.translation
+            found.append([t[k] for k in range(3)])
+            rock_ids.append(ids[di.persistent_id[0]])  # the instancing point's index
+            verts = di.object.original.data.vertices
+            samples.append([list(m @ verts[i].co) for i in range(0, len(verts), max(1, len(verts) // 9))])
+            for v in verts:
+                w = m @ v.co
+                lo = [min(lo[k], w[k]) for k in range(3)]
+                hi = [max(hi[k], w[k]) for k in range(3)]
+    rocks = inst.modifiers[0].node_group.nodes["Collection Info"].inputs["Collection"].default_value
+    return {"translations": found, "rock_ids": rock_ids, "samples": samples, "min": lo, "max": hi,
+            "rocks": len(rocks.objects), "points": len(pts),
+            "tint": [n.attribute_type for m in bpy.data.materials if m.name.startswith(obj.name + " instances")
+                     for n in m.node_tree.nodes if n.type == "ATTRIBUTE"],
+            "surface_shown": obj.modifiers["rockvdb surface"].show_viewport,
+            "result": result(name, obj)}
+
+
 def none_selected():
     bpy.ops.object.select_all(action="DESELECT")
     bpy.context.view_layer.objects.active = None
@@ -178,30 +208,16 @@ try:
                                     use_area=True, material=4)
     R["fractal_scatter_plane"] = result("fractal_scatter_plane", bpy.context.active_object)
 
-    # The same scatter as instances: rocks instanced on points, the level set's mesh hidden.
+    # The same scatter, and a pile, as instances: rocks instanced on points, the level sets'
+    # meshes hidden.
     none_selected()
     bpy.ops.rockvdb.fractal_scatter(count=6, voxel_size=0.05, seed=2, area=(-4, -4, 4, 4),
                                     use_area=True, material=4, instances=True)
-    scatter = bpy.context.active_object
-    inst = scatter["rockvdb_instances"]
-    dg = bpy.context.evaluated_depsgraph_get()
-    found = []
-    lo, hi = [1e9] * 3, [-1e9] * 3
-    ids = []
-    for di in dg.object_instances:
-        if di.is_instance and di.parent and di.parent.original == inst:
-            m = di.matrix_world.copy()
-            found.append([m.translation[k] for k in range(3)])
-            ids.append(di.object.original.data.attributes["rock_id"].data[0].value)
-            for v in di.object.original.data.vertices:
-                w = m @ v.co
-                lo = [min(lo[k], w[k]) for k in range(3)]
-                hi = [max(hi[k], w[k]) for k in range(3)]
-    report["instances"] = {"translations": found, "min": lo, "max": hi, "rock_ids": ids,
-                           "rocks": len(inst.modifiers[0].node_group.nodes["Collection Info"]
-                                        .inputs["Collection"].default_value.objects),
-                           "surface_shown": scatter.modifiers["rockvdb surface"].show_viewport,
-                           "result": result("scatter_instances", scatter)}
+    report["instances"] = instances_of("scatter_instances", bpy.context.active_object)
+    bpy.ops.mesh.primitive_cube_add(size=3.0, location=(0, 0, 1.5))
+    bpy.ops.rockvdb.rock_pile(tiles_cube_size=1.5, tiles_voxels_per_cell=8, material=3,
+                              instances=True)
+    report["pile_instances"] = instances_of("pile_instances", bpy.context.active_object)
 
     # Regenerate in place: same object, same grids (copied before, the cache is replaced).
     bpy.context.view_layer.objects.active = rock

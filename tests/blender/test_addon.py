@@ -91,7 +91,7 @@ def test_properties_equal_the_tables(report):
     for stage, rows in tables.items():
         props = report["props"][stage]
         own = {"amplify": {"tiles", "terrain_as"}, "stacks": {"scene", "mesh_voxel"},
-               "fractal_scatter": {"instances"}}.get(stage, set())
+               "fractal_scatter": {"instances"}, "rock_pile": {"instances"}}.get(stage, set())
         extra = set(props) - {name for name, _ in rows} - {"target", "source"} - own - \
             {"use_" + name for name, r in rows if r["default"] is None}
         assert not extra, (stage, extra)
@@ -246,7 +246,8 @@ def test_scatter_as_instances_places_each_rock_where_the_level_set_has_it(report
     rockvdb.fractal_scatter(None, count=6, voxel_size=0.05, seed=2, area=(-4, -4, 4, 4),
                             material=4, stats=stats)
     inst = report["instances"]
-    assert inst["rocks"] == 6 and not inst["surface_shown"]
+    assert inst["rocks"] == 6 and inst["points"] == 6 and not inst["surface_shown"]
+    assert inst["tint"] == ["INSTANCER"]
     got = sorted(map(tuple, np.round(inst["translations"], 4)))
     want = sorted(map(tuple, np.round(np.asarray(stats["positions"]), 4)))
     assert got == want
@@ -265,6 +266,33 @@ def test_scatter_as_instances_places_each_rock_where_the_level_set_has_it(report
         # up from the seed (inside the rock, below its band) to the rock's first id voxel
         above = next(v for v in (acc.getValue((i, j, k + d)) for d in range(200)) if v != -1)
         assert above == rid
+
+
+def test_pile_as_instances_moves_each_library_rock_onto_the_pile(report, out):
+    """With instances, the pile's rocks are its tile set's rocks instanced at their shifts:
+    the mesh of every instanced rock lies on the pile's surface (median within half a voxel,
+    the nearest-voxel read), each instance carries the rock_id the pile has there, and a rock
+    used twice is one mesh."""
+    inst = report["pile_instances"]
+    r = inst["result"]
+    assert not inst["surface_shown"] and inst["tint"] == ["INSTANCER"]
+    assert inst["points"] == len(inst["translations"]) > 30
+    assert inst["rocks"] <= inst["points"]
+    assert np.allclose(inst["min"], report["results"]["rock_pile_material"]["min"], atol=0.1)
+    assert np.allclose(inst["max"], report["results"]["rock_pile_material"]["max"], atol=0.1)
+    # the level set is the plain pile's, bit for bit
+    a, b = grids(out / "pile_instances.vdb"), grids(out / "rock_pile_material.vdb")
+    for g in a:
+        assert_bitwise_equal(a[g], b[g])
+    # every instance's id is the pile's id under its mesh: instances sit where the pile has
+    # its rocks, and the tint agrees
+    assert sorted(inst["rock_ids"]) == list(range(inst["points"]))
+    acc, dx = a["rock_id"].getConstAccessor(), a["surface"].transform.voxelSize()[0]
+    agree = 0
+    for rid, pts in zip(inst["rock_ids"], inst["samples"]):
+        vals = [acc.getValue(tuple(int(round(c / dx)) for c in p)) for p in pts]
+        agree += max(set(vals), key=vals.count) == rid
+    assert agree >= 0.95 * inst["points"], (agree, inst["points"])
 
 
 def test_regenerate_in_place_gives_the_same_bits(report, out):

@@ -108,8 +108,9 @@ def _ids_tree(name, points_obj, attributes):
     return ng
 
 
-def _material(name, attribute):
-    """Rock grey tinted by an id attribute: each id its own hue (White Noise of the id)."""
+def _material(name, attribute, instancer=False):
+    """Rock grey tinted by an id attribute: each id its own hue (White Noise of the id); the
+    mesh's own attribute, or with @a instancer the instancing point's."""
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
     N, L = mat.node_tree.nodes, mat.node_tree.links
@@ -119,7 +120,8 @@ def _material(name, attribute):
         bsdf.inputs["Base Color"].default_value = (0.30, 0.28, 0.26, 1.0)
         return mat
     attr = N.new("ShaderNodeAttribute")
-    attr.attribute_type, attr.attribute_name = "GEOMETRY", attribute
+    attr.attribute_type = "INSTANCER" if instancer else "GEOMETRY"
+    attr.attribute_name = attribute
     noise = N.new("ShaderNodeTexWhiteNoise")
     noise.noise_dimensions = "1D"
     L.new(attr.outputs["Fac"], noise.inputs["W"])
@@ -272,9 +274,14 @@ def _instancer_tree(name, rocks):
 
 def _set_instances(obj, collection, instances):
     """The result's instances (made again on Regenerate): a collection '<name> rocks' of one
-    mesh per rock (not linked to the scene: only instanced) and a child '<name> instances' of
-    points with 'rock', 'rotation' and 'pscale', instancing it. The level set's own mesh is
-    hidden while instances show."""
+    mesh per distinct rock (not linked to the scene: only instanced) and a child
+    '<name> instances' of points instancing them, with attributes 'rock' (which mesh),
+    'rotation' (Euler XYZ), 'pscale' and 'rock_id' (the level set's id of that instance, which
+    the rocks' material reads from the instancer). The level set's own mesh is hidden while
+    instances show.
+    instances: {"rocks": [{"points", "triangles"}] in each rock's own frame, "index": the rock
+    of each instance (default: instance i is rock i), "positions", "orients" (quaternions x,
+    y, z, w), "pscale", "rock_id"} per instance."""
     from mathutils import Quaternion
     old = obj.get("rockvdb_instances")
     if old is not None:
@@ -290,27 +297,24 @@ def _set_instances(obj, collection, instances):
     if instances is None:
         return
     rocks = bpy.data.collections.new(obj.name + " rocks")
-    mat = obj.data.materials[0] if obj.data.materials else None
+    mat = _material(obj.name + " instances", "rock_id", instancer=True)
     for i, r in enumerate(instances["rocks"]):
         me = bpy.data.meshes.new(f"{obj.name} rock {i:04d}")
         me.from_pydata(r["points"].tolist(), [], r["triangles"].tolist())
         me.polygons.foreach_set("use_smooth", [True] * len(me.polygons))
-        # The rock's id, as the level set's rock_id grid holds it (placement order), so the
-        # tint material colours the instances as it does the level set's mesh.
-        a = me.attributes.new("rock_id", "FLOAT", "POINT")
-        a.data.foreach_set("value", [float(i)] * len(me.vertices))
-        if mat is not None:
-            me.materials.append(mat)
+        me.materials.append(mat)
         rocks.objects.link(bpy.data.objects.new(me.name, me))
-    n = len(instances["rocks"])
+    n = len(instances["positions"])
+    index = np.asarray(instances.get("index", np.arange(n)), np.int32)
     pm = bpy.data.meshes.new(obj.name + " instances")
     pm.vertices.add(n)
     pm.vertices.foreach_set("co", np.ascontiguousarray(instances["positions"], np.float32).ravel())
     rot = [Quaternion((q[3], q[0], q[1], q[2])).to_euler("XYZ") for q in instances["orients"]]
-    for attr, kind, values in (("rock", "INT", np.arange(n, dtype=np.int32)),
+    for attr, kind, values in (("rock", "INT", index),
                                ("rotation", "FLOAT_VECTOR",
                                 np.array([tuple(e) for e in rot], np.float32).ravel()),
-                               ("pscale", "FLOAT", np.asarray(instances["pscale"], np.float32))):
+                               ("pscale", "FLOAT", np.asarray(instances["pscale"], np.float32)),
+                               ("rock_id", "FLOAT", np.asarray(instances["rock_id"], np.float32))):
         a = pm.attributes.new(attr, kind, "POINT")
         a.data.foreach_set("vector" if kind == "FLOAT_VECTOR" else "value", values)
     inst = _link(bpy.data.objects.new(obj.name + " instances", pm), collection)

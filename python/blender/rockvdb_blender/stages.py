@@ -229,7 +229,7 @@ def _gather_support(op, context):
     # The tile set is saved beside it too, and the pile reads it from there: the pile's
     # provenance then names both files, and vdb_rockpile --params replays it.
     tiles = results.cache_path(obj.name + "_rocks")[:-4] + ".tiles"
-    return {"support": path, "tiles": tiles, "source": obj.name}
+    return {"support": path, "tiles": tiles, "source": obj.name, "instances": op.instances}
 
 
 def _gather_result(op, context):
@@ -281,9 +281,10 @@ def _scatter_instances(mesh, stats):
         remap[used] = np.arange(len(used))
         local = (pts[used] - pos) @ _quat_to_matrix(q)  # row vectors: R^T (p - pos)
         rocks.append({"points": local.astype(np.float32), "triangles": remap[faces]})
+    n = len(rocks)
     return {"rocks": rocks, "positions": np.asarray(stats["positions"], np.float64),
             "orients": np.asarray(stats["orients"], np.float64),
-            "pscale": np.ones(len(rocks), np.float32)}
+            "pscale": np.ones(n, np.float32), "rock_id": np.arange(n)}  # ids: placement order
 
 
 def _run_block_tile(kw, inputs):
@@ -321,7 +322,29 @@ def _run_stacks(kw, inputs):
 
 def _run_rock_pile(kw, inputs):
     rockvdb.rock_tiles(path=inputs["tiles"], **kw["tiles_"])
-    return list(rockvdb.rock_pile(inputs["tiles"], inputs["support"], **kw[""]))
+    if not inputs.get("instances"):
+        return list(rockvdb.rock_pile(inputs["tiles"], inputs["support"], **kw[""]))
+    stats = {}
+    grids = list(rockvdb.rock_pile(inputs["tiles"], inputs["support"], stats=stats, **kw[""]))
+    return grids, {"instances": _pile_instances(inputs["tiles"], stats,
+                                                grids[0].transform.voxelSize()[0])}
+
+
+def _pile_instances(tiles_path, stats, dx):
+    """The pile's rocks as instances: each library rock the pile uses, meshed in its canonical
+    frame, and per instance that rock moved by its shift (no rotation: a pile places its tile
+    set's rocks as they are). rock_id: the instance's index, as the pile's grid holds it."""
+    import pyopenvdb
+    from rockvdb import _rockvdb
+    used = sorted(set(stats["rocks"]))
+    where = {r: i for i, r in enumerate(used)}
+    meshes = _rockvdb.rock_meshes(pyopenvdb.read(tiles_path, "rho"), used)
+    n = len(stats["rocks"])
+    return {"rocks": [{"points": p, "triangles": t} for p, t in meshes],
+            "index": [where[r] for r in stats["rocks"]],
+            "positions": np.asarray(stats["shifts"], np.float64) * dx,
+            "orients": np.tile([0.0, 0.0, 0.0, 1.0], (n, 1)), "pscale": np.ones(n, np.float32),
+            "rock_id": np.arange(n)}
 
 
 def _run_detail(kw, inputs):
@@ -349,7 +372,13 @@ STAGES = [
           [("block_tile", rockvdb.block_tile, "")], None, _gather_tile, _run_block_tile),
     Stage("rock_pile", "Rock Pile", "OUTLINER_OB_POINTCLOUD",
           [("rock_tiles", rockvdb.rock_tiles, "tiles_"), ("rock_pile", rockvdb.rock_pile, "")],
-          "mesh", _gather_support, _run_rock_pile),
+          "mesh", _gather_support, _run_rock_pile,
+          extra={
+              "instances": bpy.props.BoolProperty(
+                  name="As instances", description="Also make the rocks Blender instances: a "
+                  "collection of the tile set's rocks the pile uses, each meshed in its own "
+                  "frame, instanced on one point per placed rock (collection instancing). The "
+                  "level set is kept (export, ids) and its mesh hidden")}),
     Stage("amplify", "Amplify Terrain", "MOD_OCEAN",
           [("amplify", rockvdb.amplify, "")], "mesh", _gather_amplify, _run_amplify,
           extra={
