@@ -723,16 +723,17 @@ def coverage(surface, ids, max_nz=0.6, region=None):
 # ---------------------------------------------------------------------------------------------
 # Surface detail (implicit-blocks §4.2, gabor-details-implicit-surfaces §3-§4)
 
-def _detail(grid, blend_mask=None, stats=None, **params):
+def _detail(grid, blend_mask=None, ids=None, stats=None, **params):
     fn = "detail"
     _grid(grid, "grid", fn)
     if stats is not None and not isinstance(stats, dict):
         raise _type_error(fn, "stats", "a dict", stats)
-    surface, info = _rockvdb.detail(grid, _stage_params(_DETAIL, fn, params),
-                                    _opt(blend_mask, _grid, "blend_mask", fn))
+    id_grids = [] if ids is None else _grids(ids, "ids", fn)
+    surface, info, carried = _rockvdb.detail(grid, _stage_params(_DETAIL, fn, params),
+                                             _opt(blend_mask, _grid, "blend_mask", fn), id_grids)
     if stats is not None:
         stats.update(info)
-    return surface
+    return surface if ids is None else (surface, *carried)
 
 
 detail = _stage_function(
@@ -744,8 +745,10 @@ detail = _stage_function(
     "pyopenvdb.FloatGrid of weights in [0, 1]): the parameters are interpolated (gabor §4), so "
     "blends do not blur the details. voxel_size and half_width default to the input's. stats "
     "(a dict) receives the bake's counts and the phases, as vdb_detail --stats writes them. "
+    "ids (a list of id grids on the input's band: block_id, material, ...) are carried onto "
+    "the result as vdb_detail carries a file's id grids; then (surface, *ids) is returned. "
     "Ctrl-C raises KeyboardInterrupt.",
-    before=["grid"], after=[("blend_mask", None), ("stats", None)])
+    before=["grid"], after=[("blend_mask", None), ("ids", None), ("stats", None)])
 
 
 # ---------------------------------------------------------------------------------------------

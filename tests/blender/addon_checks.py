@@ -164,6 +164,11 @@ try:
     bpy.ops.rockvdb.block_tile(type="tabular", tile_size=6.0, voxel_size=0.1)
     R["block_tile_tabular"] = result("block_tile_tabular", bpy.context.active_object)
 
+    # Detail on the block tile: its block_id carried.
+    bpy.context.view_layer.objects.active = bpy.data.objects[R["block_tile"]["name"]]
+    bpy.ops.rockvdb.detail(warp_amplitude=0.05)
+    R["detail_tile"] = result("detail_tile", bpy.context.active_object)
+
     # Amplify a bumpy sheet with the first tile (as a level set), and with both tiles in two
     # strata (as a heightfield, the sheet moved to x, y >= 0).
     bpy.ops.mesh.primitive_grid_add(size=10, x_subdivisions=10, y_subdivisions=10, location=(6, 6, 0))

@@ -221,6 +221,19 @@ def test_cli_replays_the_addon_bit_for_bit_and_meshes_alike(report, out, tmp_pat
     assert abs(verts - r["vertices"]) <= 0.01 * verts, (verts, r["vertices"])
 
 
+def test_detail_of_a_result_is_vdb_detail_of_its_file(report, out, tmp_path):
+    """Detail on the Block Tile result: vdb_detail on that result's grids gives the same
+    surface and carried block_id, bit for bit."""
+    cli = tmp_path / "detail.vdb"
+    run([tool("vdb_detail"), "-q", str(out / "block_tile.vdb"), "--warp-amplitude", "0.05",
+         "-o", str(cli)], check=True)
+    a, b = grids(out / "detail_tile.vdb"), grids(cli)
+    assert sorted(a) == sorted(b) == ["block_id", "surface"]
+    for g in a:
+        assert_bitwise_equal(a[g], b[g])
+    assert len(report["results"]["detail_tile"]["attributes"]["block_id"]) > 30
+
+
 def test_defaults_are_the_clis_defaults(report, tmp_path):
     """The add-on's operators at their defaults pass the parameters the CLI's defaults are
     (Blender's 32-bit floats read back as the decimals the table gives)."""

@@ -30,7 +30,7 @@ ROWS = rockvdb._rockvdb.fractal_rows()
 TABLE_FUNCTIONS = [
     (rockvdb.block_tile, "block_tile", [], {"bake", "stats"}),
     (rockvdb.amplify, "amplify", [], {"terrain", "tiles", "mask", "stats"}),
-    (rockvdb.detail, "detail", [], {"grid", "blend_mask", "stats"}),
+    (rockvdb.detail, "detail", [], {"grid", "blend_mask", "ids", "stats"}),
     (rockvdb.rock_tiles, "rock_tiles", [], {"path", "max_memory"}),
     (rockvdb.rock_pile, "rock_pile", [], {"tiles", "support", "stats"}),
     (rockvdb.fractal_rock, "fractal_rock", ROWS["scatter"] + ROWS["carve"],
@@ -267,3 +267,28 @@ def test_derived_defaults_are_shown_and_the_docs_quote_their_numbers():
     for name in ("point-radius", "fracture-width"):
         factor = re.match(r"([0-9.]+) x tile-size", rows[name]["derived"]).group(1)
         assert f"{factor}·s" in page, name
+
+
+def test_detail_carries_id_grids_as_vdb_detail_does(tmp_path):
+    """rockvdb.detail(grid, ids=[...]) carries the id grids onto the result through the same
+    entry point as vdb_detail carries a file's: the same surface and ids, bit for bit; the
+    caller's id grids are left as they were."""
+    import pyopenvdb
+    from conftest import assert_bitwise_equal
+    tile = tmp_path / "tile.vdb"
+    run([tool("vdb_blocks"), "-q", "--tile-size", "4", "--voxel-size", "0.1", "--seed", "3",
+         "-o", str(tile)], check=True)
+    cli = tmp_path / "detailed.vdb"
+    run([tool("vdb_detail"), "-q", str(tile), "--warp-amplitude", "0.05", "-o", str(cli)],
+        check=True)
+    grids = {g.name: g for g in pyopenvdb.readAll(str(tile))[0]}
+    before = grids["block_id"].deepCopy()
+    surface, block_id = rockvdb.detail(grids["surface"], ids=[grids["block_id"]],
+                                       warp_amplitude=0.05)
+    want = {g.name: g for g in pyopenvdb.readAll(str(cli))[0]}
+    assert sorted(want) == ["block_id", "surface"]
+    assert_bitwise_equal(surface, want["surface"])
+    assert_bitwise_equal(block_id, want["block_id"])
+    assert block_id.name == "block_id"
+    assert_bitwise_equal(grids["block_id"], before)
+    assert block_id.activeVoxelCount() == surface.activeVoxelCount() != before.activeVoxelCount()

@@ -350,10 +350,11 @@ def _pile_instances(tiles_path, stats, dx):
 def _run_detail(kw, inputs):
     grids = inputs["grids"]
     surface = next(g for g in grids if g.name == "surface")
-    out = rockvdb.detail(surface, **kw[""])
-    # The input's id grids come along: the result's points take the id of the nearest
-    # input voxel (detail moves the surface by less than its amplitude).
-    return [out] + [g for g in grids if g.name in results.ID_GRIDS]
+    # The input's id grids are carried onto the new band, as vdb_detail carries a file's.
+    ids = [g for g in grids if g.name in results.ID_GRIDS]
+    if not ids:
+        return [rockvdb.detail(surface, **kw[""])]
+    return list(rockvdb.detail(surface, ids=ids, **kw[""]))
 
 
 STAGES = [
