@@ -234,6 +234,22 @@ try:
                             "new_cache": rock["rockvdb_cache"] != R["fractal_rock"]["rockvdb_cache"]}
     shutil.copy(rock["rockvdb_cache"], os.path.join(OUT, "regen_after.vdb"))
 
+    # The other operators at their table defaults (only their inputs given): a block tile
+    # (20 m at 5 cm), a pile in a cube, stacks and an amplified sheet.
+    D = report["defaults"] = {}
+    none_selected()
+    r = bpy.ops.rockvdb.block_tile()
+    D["block_tile"] = {"ran": list(r), "params": bpy.context.active_object["rockvdb_params"]}
+    bpy.ops.mesh.primitive_cube_add(size=2.0, location=(0, 0, 1))
+    r = bpy.ops.rockvdb.rock_pile()
+    D["rock_pile"] = {"ran": list(r), "params": bpy.context.active_object["rockvdb_params"]}
+    bpy.context.view_layer.objects.active = sheet
+    r = bpy.ops.rockvdb.stacks()
+    D["stacks"] = {"ran": list(r), "params": bpy.context.active_object["rockvdb_params"]}
+    bpy.context.view_layer.objects.active = sheet
+    r = bpy.ops.rockvdb.amplify(tiles="Block Tile")
+    D["amplify"] = {"ran": list(r), "params": bpy.context.active_object["rockvdb_params"]}
+
     # Regenerate stacks made from a scene file whose quantum is not the table's: the scene's
     # keys still hold (only what the call set is stored and passed again).
     stacks = bpy.data.objects[R["stacks_scene"]["name"]]

@@ -234,6 +234,26 @@ def test_detail_of_a_result_is_vdb_detail_of_its_file(report, out, tmp_path):
     assert len(report["results"]["detail_tile"]["attributes"]["block_id"]) > 30
 
 
+def test_every_operator_runs_at_its_defaults(report):
+    """Block Tile, Rock Pile, Material Stacks and Amplify with no property set but their
+    inputs: each runs, and its provenance holds the table's defaults for every row."""
+    from rockvdb import _rockvdb
+    tables = {"block_tile": "block_tile", "rock_pile": "rock_pile", "stacks": "arches",
+              "amplify": "amplify"}
+    for stage, table in tables.items():
+        d = report["defaults"][stage]
+        assert d["ran"] == ["FINISHED"], stage
+        params = json.loads(d["params"])
+        params = params.get("pile", params)  # vdb_rockpile nests the pile's rows
+        for row in json.loads(_rockvdb.schema(table))["params"]:
+            if row["default"] is None or row["derived"] or row["name"] in ("terrain", "strata"):
+                continue
+            got = params.get(row["name"])
+            assert got == row["default"] or (isinstance(got, float) and
+                                             np.float32(got) == np.float32(row["default"])), \
+                (stage, row["name"], got, row["default"])
+
+
 def test_defaults_are_the_clis_defaults(report, tmp_path):
     """The add-on's operators at their defaults pass the parameters the CLI's defaults are
     (Blender's 32-bit floats read back as the decimals the table gives)."""
