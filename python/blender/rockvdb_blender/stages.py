@@ -14,13 +14,11 @@ from . import results, tables
 class Stage:
     """One operator: rockvdb.<name> in Blender.
     tables: [(stage table, rockvdb function, property prefix)];
-    needs: None, "mesh" (the active mesh object), "result" (the active rockvdb result);
-    run(kw, inputs) -> grids, called off the UI thread."""
+    gather(op, context) -> inputs: what it reads from the scene (UI thread);
+    run(kw, inputs) -> grids, or (grids, {"instances": ...}): called off the UI thread."""
 
-    def __init__(self, name, label, icon, tables_, needs, gather, run, optional=False,
-                 extra=None, positional=()):
+    def __init__(self, name, label, icon, tables_, gather, run, extra=None, positional=()):
         self.name, self.label, self.icon = name, label, icon
-        self.needs, self.optional = needs, optional
         self.gather_fn, self.run_fn = gather, run
         self.groups = [(t, tables.rows_of(t, f, prefix, positional), prefix)
                        for t, f, prefix in tables_]
@@ -359,10 +357,10 @@ def _run_detail(kw, inputs):
 
 STAGES = [
     Stage("fractal_rock", "Fractal Rock", "MESH_ICOSPHERE",
-          [("fractal_rock", rockvdb.fractal_rock, "")], None, _gather_none, _run_fractal_rock),
+          [("fractal_rock", rockvdb.fractal_rock, "")], _gather_none, _run_fractal_rock),
     Stage("fractal_scatter", "Fractal Scatter", "PARTICLES",
-          [("fractal_scatter", rockvdb.fractal_scatter, "")], "mesh", _gather_ground,
-          _run_fractal_scatter, optional=True,
+          [("fractal_scatter", rockvdb.fractal_scatter, "")], _gather_ground,
+          _run_fractal_scatter,
           extra={
               "instances": bpy.props.BoolProperty(
                   name="As instances", description="Also make the rocks Blender instances: a "
@@ -370,10 +368,10 @@ STAGES = [
                   "points at their positions and orientations (P, orient, pscale). The level "
                   "set is kept (export, ids) and its mesh hidden")}),
     Stage("block_tile", "Block Tile", "MOD_EXPLODE",
-          [("block_tile", rockvdb.block_tile, "")], None, _gather_tile, _run_block_tile),
+          [("block_tile", rockvdb.block_tile, "")], _gather_tile, _run_block_tile),
     Stage("rock_pile", "Rock Pile", "OUTLINER_OB_POINTCLOUD",
           [("rock_tiles", rockvdb.rock_tiles, "tiles_"), ("rock_pile", rockvdb.rock_pile, "")],
-          "mesh", _gather_support, _run_rock_pile,
+          _gather_support, _run_rock_pile,
           extra={
               "instances": bpy.props.BoolProperty(
                   name="As instances", description="Also make the rocks Blender instances: a "
@@ -381,7 +379,7 @@ STAGES = [
                   "frame, instanced on one point per placed rock (collection instancing). The "
                   "level set is kept (export, ids) and its mesh hidden")}),
     Stage("amplify", "Amplify Terrain", "MOD_OCEAN",
-          [("amplify", rockvdb.amplify, "")], "mesh", _gather_amplify, _run_amplify,
+          [("amplify", rockvdb.amplify, "")], _gather_amplify, _run_amplify,
           extra={
               "tiles": bpy.props.StringProperty(
                   name="Tiles", description="Block Tile results (object names) or .tile files, "
@@ -395,7 +393,7 @@ STAGES = [
                           "from the world origin (the mesh at x, y >= 0): the exact distance "
                           "to the heightfield's triangles")])}),
     Stage("stacks", "Material Stacks", "MOD_DATA_TRANSFER",
-          [("arches", rockvdb.Stacks, "")], "mesh", _gather_stacks, _run_stacks,
+          [("arches", rockvdb.Stacks, "")], _gather_stacks, _run_stacks,
           positional=("terrain",),
           extra={
               "scene": bpy.props.StringProperty(
@@ -408,5 +406,5 @@ STAGES = [
                   description="Voxel size at which the active mesh becomes the terrain level set "
                   "when neither voxel size nor cell size is set")}),
     Stage("detail", "Detail", "MOD_DISPLACE",
-          [("detail", rockvdb.detail, "")], "result", _gather_result, _run_detail),
+          [("detail", rockvdb.detail, "")], _gather_result, _run_detail),
 ]
