@@ -73,14 +73,19 @@ def _id_points(grids):
     return pts, {g.name: values[:, i] for i, g in enumerate(ids)}
 
 
-def _ids_tree(name, points_obj, attributes):
-    """Geometry nodes: each point of the mesh takes, for every id attribute, the value of the
-    nearest point of @a points_obj."""
+def _node_group(name):
+    """A geometry-nodes group with one geometry in and out: (group, nodes, links, its input
+    node, its output node)."""
     ng = bpy.data.node_groups.new(name, "GeometryNodeTree")
     ng.inputs.new("NodeSocketGeometry", "Geometry")
     ng.outputs.new("NodeSocketGeometry", "Geometry")
-    N, L = ng.nodes, ng.links
-    gin, gout = N.new("NodeGroupInput"), N.new("NodeGroupOutput")
+    return ng, ng.nodes, ng.links, ng.nodes.new("NodeGroupInput"), ng.nodes.new("NodeGroupOutput")
+
+
+def _ids_tree(name, points_obj, attributes):
+    """Geometry nodes: each point of the mesh takes, for every id attribute, the value of the
+    nearest point of @a points_obj."""
+    ng, N, L, gin, gout = _node_group(name)
     info = N.new("GeometryNodeObjectInfo")
     info.inputs["Object"].default_value = points_obj
     info.transform_space = "RELATIVE"
@@ -245,11 +250,7 @@ def _instancer_tree(name, rocks):
     """Geometry nodes on the instance points: Instance on Points of the rocks collection's
     children, picked by the point's 'rock', rotated by 'rotation' (Euler XYZ), scaled by
     'pscale'."""
-    ng = bpy.data.node_groups.new(name, "GeometryNodeTree")
-    ng.inputs.new("NodeSocketGeometry", "Geometry")
-    ng.outputs.new("NodeSocketGeometry", "Geometry")
-    N, L = ng.nodes, ng.links
-    gin, gout = N.new("NodeGroupInput"), N.new("NodeGroupOutput")
+    ng, N, L, gin, gout = _node_group(name)
     info = N.new("GeometryNodeCollectionInfo")
     info.inputs["Collection"].default_value = rocks
     info.inputs["Separate Children"].default_value = True

@@ -355,29 +355,29 @@ def _run_detail(kw, inputs):
     return list(rockvdb.detail(surface, ids=ids, **kw[""]))
 
 
+def _instances_property(what):
+    return bpy.props.BoolProperty(
+        name="As instances", description=f"Also make the rocks Blender instances (collection "
+        f"instancing): {what}. The level set is kept (export, ids) and its mesh hidden")
+
+
 STAGES = [
     Stage("fractal_rock", "Fractal Rock", "MESH_ICOSPHERE",
           [("fractal_rock", rockvdb.fractal_rock, "")], _gather_none, _run_fractal_rock),
     Stage("fractal_scatter", "Fractal Scatter", "PARTICLES",
           [("fractal_scatter", rockvdb.fractal_scatter, "")], _gather_ground,
           _run_fractal_scatter,
-          extra={
-              "instances": bpy.props.BoolProperty(
-                  name="As instances", description="Also make the rocks Blender instances: a "
-                  "collection of the rocks, each its own mesh in its own frame, instanced on "
-                  "points at their positions and orientations (P, orient, pscale). The level "
-                  "set is kept (export, ids) and its mesh hidden")}),
+          extra={"instances": _instances_property(
+              "each its own mesh in its own frame, instanced on points at their positions and "
+              "orientations (P, orient, pscale)")}),
     Stage("block_tile", "Block Tile", "MOD_EXPLODE",
           [("block_tile", rockvdb.block_tile, "")], _gather_tile, _run_block_tile),
     Stage("rock_pile", "Rock Pile", "OUTLINER_OB_POINTCLOUD",
           [("rock_tiles", rockvdb.rock_tiles, "tiles_"), ("rock_pile", rockvdb.rock_pile, "")],
           _gather_support, _run_rock_pile,
-          extra={
-              "instances": bpy.props.BoolProperty(
-                  name="As instances", description="Also make the rocks Blender instances: a "
-                  "collection of the tile set's rocks the pile uses, each meshed in its own "
-                  "frame, instanced on one point per placed rock (collection instancing). The "
-                  "level set is kept (export, ids) and its mesh hidden")}),
+          extra={"instances": _instances_property(
+              "the tile set's rocks the pile uses, each meshed in its own frame, instanced on "
+              "one point per placed rock")}),
     Stage("amplify", "Amplify Terrain", "MOD_OCEAN",
           [("amplify", rockvdb.amplify, "")], _gather_amplify, _run_amplify,
           extra={
