@@ -41,7 +41,8 @@ def test_ops_sources_keep_the_determinism_flags(commands):
 # Each folder of ops/ is one library; a layer includes only the layers below it.
 LAYERS = {"core": set(), "relief": {"core"}, "blocks": {"core", "relief"},
           "amplify": {"core", "relief", "blocks"}, "detail": {"core", "relief"},
-          "rockpile": {"core"}, "fractal": {"core"}, "arches": {"core", "rockpile"}}
+          "rockpile": {"core"}, "fractal": {"core"}, "arches": {"core", "rockpile"},
+          "asset": {"core"}}
 
 
 def test_stage_libraries_include_only_the_layers_below():
