@@ -1,0 +1,194 @@
+#include "NormalMap.h"
+
+#include <rockvdb/core/Error.h>
+
+#include <openvdb/tools/Interpolation.h>
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+
+namespace rockvdb {
+namespace asset {
+
+namespace {
+
+openvdb::Vec3d safeUnit(const openvdb::Vec3d& v, const openvdb::Vec3d& fallback)
+{
+    const double l = v.length();
+    return l > 1e-20 ? v / l : fallback;
+}
+
+// The tangent frame at barycentric (b0, b1, b2) of triangle t, as an engine interpolates it.
+void frameAt(const UvMesh& m, const VertexFrames& f, size_t t, const openvdb::Vec3d& b,
+             openvdb::Vec3d& n, openvdb::Vec3d& tan, openvdb::Vec3d& bit)
+{
+    openvdb::Vec3d ni(0), ti(0);
+    double w = 0;
+    for (int k = 0; k < 3; ++k) {
+        const uint32_t v = m.indices[3 * t + k];
+        ni += b[k] * openvdb::Vec3d(f.normals[v]);
+        const openvdb::Vec4f& tv = f.tangents[v];
+        ti += b[k] * openvdb::Vec3d(tv[0], tv[1], tv[2]);
+        w += b[k] * tv[3];
+    }
+    n = safeUnit(ni, openvdb::Vec3d(0, 0, 1));
+    tan = safeUnit(ti - n * n.dot(ti), openvdb::Vec3d(1, 0, 0));
+    bit = n.cross(tan) * (w < 0 ? -1.0 : 1.0);
+}
+
+} // namespace
+
+VertexFrames vertexFrames(const UvMesh& m)
+{
+    const size_t nv = m.points.size(), nt = m.triangles();
+    size_t sources = 0;
+    for (uint32_t s : m.source) sources = std::max<size_t>(sources, s + 1);
+    std::vector<openvdb::Vec3d> bySource(sources, openvdb::Vec3d(0));
+    std::vector<openvdb::Vec3d> tan(nv, openvdb::Vec3d(0)), bit(nv, openvdb::Vec3d(0));
+    for (size_t t = 0; t < nt; ++t) {
+        const uint32_t i0 = m.indices[3 * t], i1 = m.indices[3 * t + 1], i2 = m.indices[3 * t + 2];
+        const openvdb::Vec3d p0 = m.points[i0], e1 = openvdb::Vec3d(m.points[i1]) - p0,
+                             e2 = openvdb::Vec3d(m.points[i2]) - p0;
+        const openvdb::Vec3d fn = e1.cross(e2); // length: twice the area (area weighting)
+        const openvdb::Vec2d u1 = openvdb::Vec2d(m.uvs[i1]) - openvdb::Vec2d(m.uvs[i0]);
+        const openvdb::Vec2d u2 = openvdb::Vec2d(m.uvs[i2]) - openvdb::Vec2d(m.uvs[i0]);
+        const double det = u1.x() * u2.y() - u2.x() * u1.y();
+        openvdb::Vec3d dpdu(0), dpdv(0);
+        if (std::abs(det) > 1e-30) {
+            dpdu = (e1 * u2.y() - e2 * u1.y()) / det;
+            dpdv = (e2 * u1.x() - e1 * u2.x()) / det;
+        }
+        const double area = 0.5 * fn.length();
+        for (uint32_t v : {i0, i1, i2}) {
+            bySource[m.source[v]] += fn;
+            tan[v] += area * safeUnit(dpdu, openvdb::Vec3d(0));
+            bit[v] += area * safeUnit(dpdv, openvdb::Vec3d(0));
+        }
+    }
+    VertexFrames f;
+    f.normals.resize(nv);
+    f.tangents.resize(nv);
+    for (size_t v = 0; v < nv; ++v) {
+        const openvdb::Vec3d n = safeUnit(bySource[m.source[v]], openvdb::Vec3d(0, 0, 1));
+        // any unit vector orthogonal to n when the chart gives none
+        const openvdb::Vec3d any = std::abs(n.x()) < 0.9 ? openvdb::Vec3d(1, 0, 0) : openvdb::Vec3d(0, 1, 0);
+        const openvdb::Vec3d t = safeUnit(tan[v] - n * n.dot(tan[v]), safeUnit(any - n * n.dot(any), any));
+        const double hand = n.cross(t).dot(bit[v]) < 0 ? -1.0 : 1.0;
+        f.normals[v] = openvdb::Vec3f(n);
+        f.tangents[v] = openvdb::Vec4f(float(t.x()), float(t.y()), float(t.z()), float(hand));
+    }
+    return f;
+}
+
+openvdb::Vec3d decodeNormal(const openvdb::Vec3f& rgb, const openvdb::Vec3d& normal,
+                            const openvdb::Vec4d& tangent)
+{
+    const openvdb::Vec3d n = safeUnit(normal, openvdb::Vec3d(0, 0, 1));
+    const openvdb::Vec3d t0(tangent[0], tangent[1], tangent[2]);
+    const openvdb::Vec3d t = safeUnit(t0 - n * n.dot(t0), openvdb::Vec3d(1, 0, 0));
+    const openvdb::Vec3d b = n.cross(t) * (tangent[3] < 0 ? -1.0 : 1.0);
+    const openvdb::Vec3d c = 2.0 * openvdb::Vec3d(rgb) - openvdb::Vec3d(1.0);
+    return safeUnit(c.x() * t + c.y() * b + c.z() * n, n);
+}
+
+NormalMap bakeNormalMap(const UvMesh& m, const VertexFrames& f, const openvdb::FloatGrid& grid,
+                        int size, Task& task)
+{
+    if (grid.getGridClass() != openvdb::GRID_LEVEL_SET) {
+        fail<ValueError>("asset: grid '", grid.getName(), "' is not a level set");
+    }
+    require(size >= 8 && size <= 16384, "asset", "texture-size", "in [8, 16384]", size);
+    NormalMap map;
+    map.size = size;
+    map.rgb.assign(size_t(size) * size, openvdb::Vec3f(0.5f, 0.5f, 1.0f));
+    map.covered.assign(size_t(size) * size, 0);
+    const openvdb::math::Transform& xf = grid.transform();
+    const double h = xf.voxelSize()[0];
+    const size_t nt = m.triangles();
+    // Triangles are independent and write disjoint texels (the atlas has no overlaps); a
+    // texel centre on a shared edge is taken by the lower-numbered triangle (the test is
+    // strict on one side), so the result does not depend on the order.
+    parallelFor(task, nt, 64, [&](size_t t) {
+        auto acc = grid.getConstAccessor();
+        auto phi = [&](const openvdb::Vec3d& p) {
+            return double(openvdb::tools::BoxSampler::sample(acc, xf.worldToIndex(p)));
+        };
+        auto grad = [&](const openvdb::Vec3d& p) {
+            return openvdb::Vec3d(phi(p + openvdb::Vec3d(h, 0, 0)) - phi(p - openvdb::Vec3d(h, 0, 0)),
+                                  phi(p + openvdb::Vec3d(0, h, 0)) - phi(p - openvdb::Vec3d(0, h, 0)),
+                                  phi(p + openvdb::Vec3d(0, 0, h)) - phi(p - openvdb::Vec3d(0, 0, h))) /
+                   (2.0 * h);
+        };
+        openvdb::Vec2d uv[3];
+        openvdb::Vec3d P[3];
+        for (int k = 0; k < 3; ++k) {
+            uv[k] = openvdb::Vec2d(m.uvs[m.indices[3 * t + k]]) * double(size);
+            P[k] = m.points[m.indices[3 * t + k]];
+        }
+        const double area = (uv[1] - uv[0]).x() * (uv[2] - uv[0]).y() - (uv[2] - uv[0]).x() * (uv[1] - uv[0]).y();
+        if (!(area > 0)) return;
+        const int x0 = std::max(0, int(std::floor(std::min({uv[0].x(), uv[1].x(), uv[2].x()}))));
+        const int x1 = std::min(size - 1, int(std::ceil(std::max({uv[0].x(), uv[1].x(), uv[2].x()}))));
+        const int y0 = std::max(0, int(std::floor(std::min({uv[0].y(), uv[1].y(), uv[2].y()}))));
+        const int y1 = std::min(size - 1, int(std::ceil(std::max({uv[0].y(), uv[1].y(), uv[2].y()}))));
+        for (int y = y0; y <= y1; ++y) {
+            for (int x = x0; x <= x1; ++x) {
+                const openvdb::Vec2d c(x + 0.5, y + 0.5);
+                openvdb::Vec3d b;
+                bool inside = true;
+                for (int k = 0; k < 3; ++k) {
+                    const openvdb::Vec2d e = uv[(k + 2) % 3] - uv[(k + 1) % 3];
+                    const openvdb::Vec2d d = c - uv[(k + 1) % 3];
+                    b[k] = (e.x() * d.y() - e.y() * d.x()) / area;
+                    // top-left style rule: >= on one side, > on the other, so a texel centre
+                    // on a shared edge belongs to exactly one triangle
+                    inside = inside && (b[k] > 0 || (b[k] == 0 && (e.y() > 0 || (e.y() == 0 && e.x() < 0))));
+                }
+                if (!inside) continue;
+                openvdb::Vec3d q = b[0] * P[0] + b[1] * P[1] + b[2] * P[2];
+                for (int step = 0; step < 2; ++step) {
+                    const openvdb::Vec3d g = grad(q);
+                    const double gl = g.lengthSqr();
+                    if (gl < 1e-12) break;
+                    q -= phi(q) * g / gl;
+                }
+                openvdb::Vec3d n, tan, bit;
+                frameAt(m, f, t, b, n, tan, bit);
+                const openvdb::Vec3d hi = safeUnit(grad(q), n);
+                const openvdb::Vec3d ts(hi.dot(tan), hi.dot(bit), hi.dot(n));
+                const size_t i = size_t(y) * size + x;
+                map.rgb[i] = openvdb::Vec3f(0.5 * (ts + openvdb::Vec3d(1.0)));
+                map.covered[i] = 1;
+            }
+        }
+    });
+    // Dilation: uncovered texels take the nearest covered one's value (breadth first, four
+    // neighbours, in a fixed order), so borders bleed the chart's own colours.
+    std::vector<int> from(map.rgb.size(), -1);
+    std::deque<size_t> queue;
+    for (size_t i = 0; i < map.rgb.size(); ++i) {
+        if (map.covered[i]) {
+            from[i] = int(i);
+            queue.push_back(i);
+        }
+    }
+    while (!queue.empty()) {
+        const size_t i = queue.front();
+        queue.pop_front();
+        const int x = int(i % size), y = int(i / size);
+        const int nx[4] = {x - 1, x + 1, x, x}, ny[4] = {y, y, y - 1, y + 1};
+        for (int k = 0; k < 4; ++k) {
+            if (nx[k] < 0 || ny[k] < 0 || nx[k] >= size || ny[k] >= size) continue;
+            const size_t j = size_t(ny[k]) * size + nx[k];
+            if (from[j] != -1) continue;
+            from[j] = from[i];
+            map.rgb[j] = map.rgb[i];
+            queue.push_back(j);
+        }
+    }
+    return map;
+}
+
+} // namespace asset
+} // namespace rockvdb

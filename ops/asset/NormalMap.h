@@ -1,0 +1,53 @@
+// rockvdb — a tangent-space normal map baked from the level set, not from a mesh (issue 37):
+// a low-poly LOD carries the high-resolution surface's normals (Gabor ridges, erosion) in its
+// texture.
+//
+// For each texel of a chart: the point p on the LOD triangle under the texel centre, moved to
+// the level set's zero along its gradient (two Newton steps, q = p - phi(p) grad phi), and the
+// gradient's direction there (central differences of trilinear samples, one voxel apart) is
+// the high-resolution normal. It is written in the LOD's tangent frame as engines rebuild it:
+// the vertex normal, tangent and handedness interpolated over the triangle (vertexFrames), the
+// tangent made orthogonal to the normal, the bitangent their cross product times the
+// handedness; rgb = (n·t, n·b, n·n_vertex) / 2 + 1/2 (glTF's convention: +y is +v, "OpenGL").
+// Texels outside every chart take the nearest covered texel's value (dilation over the whole
+// texture), so bilinear reads and mip levels at chart borders stay on the chart's colours.
+#pragma once
+
+#include <rockvdb/asset/Atlas.h>
+#include <rockvdb/core/Task.h>
+
+#include <openvdb/openvdb.h>
+
+#include <vector>
+
+namespace rockvdb {
+namespace asset {
+
+/// Per vertex: unit normal (area-weighted face normals over the input vertex, so seams share
+/// it) and tangent (xyz along +u, w = ±1 handedness), as glTF's NORMAL and TANGENT.
+struct VertexFrames
+{
+    std::vector<openvdb::Vec3f> normals;
+    std::vector<openvdb::Vec4f> tangents;
+};
+VertexFrames vertexFrames(const UvMesh& mesh);
+
+struct NormalMap
+{
+    int size = 0;
+    std::vector<openvdb::Vec3f> rgb; ///< size² texels, row 0 at v = 0 (bottom), values in [0, 1]
+    std::vector<uint8_t> covered;    ///< 1 where a triangle covers the texel centre
+};
+
+/// @brief Bake @a grid's normals into @a mesh's atlas at @a size² texels (the atlas must have
+/// been made for this size). @throw ValueError when @a grid is not a level set.
+NormalMap bakeNormalMap(const UvMesh& mesh, const VertexFrames& frames,
+                        const openvdb::FloatGrid& grid, int size, Task& task);
+
+/// @brief A normal map texel back to a world-space unit normal, given the frame at that point
+/// (the inverse of the encoding above; for tests and for checking a bake).
+openvdb::Vec3d decodeNormal(const openvdb::Vec3f& rgb, const openvdb::Vec3d& normal,
+                            const openvdb::Vec4d& tangent);
+
+} // namespace asset
+} // namespace rockvdb
