@@ -1,0 +1,123 @@
+// GLB assets (asset/Gltf.h), read back with tinygltf: LOD nodes and their triangles, every
+// attribute, y up, v flipped, the normal texture embedded, provenance in extras; the same
+// asset gives the same bytes.
+#include <rockvdb/asset/Gltf.h>
+#include <rockvdb/core/Error.h>
+
+#include <gtest/gtest.h>
+#include <openvdb/tools/LevelSetSphere.h>
+#include <tiny_gltf.h>
+
+#include <cstring>
+
+using namespace rockvdb;
+using namespace rockvdb::asset;
+
+namespace {
+
+template<typename T>
+std::vector<T> read(const tinygltf::Model& m, int accessor, int components)
+{
+    const auto& a = m.accessors[accessor];
+    const auto& v = m.bufferViews[a.bufferView];
+    std::vector<T> out(a.count * components);
+    std::memcpy(out.data(), m.buffers[v.buffer].data.data() + v.byteOffset + a.byteOffset,
+                out.size() * sizeof(T));
+    return out;
+}
+
+struct Built
+{
+    std::vector<Lod> lods;
+    std::vector<UvMesh> meshes;
+    std::vector<VertexFrames> frames;
+    NormalMap map;
+};
+
+Built build()
+{
+    // a sphere of radius 1 centred at z = 2: its top at z = 3 must become y = 3
+    auto g = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0, 0.5f, 2), 0.04f, 3.0f);
+    Built b;
+    Task task;
+    b.lods = makeLods(surfaceMesh(*g), {1200, 300}, task);
+    for (const Lod& l : b.lods) {
+        b.meshes.push_back(atlas(l.mesh, 128, 2));
+        b.frames.push_back(vertexFrames(b.meshes.back()));
+    }
+    b.map = bakeNormalMap(b.meshes[0], b.frames[0], *g, 128, task);
+    return b;
+}
+
+std::string glb(const Built& b)
+{
+    GltfAsset a;
+    a.name = "boulder";
+    for (size_t i = 0; i < b.meshes.size(); ++i) a.lods.push_back({&b.meshes[i], &b.frames[i]});
+    a.normalMap = &b.map;
+    a.extras = {{"rockvdb", {{"version", "1.2.3"}, {"generator", "vdb_asset"}, {"params", {{"seed", 4}}}}}};
+    return writeGlb(a);
+}
+
+} // namespace
+
+TEST(Gltf, GlbReadsBackWithLodsAttributesYUpAndProvenance)
+{
+    const Built b = build();
+    const std::string bytes = glb(b);
+    tinygltf::Model m;
+    tinygltf::TinyGLTF loader;
+    std::string err, warn;
+    ASSERT_TRUE(loader.LoadBinaryFromMemory(&m, &err, &warn,
+                                            reinterpret_cast<const unsigned char*>(bytes.data()),
+                                            unsigned(bytes.size())))
+        << err;
+    ASSERT_EQ(m.nodes.size(), 2u);
+    EXPECT_EQ(m.nodes[0].name, "boulder_LOD0");
+    EXPECT_EQ(m.nodes[1].name, "boulder_LOD1");
+    ASSERT_EQ(m.images.size(), 1u);
+    EXPECT_EQ(m.images[0].mimeType, "image/png");
+    EXPECT_EQ(m.images[0].width, 128); // tinygltf decoded the embedded PNG
+    EXPECT_EQ(m.materials[0].normalTexture.index, 0);
+    for (size_t l = 0; l < 2; ++l) {
+        const auto& prim = m.meshes[m.nodes[l].mesh].primitives[0];
+        const auto idx = read<uint32_t>(m, prim.indices, 1);
+        EXPECT_EQ(idx.size(), b.meshes[l].indices.size());
+        const auto pos = read<float>(m, prim.attributes.at("POSITION"), 3);
+        const auto uv = read<float>(m, prim.attributes.at("TEXCOORD_0"), 2);
+        const auto nrm = read<float>(m, prim.attributes.at("NORMAL"), 3);
+        const auto tan = read<float>(m, prim.attributes.at("TANGENT"), 4);
+        ASSERT_EQ(pos.size(), 3 * b.meshes[l].points.size());
+        float top = -1e9f, low = 1e9f;
+        for (size_t v = 0; v < pos.size() / 3; ++v) {
+            const auto& p = b.meshes[l].points[v];
+            EXPECT_EQ(pos[3 * v], p.x());
+            EXPECT_EQ(pos[3 * v + 1], p.z());  // up
+            EXPECT_EQ(pos[3 * v + 2], -p.y());
+            top = std::max(top, pos[3 * v + 1]);
+            low = std::min(low, pos[3 * v + 1]);
+            EXPECT_FLOAT_EQ(uv[2 * v + 1], 1.0f - b.meshes[l].uvs[v].y());
+            EXPECT_GE(uv[2 * v], 0.0f);
+            EXPECT_LE(uv[2 * v], 1.0f);
+            // outward normals: from the centre (0, 2, -0.5 in glTF) to the point
+            const openvdb::Vec3f c(0, 2, -0.5f), q(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2]);
+            EXPECT_GT(openvdb::Vec3f(nrm[3 * v], nrm[3 * v + 1], nrm[3 * v + 2]).dot(q - c), 0.0f);
+            EXPECT_TRUE(tan[4 * v + 3] == 1.0f || tan[4 * v + 3] == -1.0f);
+        }
+        EXPECT_NEAR(top, 3.0f, 0.05f);
+        EXPECT_NEAR(low, 1.0f, 0.05f);
+        EXPECT_EQ(int(m.accessors[prim.attributes.at("POSITION")].maxValues.size()), 3);
+    }
+    const auto& extras = m.asset.extras.Get("rockvdb");
+    EXPECT_EQ(extras.Get("generator").Get<std::string>(), "vdb_asset");
+    EXPECT_EQ(extras.Get("params").Get("seed").Get<int>(), 4);
+}
+
+TEST(Gltf, SameAssetSameBytes)
+{
+    const Built b = build();
+    EXPECT_EQ(glb(b), glb(b));
+    EXPECT_EQ(glb(b), glb(build()));
+    GltfAsset empty;
+    EXPECT_THROW(writeGlb(empty), ValueError);
+}
