@@ -79,43 +79,48 @@ std::string writeGlb(const GltfAsset& asset)
     tinygltf::Scene scene;
     scene.name = asset.name;
 
-    tinygltf::Material material;
-    material.name = asset.name;
-    material.pbrMetallicRoughness.metallicFactor = 0.0;
-    material.pbrMetallicRoughness.roughnessFactor = 0.9;
-    material.pbrMetallicRoughness.baseColorFactor = {0.45, 0.42, 0.39, 1.0};
-    if (asset.normalMap) {
-        const NormalMap& nm = *asset.normalMap;
-        std::vector<uint8_t> rgb(size_t(nm.size) * nm.size * 3);
-        // PNG rows run top down; glTF's v = 0 is the top: texel row y (v = y / size, bottom
-        // up in the atlas) is image row size - 1 - y.
-        for (int y = 0; y < nm.size; ++y) {
-            for (int x = 0; x < nm.size; ++x) {
-                const openvdb::Vec3f& c = nm.rgb[size_t(y) * nm.size + x];
-                uint8_t* out = &rgb[(size_t(nm.size - 1 - y) * nm.size + x) * 3];
-                for (int k = 0; k < 3; ++k) {
-                    out[k] = uint8_t(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 255.0f));
+    // A material per LOD: each LOD's normal map is baked on its own atlas.
+    auto addMaterial = [&](const std::string& name, const NormalMap* nm) {
+        tinygltf::Material material;
+        material.name = name;
+        material.pbrMetallicRoughness.metallicFactor = 0.0;
+        material.pbrMetallicRoughness.roughnessFactor = 0.9;
+        material.pbrMetallicRoughness.baseColorFactor = {0.45, 0.42, 0.39, 1.0};
+        if (nm) {
+            std::vector<uint8_t> rgb(size_t(nm->size) * nm->size * 3);
+            // PNG rows run top down; glTF's v = 0 is the top: texel row y (v = y / size,
+            // bottom up in the atlas) is image row size - 1 - y.
+            for (int y = 0; y < nm->size; ++y) {
+                for (int x = 0; x < nm->size; ++x) {
+                    const openvdb::Vec3f& c = nm->rgb[size_t(y) * nm->size + x];
+                    uint8_t* out = &rgb[(size_t(nm->size - 1 - y) * nm->size + x) * 3];
+                    for (int k = 0; k < 3; ++k) {
+                        out[k] = uint8_t(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 255.0f));
+                    }
                 }
             }
+            const std::string png = encodePngRgb8(nm->size, nm->size, rgb);
+            tinygltf::Image image;
+            image.name = name + "_normal";
+            image.mimeType = "image/png";
+            image.bufferView = addView(model, png.data(), png.size(), 0);
+            model.images.push_back(image);
+            if (model.samplers.empty()) {
+                tinygltf::Sampler sampler;
+                sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+                sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
+                sampler.wrapS = sampler.wrapT = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+                model.samplers.push_back(sampler);
+            }
+            tinygltf::Texture texture;
+            texture.source = int(model.images.size() - 1);
+            texture.sampler = 0;
+            model.textures.push_back(texture);
+            material.normalTexture.index = int(model.textures.size() - 1);
         }
-        const std::string png = encodePngRgb8(nm.size, nm.size, rgb);
-        tinygltf::Image image;
-        image.name = asset.name + "_normal";
-        image.mimeType = "image/png";
-        image.bufferView = addView(model, png.data(), png.size(), 0);
-        model.images.push_back(image);
-        tinygltf::Sampler sampler;
-        sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
-        sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
-        sampler.wrapS = sampler.wrapT = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
-        model.samplers.push_back(sampler);
-        tinygltf::Texture texture;
-        texture.source = 0;
-        texture.sampler = 0;
-        model.textures.push_back(texture);
-        material.normalTexture.index = 0;
-    }
-    model.materials.push_back(material);
+        model.materials.push_back(material);
+        return int(model.materials.size() - 1);
+    };
 
     for (size_t l = 0; l < asset.lods.size(); ++l) {
         const UvMesh& m = *asset.lods[l].mesh;
@@ -140,7 +145,7 @@ std::string writeGlb(const GltfAsset& asset)
         }
         tinygltf::Primitive prim;
         prim.mode = TINYGLTF_MODE_TRIANGLES;
-        prim.material = 0;
+        prim.material = addMaterial(asset.name + "_LOD" + std::to_string(l), asset.lods[l].normalMap);
         prim.attributes["POSITION"] = addAccessor(
             model, addView(model, pos.data(), pos.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER),
             TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, nv, lo, hi);

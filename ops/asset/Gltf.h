@@ -1,7 +1,7 @@
 // rockvdb — glTF 2.0 binary (GLB) assets (issue 37): one node per LOD, named <name>_LOD0,
 // <name>_LOD1, ... as Unreal's and Unity's importers group them; each a mesh with POSITION,
-// NORMAL, TANGENT and TEXCOORD_0, sharing a PBR material whose normalTexture is the baked
-// map (PNG in the binary chunk). Metres, y up as glTF requires: rockvdb's (x, y, z) is written
+// NORMAL, TANGENT and TEXCOORD_0 and its own PBR material, whose normalTexture is the map
+// baked on that LOD's atlas (PNG in the binary chunk). Metres, y up as glTF requires: rockvdb's (x, y, z) is written
 // (x, z, -y), a rotation, so windings, normals and tangents' handedness carry over; glTF's
 // texture v runs down, so v is written 1 - v. The rockvdb provenance sits in the asset's
 // extras ("rockvdb": version, generator, params). Written with tinygltf; the same asset gives
@@ -22,13 +22,13 @@ struct GltfLod
 {
     const UvMesh* mesh = nullptr;
     const VertexFrames* frames = nullptr;
+    const NormalMap* normalMap = nullptr; ///< baked on this mesh's atlas, or none
 };
 
 struct GltfAsset
 {
     std::string name = "rock";
-    std::vector<GltfLod> lods;          ///< finest first
-    const NormalMap* normalMap = nullptr; ///< shared by every LOD (one atlas), or none
+    std::vector<GltfLod> lods; ///< finest first
     nlohmann::json extras = nlohmann::json::object();
 };
 

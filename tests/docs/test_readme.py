@@ -17,7 +17,7 @@ FENCE = re.compile(r"^```(\w+)([^\n]*)\n(.*?)^```", re.M | re.S)
 # The pages in the order the README's table leads to them (later pages read files earlier
 # ones wrote in out/).
 PAGES = ["README.md"] + [f"docs/{p}.md" for p in (
-    "tools", "blocks", "amplify", "detail", "rockpile", "fractal", "arches", "blender",
+    "tools", "blocks", "amplify", "detail", "rockpile", "fractal", "arches", "asset", "blender",
     "distributed", "conventions", "benchmarks")]
 
 

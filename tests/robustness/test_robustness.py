@@ -62,6 +62,8 @@ FLIP_TOOLS = {
     "vdb_csg": lambda f, o: [tool("vdb_csg"), "-q", "union", f, f, "-o", o],
     "vdb_detail": lambda f, o: [tool("vdb_detail"), "-q", f, "--warp-amplitude", "0.01", "-o", o],
     "vdb_merge": lambda f, o: [tool("vdb_merge"), "-q", f, "-o", o],
+    "vdb_asset": lambda f, o: [tool("vdb_asset"), "-q", f, "--lods", "60", "--texture-size", "32",
+                               "-o", o + ".glb"],
 }
 
 

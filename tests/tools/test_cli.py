@@ -12,7 +12,7 @@ import pytest
 from conftest import assert_bitwise_equal, one_line_error, run, tool
 
 ALL_TOOLS = ["vdb_primitive", "vdb_heightfield", "vdb_csg", "vdb_mesh", "vdb_preview", "vdb_info",
-             "vdb_blocks", "vdb_amplify", "vdb_merge", "vdb_rockpile", "vdb_fractal_rock"]
+             "vdb_blocks", "vdb_amplify", "vdb_merge", "vdb_rockpile", "vdb_fractal_rock", "vdb_asset"]
 
 
 

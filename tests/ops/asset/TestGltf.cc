@@ -31,7 +31,7 @@ struct Built
     std::vector<Lod> lods;
     std::vector<UvMesh> meshes;
     std::vector<VertexFrames> frames;
-    NormalMap map;
+    std::vector<NormalMap> maps;
 };
 
 Built build()
@@ -45,7 +45,9 @@ Built build()
         b.meshes.push_back(atlas(l.mesh, 128, 2));
         b.frames.push_back(vertexFrames(b.meshes.back()));
     }
-    b.map = bakeNormalMap(b.meshes[0], b.frames[0], *g, 128, task);
+    for (size_t i = 0; i < b.meshes.size(); ++i) {
+        b.maps.push_back(bakeNormalMap(b.meshes[i], b.frames[i], *g, 128, task));
+    }
     return b;
 }
 
@@ -53,8 +55,9 @@ std::string glb(const Built& b)
 {
     GltfAsset a;
     a.name = "boulder";
-    for (size_t i = 0; i < b.meshes.size(); ++i) a.lods.push_back({&b.meshes[i], &b.frames[i]});
-    a.normalMap = &b.map;
+    for (size_t i = 0; i < b.meshes.size(); ++i) {
+        a.lods.push_back({&b.meshes[i], &b.frames[i], &b.maps[i]});
+    }
     a.extras = {{"rockvdb", {{"version", "1.2.3"}, {"generator", "vdb_asset"}, {"params", {{"seed", 4}}}}}};
     return writeGlb(a);
 }
@@ -75,12 +78,16 @@ TEST(Gltf, GlbReadsBackWithLodsAttributesYUpAndProvenance)
     ASSERT_EQ(m.nodes.size(), 2u);
     EXPECT_EQ(m.nodes[0].name, "boulder_LOD0");
     EXPECT_EQ(m.nodes[1].name, "boulder_LOD1");
-    ASSERT_EQ(m.images.size(), 1u);
-    EXPECT_EQ(m.images[0].mimeType, "image/png");
-    EXPECT_EQ(m.images[0].width, 128); // tinygltf decoded the embedded PNG
-    EXPECT_EQ(m.materials[0].normalTexture.index, 0);
+    ASSERT_EQ(m.images.size(), 2u); // a normal map per LOD
+    for (const auto& im : m.images) {
+        EXPECT_EQ(im.mimeType, "image/png");
+        EXPECT_EQ(im.width, 128); // tinygltf decoded the embedded PNG
+    }
     for (size_t l = 0; l < 2; ++l) {
         const auto& prim = m.meshes[m.nodes[l].mesh].primitives[0];
+        const auto& mat = m.materials[prim.material];
+        EXPECT_EQ(mat.name, "boulder_LOD" + std::to_string(l));
+        EXPECT_EQ(m.textures[mat.normalTexture.index].source, int(l));
         const auto idx = read<uint32_t>(m, prim.indices, 1);
         EXPECT_EQ(idx.size(), b.meshes[l].indices.size());
         const auto pos = read<float>(m, prim.attributes.at("POSITION"), 3);
