@@ -1,5 +1,6 @@
 // vdb_asset — a level set as a game asset: one GLB with levels of detail (meshoptimizer), a UV
-// atlas and a normal map per LOD baked from the level set (ops/asset, runAsset).
+// atlas, normal and occlusion maps per LOD baked from the level set, and a convex collision
+// hull (ops/asset, runAsset); one block or rock by --id, or every one by --each-id.
 #include "Cli.h"
 
 #include <rockvdb/asset/AssetStage.h>
@@ -9,30 +10,67 @@
 using namespace rockvdb;
 using namespace rockvdb::asset;
 
+namespace {
+
+bool endsWithGlb(const std::string& s)
+{
+    return s.size() >= 4 && s.compare(s.size() - 4, 4, ".glb") == 0;
+}
+
+} // namespace
+
 int main(int argc, char** argv)
 {
     cli::Tool tool(kAssetTool, assetSchema().summary() +
         " Each LOD is a node <name>_LOD<i> with POSITION, NORMAL, TANGENT, TEXCOORD_0 and its "
-        "own material and normal map; rockvdb's z up becomes glTF's y up; the provenance sits "
-        "in the asset's extras.");
+        "own material with normal and occlusion maps; rockvdb's z up becomes glTF's y up; the "
+        "provenance sits in the asset's extras. --id N cuts one block or rock out of the id "
+        "grid; --each-id writes one GLB per id, -o holding '{id}' (e.g. rocks/rock_{id}.glb).");
     CLI::App& app = tool.app();
-    std::string input, gridName;
+    std::string input, gridName, idGridName;
+    bool eachId = false;
     app.add_option("input", input, "Input .vdb ('-' = stdin)")->required();
     app.add_option("--grid", gridName, "Level-set grid (default: 'surface', else the only level set)");
+    app.add_option("--id-grid", idGridName,
+                   "Id grid for --id / --each-id (default: 'block_id', else 'rock_id')");
+    app.add_flag("--each-id", eachId, "One asset per id of the id grid, named <name>_<id>, written "
+                 "where -o's '{id}' is replaced by the id");
     tool.addParams(app, assetSchema());
-    tool.addOutput(app, "Output .glb ('-' = stdout)");
+    tool.addOutput(app, "Output .glb ('-' = stdout; with --each-id a path holding '{id}')");
     tool.addStats(app);
 
     return tool.run(argc, argv, [&] {
         const AssetParams p = assetSchema().fromJson(tool.givenParams(assetSchema()));
         const std::string out = tool.output();
-        if (out != "-" && (out.size() < 4 || out.compare(out.size() - 4, 4, ".glb") != 0)) {
+        if (out != "-" && !endsWithGlb(out)) {
             fail<ValueError>("the output must be a .glb file (got '", out, "')");
         }
-        requireWritable(out);
+        const size_t slot = out.find("{id}");
+        if (eachId && slot == std::string::npos) {
+            fail<ValueError>("--each-id writes one file per id: -o must hold '{id}' (got '", out, "')");
+        }
+        if (!eachId && slot != std::string::npos) {
+            fail<ValueError>("-o holds '{id}' but --each-id is not given (got '", out, "')");
+        }
+        if (eachId && p.id >= 0) fail<ValueError>("--each-id and --id exclude each other");
+        auto at = [&](int id) {
+            return out.substr(0, slot) + std::to_string(id) + out.substr(slot + 4);
+        };
+        requireWritable(eachId ? at(0) : out);
+
+        const auto grids = readGrids(input);
         AssetInputs in;
-        in.grid = readLevelSet(input, gridName);
+        in.grid = findLevelSet(*grids, gridName, input);
         in.names = {{"input", input}, {"grid", in.grid->getName()}};
+        if (eachId || p.id >= 0) {
+            in.ids = findIdGrid(*grids, idGridName, input);
+            in.names["id_grid"] = in.ids->getName();
+        }
+        if (eachId) {
+            const AssetSetResult r = tool.stage([&](Task& task) { return runAssetEach(p, in, task); });
+            for (const auto& [id, glb] : r.glbs) writeFileAtomic(at(id), glb);
+            return;
+        }
         const AssetResult r = tool.stage([&](Task& task) { return runAsset(p, in, task); });
         writeFileAtomic(out, r.glb);
     });

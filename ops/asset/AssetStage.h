@@ -1,6 +1,7 @@
-// rockvdb — the asset stage (issue 37): a level set to a game asset, one GLB with its LODs,
-// UV atlas and a normal map baked from the level set. The table drives vdb_asset's options
-// (and rockvdb.asset's keywords, next); runAsset is the one entry point.
+// rockvdb — the asset stage (issue 37): a level set (or one block / rock of it, by id) to a
+// game asset, one GLB with its LODs, UV atlases, normal and occlusion maps baked from the level
+// set, and a convex collision hull. The table drives vdb_asset's options and rockvdb.asset's
+// keywords; runAsset is the one entry point (runAssetEach: every id of an id grid).
 #pragma once
 
 #include <rockvdb/core/Schema.h>
@@ -23,6 +24,11 @@ struct AssetParams
     int textureSize;   ///< texels per side of the normal map (every LOD shares one atlas)
     int padding;       ///< texels between charts
     std::string name;  ///< the asset's name: nodes <name>_LOD0, ...
+    bool occlusion;    ///< bake ambient occlusion (asset/Occlusion.h)
+    double aoDistance; ///< occluders count within this distance (m); 0: a quarter of the extent
+    int mapBits;       ///< 8 or 16 bits per PNG channel
+    int id;            ///< cut this id out of the id grid (asset/Cut.h); -1: the whole level set
+    bool collision;    ///< a convex hull node UCX_<name>_00
 };
 
 /// @brief The table of AssetParams (op "asset").
@@ -31,9 +37,15 @@ const Schema<AssetParams>& assetSchema();
 /// @brief The LOD budgets of a "5000,1500,400" list (ValueError naming "lods" otherwise).
 std::vector<size_t> parseLods(const std::string& text);
 
+/// @brief The id grid a cut reads from @a grids: @a name, or (empty) the first of block_id,
+/// rock_id present. @throw ValueError naming the float grids there are when none is found.
+openvdb::FloatGrid::Ptr findIdGrid(const openvdb::GridPtrVec& grids, const std::string& name,
+                                   const std::string& source);
+
 struct AssetInputs
 {
     openvdb::FloatGrid::ConstPtr grid;               ///< the level set
+    openvdb::FloatGrid::ConstPtr ids;                ///< the id grid (needed for id >= 0)
     nlohmann::json names = nlohmann::json::object(); ///< e.g. {"input": path, "grid": name}
 };
 
@@ -47,6 +59,18 @@ struct AssetResult : StageResult
 /// density; the GLB's extras hold the provenance (the table's values, the inputs, and the
 /// input grid's own generator and parameters).
 AssetResult runAsset(const AssetParams& params, const AssetInputs& inputs, Task& task);
+
+/// @brief Every id of the id grid on the surface (sorted).
+std::vector<int> assetIds(const AssetInputs& inputs);
+
+struct AssetSetResult : StageResult
+{
+    std::vector<std::pair<int, std::string>> glbs; ///< (id, bytes), ids rising
+};
+
+/// @brief runAsset for every id of assetIds (params.id ignored), each named <name>_<id> with
+/// its own provenance (its id and name): stats hold each asset's, report a line per asset.
+AssetSetResult runAssetEach(const AssetParams& params, const AssetInputs& inputs, Task& task);
 
 } // namespace asset
 } // namespace rockvdb

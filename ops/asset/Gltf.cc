@@ -5,6 +5,7 @@
 
 #include <tiny_gltf.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -79,44 +80,56 @@ std::string writeGlb(const GltfAsset& asset)
     tinygltf::Scene scene;
     scene.name = asset.name;
 
-    // A material per LOD: each LOD's normal map is baked on its own atlas.
-    auto addMaterial = [&](const std::string& name, const NormalMap* nm) {
+    const int bits = asset.mapBits;
+    if (bits != 8 && bits != 16) fail<ValueError>("asset: map bits must be 8 or 16 (got ", bits, ")");
+    const double top = bits == 16 ? 65535.0 : 255.0;
+    // A texture from a baked channel: PNG rows run top down and glTF's v = 0 is the top, so
+    // texel row y (v = y / size, bottom up in the atlas) is image row size - 1 - y.
+    auto addTexture = [&](const std::string& name, int size, int channels, auto texel) {
+        std::vector<uint16_t> values(size_t(size) * size * channels);
+        for (int y = 0; y < size; ++y) {
+            for (int x = 0; x < size; ++x) {
+                uint16_t* out = &values[(size_t(size - 1 - y) * size + x) * channels];
+                for (int k = 0; k < channels; ++k) {
+                    const double c = std::clamp(double(texel(size_t(y) * size + x, k)), 0.0, 1.0);
+                    out[k] = uint16_t(std::lround(c * top));
+                }
+            }
+        }
+        const std::string png = encodePng(size, size, channels, bits, values);
+        tinygltf::Image image;
+        image.name = name;
+        image.mimeType = "image/png";
+        image.bufferView = addView(model, png.data(), png.size(), 0);
+        model.images.push_back(image);
+        if (model.samplers.empty()) {
+            tinygltf::Sampler sampler;
+            sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+            sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
+            sampler.wrapS = sampler.wrapT = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
+            model.samplers.push_back(sampler);
+        }
+        tinygltf::Texture texture;
+        texture.source = int(model.images.size() - 1);
+        texture.sampler = 0;
+        model.textures.push_back(texture);
+        return int(model.textures.size() - 1);
+    };
+    // A material per LOD: each LOD's maps are baked on its own atlas.
+    auto addMaterial = [&](const std::string& name, const BakedMaps* maps) {
         tinygltf::Material material;
         material.name = name;
         material.pbrMetallicRoughness.metallicFactor = 0.0;
         material.pbrMetallicRoughness.roughnessFactor = 0.9;
         material.pbrMetallicRoughness.baseColorFactor = {0.45, 0.42, 0.39, 1.0};
-        if (nm) {
-            std::vector<uint8_t> rgb(size_t(nm->size) * nm->size * 3);
-            // PNG rows run top down; glTF's v = 0 is the top: texel row y (v = y / size,
-            // bottom up in the atlas) is image row size - 1 - y.
-            for (int y = 0; y < nm->size; ++y) {
-                for (int x = 0; x < nm->size; ++x) {
-                    const openvdb::Vec3f& c = nm->rgb[size_t(y) * nm->size + x];
-                    uint8_t* out = &rgb[(size_t(nm->size - 1 - y) * nm->size + x) * 3];
-                    for (int k = 0; k < 3; ++k) {
-                        out[k] = uint8_t(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 255.0f));
-                    }
-                }
+        if (maps) {
+            material.normalTexture.index = addTexture(name + "_normal", maps->size, 3,
+                [&](size_t i, int k) { return maps->normal[i][k]; });
+            if (!maps->occlusion.empty()) {
+                // glTF reads occlusion from the red channel: a grey image serves every reader
+                material.occlusionTexture.index = addTexture(name + "_occlusion", maps->size, 1,
+                    [&](size_t i, int) { return maps->occlusion[i]; });
             }
-            const std::string png = encodePngRgb8(nm->size, nm->size, rgb);
-            tinygltf::Image image;
-            image.name = name + "_normal";
-            image.mimeType = "image/png";
-            image.bufferView = addView(model, png.data(), png.size(), 0);
-            model.images.push_back(image);
-            if (model.samplers.empty()) {
-                tinygltf::Sampler sampler;
-                sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
-                sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
-                sampler.wrapS = sampler.wrapT = TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE;
-                model.samplers.push_back(sampler);
-            }
-            tinygltf::Texture texture;
-            texture.source = int(model.images.size() - 1);
-            texture.sampler = 0;
-            model.textures.push_back(texture);
-            material.normalTexture.index = int(model.textures.size() - 1);
         }
         model.materials.push_back(material);
         return int(model.materials.size() - 1);
@@ -145,7 +158,7 @@ std::string writeGlb(const GltfAsset& asset)
         }
         tinygltf::Primitive prim;
         prim.mode = TINYGLTF_MODE_TRIANGLES;
-        prim.material = addMaterial(asset.name + "_LOD" + std::to_string(l), asset.lods[l].normalMap);
+        prim.material = addMaterial(asset.name + "_LOD" + std::to_string(l), asset.lods[l].maps);
         prim.attributes["POSITION"] = addAccessor(
             model, addView(model, pos.data(), pos.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER),
             TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, nv, lo, hi);
@@ -168,6 +181,38 @@ std::string writeGlb(const GltfAsset& asset)
         tinygltf::Node node;
         node.name = mesh.name;
         node.mesh = int(model.meshes.size() - 1);
+        model.nodes.push_back(node);
+        scene.nodes.push_back(int(model.nodes.size() - 1));
+    }
+    if (asset.collision && asset.collision->triangles()) {
+        const TriMesh& c = *asset.collision;
+        std::vector<float> pos(3 * c.points.size());
+        std::vector<double> lo(3, 1e300), hi(3, -1e300);
+        for (size_t v = 0; v < c.points.size(); ++v) {
+            const openvdb::Vec3f& p = c.points[v];
+            const float q[3] = {p.x(), p.z(), -p.y()}; // z up -> y up
+            for (int k = 0; k < 3; ++k) {
+                pos[3 * v + k] = q[k];
+                lo[k] = std::min(lo[k], double(q[k]));
+                hi[k] = std::max(hi[k], double(q[k]));
+            }
+        }
+        tinygltf::Primitive prim;
+        prim.mode = TINYGLTF_MODE_TRIANGLES;
+        prim.attributes["POSITION"] = addAccessor(
+            model, addView(model, pos.data(), pos.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER),
+            TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, c.points.size(), lo, hi);
+        prim.indices = addAccessor(
+            model, addView(model, c.indices.data(), c.indices.size() * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER),
+            TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT, TINYGLTF_TYPE_SCALAR, c.indices.size());
+        tinygltf::Mesh mesh;
+        mesh.name = "UCX_" + asset.name + "_00";
+        mesh.primitives.push_back(prim);
+        model.meshes.push_back(mesh);
+        tinygltf::Node node;
+        node.name = mesh.name;
+        node.mesh = int(model.meshes.size() - 1);
+        node.extras = tinygltf::Value(tinygltf::Value::Object{{"rockvdb_collision", tinygltf::Value(std::string("convex"))}});
         model.nodes.push_back(node);
         scene.nodes.push_back(int(model.nodes.size() - 1));
     }

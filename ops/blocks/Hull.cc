@@ -6,6 +6,7 @@
 #include <CGAL/convex_hull_3.h>
 
 #include <algorithm>
+#include <map>
 #include <cmath>
 
 namespace rockvdb {
@@ -63,18 +64,25 @@ Hull convexHull(const std::vector<Vec3d>& points, double tolerance)
     Polyhedron poly;
     CGAL::convex_hull_3(pts.begin(), pts.end(), poly);
 
+    std::map<const Polyhedron::Vertex*, uint32_t> vertexIndex;
     for (auto v = poly.vertices_begin(); v != poly.vertices_end(); ++v) {
         const Point& p = v->point();
+        vertexIndex[&*v] = uint32_t(h.vertices.size());
         h.vertices.emplace_back(p.x(), p.y(), p.z());
     }
     // Triangular facets → planes; coplanar neighbours (same normal and offset) merge.
     for (auto f = poly.facets_begin(); f != poly.facets_end(); ++f) {
         auto he = f->facet_begin();
-        const Point& pa = he->vertex()->point();
+        const auto va = he->vertex();
+        const Point& pa = va->point();
         ++he;
-        const Point& pb = he->vertex()->point();
+        const auto vb = he->vertex();
+        const Point& pb = vb->point();
         ++he;
-        const Point& pc = he->vertex()->point();
+        const auto vc = he->vertex();
+        const Point& pc = vc->point();
+        // convex_hull_3's facets run counter-clockwise seen from outside
+        h.triangles.push_back({vertexIndex[&*va], vertexIndex[&*vb], vertexIndex[&*vc]});
         const Vec3d a(pa.x(), pa.y(), pa.z()), b(pb.x(), pb.y(), pb.z()), c(pc.x(), pc.y(), pc.z());
         Vec3d n = (b - a).cross(c - a);
         const double len = n.length();

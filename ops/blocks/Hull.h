@@ -4,6 +4,7 @@
 #include <rockvdb/core/Field.h>
 
 #include <array>
+#include <cstdint>
 #include <vector>
 
 namespace rockvdb {
@@ -15,6 +16,8 @@ struct Hull
     std::vector<std::array<double, 4>> planes; ///< dimension 3: outward unit n, d (n·p <= d)
     std::vector<double> areas;                 ///< facet area per plane (coplanar facets merged)
     std::vector<Vec3d> vertices;               ///< hull vertices (dimension 3)
+    std::vector<std::array<uint32_t, 3>> triangles; ///< dimension 3: outward (counter-clockwise
+                                                    ///< seen from outside) over `vertices`
 };
 
 /// @brief Convex hull with CGAL's convex_hull_3 (exact predicates) when the points span 3D;

@@ -260,6 +260,27 @@ std::string encodePngRgb8(int width, int height, const std::vector<uint8_t>& rgb
     return encodePng(width, height, PNG_COLOR_TYPE_RGB, 8, rgb.data(), size_t(width) * 3);
 }
 
+std::string encodePng(int width, int height, int channels, int bits, const std::vector<uint16_t>& values)
+{
+    if ((channels != 1 && channels != 3) || (bits != 8 && bits != 16)) {
+        fail<ValueError>("png: ", channels, " channels of ", bits, " bits (1 or 3 channels of 8 or "
+                         "16 bits)");
+    }
+    const size_t n = size_t(width) * size_t(height) * size_t(channels);
+    if (width <= 0 || height <= 0 || values.size() < n) {
+        fail<ValueError>("png: ", values.size(), " values for a ", width, " x ", height, " image");
+    }
+    const int type = channels == 1 ? PNG_COLOR_TYPE_GRAY : PNG_COLOR_TYPE_RGB;
+    if (bits == 16) {
+        // host order; encodePng swaps to PNG's big-endian
+        return encodePng(width, height, type, 16, reinterpret_cast<const uint8_t*>(values.data()),
+                         size_t(width) * size_t(channels) * 2);
+    }
+    std::vector<uint8_t> bytes(n);
+    for (size_t i = 0; i < n; ++i) bytes[i] = uint8_t(std::min<uint16_t>(values[i], 255));
+    return encodePng(width, height, type, 8, bytes.data(), size_t(width) * size_t(channels));
+}
+
 namespace {
 
 // OpenEXR into memory (so the file is written once, atomically, like every rockvdb output):

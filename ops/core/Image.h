@@ -26,6 +26,11 @@ GrayImage readGrayImage(const std::string& path, const char* op = "image", doubl
 /// @brief Encode an 8-bit RGB image (row-major, 3 bytes per pixel) as PNG bytes.
 std::string encodePngRgb8(int width, int height, const std::vector<uint8_t>& rgb);
 
+/// @brief Encode a grey (@a channels 1) or RGB (3) image of 8 or 16 @a bits per channel as PNG
+/// bytes: @a values row-major, interleaved, rows from the top, each in [0, 2^bits - 1].
+/// @throw ValueError for another channel count or bit depth, or too few values.
+std::string encodePng(int width, int height, int channels, int bits, const std::vector<uint16_t>& values);
+
 /// @brief Write a single-channel image atomically: ".exr" as 32-bit float EXR (channel "Y"),
 /// ".png" as 16-bit greyscale PNG (values clamped to [0, 1] and scaled to 0..65535).
 void writeGrayImage(const std::string& path, const GrayImage& image);

@@ -752,6 +752,61 @@ detail = _stage_function(
 
 
 # ---------------------------------------------------------------------------------------------
+# Game assets (issue 37): vdb_asset from Python
+
+def _asset(grid, path=None, ids=None, stats=None, **params):
+    fn = "asset"
+    _grid(grid, "grid", fn)
+    if stats is not None and not isinstance(stats, dict):
+        raise _type_error(fn, "stats", "a dict", stats)
+    glb, info = _rockvdb.asset(grid, _stage_params(_ASSET, fn, params),
+                               _opt(ids, _grid, "ids", fn), _opt(path, _path, "path", fn))
+    if stats is not None:
+        stats.update(info)
+    return glb
+
+
+_ASSET = _table("asset")
+asset = _stage_function(
+    _ASSET, _asset, "asset",
+    "A level set as a game asset (vdb_asset from Python): one GLB (glTF 2.0) with levels of "
+    "detail, a UV atlas, normal and occlusion maps baked from the level set, y up, metres.",
+    "Returns the GLB's bytes; path (a .glb) also writes them there, atomically. ids: the id "
+    "grid (block_id, rock_id) that id cuts from. stats (a dict) receives each LOD's triangles, "
+    "charts and distance to the level set, as vdb_asset --stats writes them. Ctrl-C raises "
+    "KeyboardInterrupt.",
+    before=["grid"], after=[("path", None), ("ids", None), ("stats", None)])
+
+
+def asset_ids(grid, ids):
+    """The ids of an id grid (block_id, rock_id) on a level set's surface, sorted: what
+    asset(grid, ids=ids, id=...) can cut, and what asset_each makes."""
+    fn = "asset_ids"
+    return _rockvdb.asset_ids(_grid(grid, "grid", fn), _grid(ids, "ids", fn))
+
+
+def _asset_each(grid, ids, stats=None, **params):
+    fn = "asset_each"
+    _grid(grid, "grid", fn)
+    if stats is not None and not isinstance(stats, dict):
+        raise _type_error(fn, "stats", "a dict", stats)
+    if "id" in params:
+        raise TypeError("rockvdb.asset_each() makes every id: it takes no 'id'")
+    glbs, info = _rockvdb.asset_each(grid, _stage_params(_ASSET, fn, params), _grid(ids, "ids", fn))
+    if stats is not None:
+        stats.update(info)
+    return dict(glbs)
+
+
+asset_each = _stage_function(
+    _ASSET, _asset_each, "asset_each",
+    "Every block or rock of an id grid as its own game asset (vdb_asset --each-id from "
+    "Python), each named <name>_<id>.",
+    "Returns {id: GLB bytes}. stats (a dict) receives each asset's statistics.",
+    before=["grid", "ids"], after=[("stats", None)], exclude=("id",))
+
+
+# ---------------------------------------------------------------------------------------------
 # Rock tiles and rock piles (aperiodic-rock-piles, arches-material-stacks §5)
 
 def _rock_tiles(path=None, max_memory=0.0, **params):

@@ -128,6 +128,7 @@ void bindBlocks(pybind11::module_& m);   ///< rockvdb.BlockTile, the block-tile 
 void bindAmplify(pybind11::module_& m);  ///< the amplify stage (amplify.cc)
 void bindDetail(pybind11::module_& m);   ///< the detail stage (detail.cc)
 void bindRockpile(pybind11::module_& m); ///< rock tiles and piles (rockpile.cc)
+void bindAsset(pybind11::module_& m);    ///< game assets, GLB (asset.cc)
 
 /// rockvdb.fractal_rock / fractal_scatter / fractal_carve's native half (fractal.cc).
 void bindFractal(pybind11::module_& m);

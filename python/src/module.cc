@@ -5,6 +5,7 @@
 #include "Host.h"
 
 #include <rockvdb/amplify/AmplifyStage.h>
+#include <rockvdb/asset/AssetStage.h>
 #include <rockvdb/blocks/BlocksStage.h>
 #include <rockvdb/core/BakeParams.h>
 #include <rockvdb/core/CsgStage.h>
@@ -89,6 +90,7 @@ PYBIND11_MODULE(_rockvdb, m)
     bindRockpile(m);
     bindFractal(m);
     bindArches(m);
+    bindAsset(m);
 
     // Stage tables: the Python wrappers build their signatures, defaults and docstrings
     // from these (python/rockvdb/__init__.py).
@@ -106,6 +108,7 @@ PYBIND11_MODULE(_rockvdb, m)
         if (stage == "amplify") return jsonText(amplify::amplifySchema().describe());
         if (stage == "fractal_rock" || stage == "fractal_scatter") return jsonText(fractal::rockSchema().describe());
         if (stage == "arches") return archesSchemaText();
+        if (stage == "asset") return jsonText(asset::assetSchema().describe());
         throw ValueError("schema: no stage '" + stage + "'");
     }, py::arg("stage"));
 }

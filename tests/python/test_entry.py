@@ -44,6 +44,8 @@ TABLE_FUNCTIONS = [
     (rockvdb.mesh, "mesh", [], {"grid", "path"}),
     (rockvdb.preview, "preview", [], {"grid", "path", "ids", "palette"}),
     (rockvdb.csg, "csg", ["ids"], {"op", "grids", "ids"}),
+    (rockvdb.asset, "asset", [], {"grid", "path", "ids", "stats"}),
+    (rockvdb.asset_each, "asset", ["id"], {"grid", "ids", "stats"}),
 ]
 
 

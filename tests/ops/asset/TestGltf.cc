@@ -1,6 +1,6 @@
 // GLB assets (asset/Gltf.h), read back with tinygltf: LOD nodes and their triangles, every
-// attribute, y up, v flipped, the normal texture embedded, provenance in extras; the same
-// asset gives the same bytes.
+// attribute, y up, v flipped, the normal and occlusion textures embedded (8 and 16 bits), a
+// convex collision node, provenance in extras; the same asset gives the same bytes.
 #include <rockvdb/asset/Gltf.h>
 #include <rockvdb/core/Error.h>
 
@@ -31,7 +31,8 @@ struct Built
     std::vector<Lod> lods;
     std::vector<UvMesh> meshes;
     std::vector<VertexFrames> frames;
-    std::vector<NormalMap> maps;
+    std::vector<BakedMaps> maps;
+    TriMesh hull;
 };
 
 Built build()
@@ -45,16 +46,22 @@ Built build()
         b.meshes.push_back(atlas(l.mesh, 128, 2));
         b.frames.push_back(vertexFrames(b.meshes.back()));
     }
+    const Occlusion occ = occlusion(b.lods[0].mesh, 0.04, 0.5, task);
     for (size_t i = 0; i < b.meshes.size(); ++i) {
-        b.maps.push_back(bakeNormalMap(b.meshes[i], b.frames[i], *g, 128, task));
+        b.maps.push_back(bakeMaps(b.meshes[i], b.frames[i], *g, 128, &occ, task));
     }
+    // a tetrahedron as the collision hull: y up like the rest
+    b.hull.points = {{0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {0, 0, 2}};
+    b.hull.indices = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
     return b;
 }
 
-std::string glb(const Built& b)
+std::string glb(const Built& b, int bits = 8, bool collision = false)
 {
     GltfAsset a;
     a.name = "boulder";
+    a.mapBits = bits;
+    if (collision) a.collision = &b.hull;
     for (size_t i = 0; i < b.meshes.size(); ++i) {
         a.lods.push_back({&b.meshes[i], &b.frames[i], &b.maps[i]});
     }
@@ -78,16 +85,34 @@ TEST(Gltf, GlbReadsBackWithLodsAttributesYUpAndProvenance)
     ASSERT_EQ(m.nodes.size(), 2u);
     EXPECT_EQ(m.nodes[0].name, "boulder_LOD0");
     EXPECT_EQ(m.nodes[1].name, "boulder_LOD1");
-    ASSERT_EQ(m.images.size(), 2u); // a normal map per LOD
+    ASSERT_EQ(m.images.size(), 4u); // a normal and an occlusion map per LOD
     for (const auto& im : m.images) {
         EXPECT_EQ(im.mimeType, "image/png");
         EXPECT_EQ(im.width, 128); // tinygltf decoded the embedded PNG
+        EXPECT_EQ(im.bits, 8);
     }
     for (size_t l = 0; l < 2; ++l) {
         const auto& prim = m.meshes[m.nodes[l].mesh].primitives[0];
         const auto& mat = m.materials[prim.material];
         EXPECT_EQ(mat.name, "boulder_LOD" + std::to_string(l));
-        EXPECT_EQ(m.textures[mat.normalTexture.index].source, int(l));
+        const auto& normal = m.images[m.textures[mat.normalTexture.index].source];
+        EXPECT_EQ(normal.component, 3);
+        EXPECT_EQ(normal.name, "boulder_LOD" + std::to_string(l) + "_normal");
+        ASSERT_GE(mat.occlusionTexture.index, 0);
+        const auto& occ = m.images[m.textures[mat.occlusionTexture.index].source];
+        EXPECT_EQ(occ.name, "boulder_LOD" + std::to_string(l) + "_occlusion");
+        // a sphere is open to the sky all round: every texel near 1 (decoded as read)
+        int darkest = 255;
+        for (size_t i = 0; i < occ.image.size(); i += size_t(occ.component)) darkest = std::min(darkest, int(occ.image[i]));
+        EXPECT_GE(darkest, 240);
+        // the texture's image rows: row 0 is v = 0 at the top, the baked map's last row
+        const auto& baked = b.maps[l].normal;
+        for (int x = 0; x < 128; x += 17) {
+            for (int k = 0; k < 3; ++k) {
+                EXPECT_EQ(int(normal.image[size_t(x) * 3 + k]),
+                          int(std::lround(baked[size_t(127) * 128 + x][k] * 255.0f)));
+            }
+        }
         const auto idx = read<uint32_t>(m, prim.indices, 1);
         EXPECT_EQ(idx.size(), b.meshes[l].indices.size());
         const auto pos = read<float>(m, prim.attributes.at("POSITION"), 3);
@@ -118,6 +143,36 @@ TEST(Gltf, GlbReadsBackWithLodsAttributesYUpAndProvenance)
     const auto& extras = m.asset.extras.Get("rockvdb");
     EXPECT_EQ(extras.Get("generator").Get<std::string>(), "vdb_asset");
     EXPECT_EQ(extras.Get("params").Get("seed").Get<int>(), 4);
+}
+
+TEST(Gltf, SixteenBitMapsAndACollisionHull)
+{
+    const Built b = build();
+    const std::string bytes = glb(b, 16, true);
+    tinygltf::Model m;
+    tinygltf::TinyGLTF loader;
+    std::string err, warn;
+    ASSERT_TRUE(loader.LoadBinaryFromMemory(&m, &err, &warn,
+                                            reinterpret_cast<const unsigned char*>(bytes.data()),
+                                            unsigned(bytes.size())))
+        << err;
+    for (const auto& im : m.images) EXPECT_EQ(im.bits, 16);
+    const auto& normal = m.images[0];
+    const auto* px = reinterpret_cast<const uint16_t*>(normal.image.data());
+    for (int x = 0; x < 128; x += 13) {
+        EXPECT_EQ(int(px[size_t(x) * 3]), int(std::lround(b.maps[0].normal[size_t(127) * 128 + x][0] * 65535.0f)));
+    }
+    ASSERT_EQ(m.nodes.size(), 3u);
+    const auto& node = m.nodes[2];
+    EXPECT_EQ(node.name, "UCX_boulder_00");
+    EXPECT_EQ(node.extras.Get("rockvdb_collision").Get<std::string>(), "convex");
+    const auto& prim = m.meshes[node.mesh].primitives[0];
+    EXPECT_EQ(prim.material, -1);
+    EXPECT_EQ(prim.attributes.size(), 1u);
+    const auto pos = read<float>(m, prim.attributes.at("POSITION"), 3);
+    ASSERT_EQ(pos.size(), 12u);
+    EXPECT_EQ(pos[3 * 3 + 1], 2.0f); // the apex (0, 0, 2) is y = 2
+    EXPECT_EQ(read<uint32_t>(m, prim.indices, 1).size(), 12u);
 }
 
 TEST(Gltf, SameAssetSameBytes)

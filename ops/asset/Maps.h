@@ -1,6 +1,6 @@
-// rockvdb — a tangent-space normal map baked from the level set, not from a mesh (issue 37):
-// a low-poly LOD carries the high-resolution surface's normals (Gabor ridges, erosion) in its
-// texture.
+// rockvdb — texture maps baked from the level set, not from a mesh (issue 37): a tangent-space
+// normal map, so a low-poly LOD carries the high-resolution surface's normals (Gabor ridges,
+// erosion) in its texture, and ambient occlusion (asset/Occlusion.h) at the same points.
 //
 // For each texel of a chart: the point p on the LOD triangle under the texel centre, moved to
 // the level set's zero along its gradient (two Newton steps, q = p - phi(p) grad phi), and the
@@ -9,11 +9,13 @@
 // the vertex normal, tangent and handedness interpolated over the triangle (vertexFrames), the
 // tangent made orthogonal to the normal, the bitangent their cross product times the
 // handedness; rgb = (n·t, n·b, n·n_vertex) / 2 + 1/2 (glTF's convention: +y is +v, "OpenGL").
+// The occlusion, when asked, is the Occlusion grid's value at q.
 // Texels outside every chart take the nearest covered texel's value (dilation over the whole
 // texture), so bilinear reads and mip levels at chart borders stay on the chart's colours.
 #pragma once
 
 #include <rockvdb/asset/Atlas.h>
+#include <rockvdb/asset/Occlusion.h>
 #include <rockvdb/core/Task.h>
 
 #include <openvdb/openvdb.h>
@@ -32,17 +34,19 @@ struct VertexFrames
 };
 VertexFrames vertexFrames(const UvMesh& mesh);
 
-struct NormalMap
+struct BakedMaps
 {
     int size = 0;
-    std::vector<openvdb::Vec3f> rgb; ///< size² texels, row 0 at v = 0 (bottom), values in [0, 1]
-    std::vector<uint8_t> covered;    ///< 1 where a triangle covers the texel centre
+    std::vector<openvdb::Vec3f> normal; ///< size² texels, row 0 at v = 0 (bottom), values in [0, 1]
+    std::vector<float> occlusion;       ///< size² texels in [0, 1] (1 = open), or empty
+    std::vector<uint8_t> covered;       ///< 1 where a triangle covers the texel centre
 };
 
-/// @brief Bake @a grid's normals into @a mesh's atlas at @a size² texels (the atlas must have
-/// been made for this size). @throw ValueError when @a grid is not a level set.
-NormalMap bakeNormalMap(const UvMesh& mesh, const VertexFrames& frames,
-                        const openvdb::FloatGrid& grid, int size, Task& task);
+/// @brief Bake @a grid's normals (and @a occlusion's values, when given) into @a mesh's atlas
+/// at @a size² texels (the atlas must have been made for this size).
+/// @throw ValueError when @a grid is not a level set.
+BakedMaps bakeMaps(const UvMesh& mesh, const VertexFrames& frames, const openvdb::FloatGrid& grid,
+                   int size, const Occlusion* occlusion, Task& task);
 
 /// @brief A normal map texel back to a world-space unit normal, given the frame at that point
 /// (the inverse of the encoding above; for tests and for checking a bake).

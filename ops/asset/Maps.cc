@@ -1,4 +1,4 @@
-#include "NormalMap.h"
+#include "Maps.h"
 
 #include <rockvdb/core/Error.h>
 
@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <optional>
 
 namespace rockvdb {
 namespace asset {
@@ -92,16 +93,17 @@ openvdb::Vec3d decodeNormal(const openvdb::Vec3f& rgb, const openvdb::Vec3d& nor
     return safeUnit(c.x() * t + c.y() * b + c.z() * n, n);
 }
 
-NormalMap bakeNormalMap(const UvMesh& m, const VertexFrames& f, const openvdb::FloatGrid& grid,
-                        int size, Task& task)
+BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const openvdb::FloatGrid& grid,
+                   int size, const Occlusion* occlusion, Task& task)
 {
     if (grid.getGridClass() != openvdb::GRID_LEVEL_SET) {
         fail<ValueError>("asset: grid '", grid.getName(), "' is not a level set");
     }
     require(size >= 8 && size <= 16384, "asset", "texture-size", "in [8, 16384]", size);
-    NormalMap map;
+    BakedMaps map;
     map.size = size;
-    map.rgb.assign(size_t(size) * size, openvdb::Vec3f(0.5f, 0.5f, 1.0f));
+    map.normal.assign(size_t(size) * size, openvdb::Vec3f(0.5f, 0.5f, 1.0f));
+    if (occlusion) map.occlusion.assign(size_t(size) * size, 1.0f);
     map.covered.assign(size_t(size) * size, 0);
     const openvdb::math::Transform& xf = grid.transform();
     const double h = xf.voxelSize()[0];
@@ -110,7 +112,11 @@ NormalMap bakeNormalMap(const UvMesh& m, const VertexFrames& f, const openvdb::F
     // texel centre on a shared edge is taken by the lower-numbered triangle (the test is
     // strict on one side), so the result does not depend on the order.
     parallelFor(task, nt, 64, [&](size_t t) {
-        auto acc = grid.getConstAccessor();
+        // unregistered accessors: registering one per triangle would serialise on the tree's
+        // accessor registry
+        openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> acc(grid.tree());
+        std::optional<openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>> oacc;
+        if (occlusion) oacc.emplace(occlusion->value->tree());
         auto phi = [&](const openvdb::Vec3d& p) {
             return double(openvdb::tools::BoxSampler::sample(acc, xf.worldToIndex(p)));
         };
@@ -158,16 +164,20 @@ NormalMap bakeNormalMap(const UvMesh& m, const VertexFrames& f, const openvdb::F
                 const openvdb::Vec3d hi = safeUnit(grad(q), n);
                 const openvdb::Vec3d ts(hi.dot(tan), hi.dot(bit), hi.dot(n));
                 const size_t i = size_t(y) * size + x;
-                map.rgb[i] = openvdb::Vec3f(0.5 * (ts + openvdb::Vec3d(1.0)));
+                map.normal[i] = openvdb::Vec3f(0.5 * (ts + openvdb::Vec3d(1.0)));
+                if (occlusion) {
+                    map.occlusion[i] = std::clamp(openvdb::tools::BoxSampler::sample(
+                        *oacc, occlusion->value->transform().worldToIndex(q)), 0.0f, 1.0f);
+                }
                 map.covered[i] = 1;
             }
         }
     });
     // Dilation: uncovered texels take the nearest covered one's value (breadth first, four
     // neighbours, in a fixed order), so borders bleed the chart's own colours.
-    std::vector<int> from(map.rgb.size(), -1);
+    std::vector<int> from(map.normal.size(), -1);
     std::deque<size_t> queue;
-    for (size_t i = 0; i < map.rgb.size(); ++i) {
+    for (size_t i = 0; i < map.normal.size(); ++i) {
         if (map.covered[i]) {
             from[i] = int(i);
             queue.push_back(i);
@@ -183,7 +193,8 @@ NormalMap bakeNormalMap(const UvMesh& m, const VertexFrames& f, const openvdb::F
             const size_t j = size_t(ny[k]) * size + nx[k];
             if (from[j] != -1) continue;
             from[j] = from[i];
-            map.rgb[j] = map.rgb[i];
+            map.normal[j] = map.normal[i];
+            if (occlusion) map.occlusion[j] = map.occlusion[i];
             queue.push_back(j);
         }
     }

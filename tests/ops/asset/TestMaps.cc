@@ -1,7 +1,7 @@
-// Normal maps baked from the level set (asset/NormalMap.h): decoded through the LOD's own
-// tangent frames, they give the high-resolution surface's normals, which the LOD's
-// interpolated normals miss; the same bits at any thread count.
-#include <rockvdb/asset/NormalMap.h>
+// Maps baked from the level set (asset/Maps.h): normal maps decoded through the LOD's own
+// tangent frames give the high-resolution surface's normals, which the LOD's interpolated
+// normals miss; normal and occlusion maps have the same bits at any thread count.
+#include <rockvdb/asset/Maps.h>
 #include <rockvdb/core/Error.h>
 
 #include <gtest/gtest.h>
@@ -69,7 +69,7 @@ struct Errors
 
 // Every texel centre strictly inside a triangle: the decoded map normal and the LOD's own
 // interpolated normal against the true one.
-Errors compare(const UvMesh& m, const VertexFrames& fr, const NormalMap& map)
+Errors compare(const UvMesh& m, const VertexFrames& fr, const BakedMaps& map)
 {
     Errors e;
     const int size = map.size;
@@ -104,7 +104,7 @@ Errors compare(const UvMesh& m, const VertexFrames& fr, const NormalMap& map)
                 const openvdb::Vec3d truth = trueNormal(p);
                 const size_t i = size_t(y) * size + x;
                 EXPECT_TRUE(map.covered[i]);
-                e.mapMean += degrees(decodeNormal(map.rgb[i], n, tan), truth);
+                e.mapMean += degrees(decodeNormal(map.normal[i], n, tan), truth);
                 e.lodMean += degrees(n, truth);
                 ++e.texels;
             }
@@ -117,7 +117,7 @@ Errors compare(const UvMesh& m, const VertexFrames& fr, const NormalMap& map)
 
 } // namespace
 
-TEST(NormalMap, ALowPolyLodCarriesTheLevelSetsDetail)
+TEST(Maps, ALowPolyLodCarriesTheLevelSetsDetail)
 {
     auto g = rippled(0.01);
     const TriMesh full = surfaceMesh(*g);
@@ -126,7 +126,7 @@ TEST(NormalMap, ALowPolyLodCarriesTheLevelSetsDetail)
     const int size = 256;
     const UvMesh m = atlas(lods[0].mesh, size, 2);
     const VertexFrames fr = vertexFrames(m);
-    const NormalMap map = bakeNormalMap(m, fr, *g, size, task);
+    const BakedMaps map = bakeMaps(m, fr, *g, size, nullptr, task);
     const Errors e = compare(m, fr, map);
     ASSERT_GT(e.texels, 10000u);
     // the ripples tilt the normal by up to atan(a k) = 20 degrees: the LOD alone misses them
@@ -134,25 +134,31 @@ TEST(NormalMap, ALowPolyLodCarriesTheLevelSetsDetail)
     EXPECT_LT(e.mapMean, 1.0) << "LOD alone: " << e.lodMean << " degrees";
     // dilation leaves no texel at the flat default
     size_t flat = 0;
-    for (const auto& c : map.rgb) flat += c == openvdb::Vec3f(0.5f, 0.5f, 1.0f);
-    EXPECT_LT(flat, map.rgb.size() / 100);
+    for (const auto& c : map.normal) flat += c == openvdb::Vec3f(0.5f, 0.5f, 1.0f);
+    EXPECT_LT(flat, map.normal.size() / 100);
 }
 
-TEST(NormalMap, SameBitsAtOneAndTwoThreads)
+TEST(Maps, SameBitsAtOneAndTwoThreads)
 {
     auto g = rippled(0.02);
     const TriMesh full = surfaceMesh(*g);
     Task task;
-    const UvMesh m = atlas(makeLods(full, {800}, task)[0].mesh, 128, 2);
+    const TriMesh lod = makeLods(full, {800}, task)[0].mesh;
+    const UvMesh m = atlas(lod, 128, 2);
     const VertexFrames fr = vertexFrames(m);
-    NormalMap one;
+    BakedMaps one;
     {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
-        one = bakeNormalMap(m, fr, *g, 128, task);
+        const Occlusion occ = occlusion(lod, 0.02, 0.3, task);
+        one = bakeMaps(m, fr, *g, 128, &occ, task);
     }
-    const NormalMap two = bakeNormalMap(m, fr, *g, 128, task);
-    EXPECT_EQ(one.rgb, two.rgb);
+    const Occlusion occ = occlusion(lod, 0.02, 0.3, task);
+    const BakedMaps two = bakeMaps(m, fr, *g, 128, &occ, task);
+    EXPECT_EQ(one.normal, two.normal);
     EXPECT_EQ(one.covered, two.covered);
+    ASSERT_EQ(one.occlusion.size(), size_t(128 * 128));
+    EXPECT_EQ(one.occlusion, two.occlusion);
+    EXPECT_TRUE(bakeMaps(m, fr, *g, 128, nullptr, task).occlusion.empty());
     FloatGrid fog(0.0f);
-    EXPECT_THROW(bakeNormalMap(m, fr, fog, 128, task), ValueError);
+    EXPECT_THROW(bakeMaps(m, fr, fog, 128, nullptr, task), ValueError);
 }
