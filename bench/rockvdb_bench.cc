@@ -1,11 +1,13 @@
 // rockvdb_bench — each issue's numbers beside a reference run in the same process.
-// usage: rockvdb_bench [--quick] [foundation] [blocks] [amplify] [detail] [rockpile]   (no group: all of them)
+// usage: rockvdb_bench [--quick] [foundation] [blocks] [amplify] [detail] [rockpile] [fill]
+//        [fractal] [arches] [samples] [asset]   (no group: all of them)
 #include <rockvdb/amplify/Amplify.h>
 #include <rockvdb/arches/Edits.h>
 #include <rockvdb/arches/StackBake.h>
 #include <rockvdb/arches/StackBuild.h>
 #include <rockvdb/arches/ArchesStage.h>
 #include <rockvdb/arches/Weights.h>
+#include <rockvdb/asset/AssetStage.h>
 #include <rockvdb/arches/Stabilize.h>
 #include <rockvdb/blocks/BlockTile.h>
 #include <rockvdb/core/Bake.h>
@@ -744,6 +746,89 @@ void samplesGroup(bool quick)
     std::filesystem::remove_all(out);
 }
 
+// Issue 37: game assets. (1) A 1 m fractal rock at 5 mm with Gabor ridges as one GLB (three
+// LODs, 1024² normal and occlusion maps), beside tools::volumeToMesh of the same grid (the
+// first step of any mesh asset). (2) 100 rocks of a rock pile (a tile set's rocks instanced on
+// a slab) as 100 GLBs through runAssetEach, beside volumeToMesh of the whole pile.
+void assetGroup(bool quick)
+{
+    using Clock = std::chrono::steady_clock;
+    auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+    auto meshTime = [](const openvdb::FloatGrid& g) {
+        return bestOf(2, [&] {
+            std::vector<openvdb::Vec3s> pts;
+            std::vector<openvdb::Vec3I> tris;
+            std::vector<openvdb::Vec4I> quads;
+            openvdb::tools::volumeToMesh(g, pts, tris, quads, 0.0);
+        });
+    };
+    std::printf("\n## asset: game assets (2 threads), reference: tools::volumeToMesh of the same grid\n\n");
+    std::printf("| asset | full mesh | time | volumeToMesh | ratio | LOD: triangles, mean / max distance to the level set, normals off with the map / without |\n");
+    std::printf("|---|---|---|---|---|---|\n");
+    fractal::FractalRockParams fp;
+    fp.shape.levels = 3;
+    fp.shape.seed = 5;
+    fp.size = Vec3d(1.0, 0.8, 0.5);
+    fp.voxelSize = quick ? 0.01 : 0.005;
+    Task t0;
+    const fractal::RockResult rock = fractal::runRock(fp, true, false, t0);
+    BakeSettings bs;
+    bs.voxelSize = fp.voxelSize;
+    const BakeResult detailed = detail::detailLevelSet(rock.surface, detail::DetailParams::fromJson(
+        {{"gabor-amplitude", 0.006}, {"gabor-frequency", 25.0}, {"direction-axis", {0, 0, 1}}}), bs);
+    asset::AssetParams ap;
+    ap.textureSize = quick ? 512 : 1024;
+    asset::AssetInputs in;
+    in.grid = detailed.surface;
+    asset::AssetResult r;
+    const double t = bestOf(quick ? 1 : 3, [&] {
+        Task task;
+        r = asset::runAsset(ap, in, task);
+    });
+    const double ref = meshTime(*detailed.surface);
+    std::string lods;
+    for (const auto& l : r.stats["lods"]) {
+        char cell[160];
+        std::snprintf(cell, sizeof cell, "%s%d: %.2f / %.2f mm, %.1f° / %.1f°", lods.empty() ? "" : "; ",
+                      l["triangles"].get<int>(), l["mean_error"].get<double>() * 1e3,
+                      l["max_error"].get<double>() * 1e3, l["normal_map_degrees"].get<double>(),
+                      l["lod_normal_degrees"].get<double>());
+        lods += cell;
+    }
+    std::printf("| 1 m fractal rock + Gabor at %.0f mm, LODs %s, %d² normal + occlusion maps | %zu triangles | %.2f s | %.2f s | %.1fx | %s |\n",
+                fp.voxelSize * 1e3, ap.lods.c_str(), ap.textureSize,
+                r.stats["full_triangles"].get<size_t>(), t, ref, t / ref, lods.c_str());
+    std::printf("ratio asset vs volumeToMesh (1 m rock): %.1fx\n", t / ref);
+
+    // 100 rocks of a pile, each its own asset
+    rockpile::RockTileParams tp;
+    tp.n = 5;
+    const rockpile::TileSet set = rockpile::generateTiles(tp);
+    auto slab = box(Vec3d(0.0), Vec3d(1.5, 1.5, 0.3));
+    rockpile::PileParams pp;
+    auto instances = rockpile::selectRocks(set, *slab, pp);
+    instances.resize(std::min<size_t>(instances.size(), quick ? 20 : 100));
+    const rockpile::Pile pile = rockpile::buildPile(set, instances, pp);
+    asset::AssetParams each;
+    each.lods = "1500,500,150";
+    each.textureSize = 512;
+    asset::AssetInputs pin;
+    pin.grid = pile.surface;
+    pin.ids = pile.rockId;
+    const auto t1 = Clock::now();
+    Task task;
+    const asset::AssetSetResult set100 = asset::runAssetEach(each, pin, task);
+    const double all = since(t1);
+    const double pref = meshTime(*pile.surface);
+    size_t bytes = 0;
+    for (const auto& g : set100.glbs) bytes += g.second.size();
+    std::printf("| %zu rocks of a pile (tile set n = 5, %.1f mm voxels) as %zu GLBs, LODs %s, %d² maps | - | %.2f s (%.2f s each) | %.2f s (whole pile) | %.0fx | %.1f MB in all |\n",
+                instances.size(), set.params.voxelSize() * 1e3, set100.glbs.size(), each.lods.c_str(),
+                each.textureSize, all, all / double(set100.glbs.size()), pref, all / pref, double(bytes) / 1e6);
+    std::printf("assets per second (pile): %.1f\n", double(set100.glbs.size()) / all);
+}
+
 int main(int argc, char** argv)
 {
     initialize();
@@ -753,7 +838,7 @@ int main(int argc, char** argv)
                 ROCKVDB_ALLOCATOR);
     bool all = true, wantFoundation = false, wantBlocks = false, wantAmplify = false,
          wantDetail = false, wantRockpile = false, wantFill = false, wantFractal = false,
-         wantArches = false, wantSamples = false;
+         wantArches = false, wantSamples = false, wantAsset = false;
     for (int i = 1; i < argc; ++i) {
         if (std::strcmp(argv[i], "foundation") == 0) { wantFoundation = true; all = false; }
         if (std::strcmp(argv[i], "blocks") == 0) { wantBlocks = true; all = false; }
@@ -764,6 +849,7 @@ int main(int argc, char** argv)
         if (std::strcmp(argv[i], "fractal") == 0) { wantFractal = true; all = false; }
         if (std::strcmp(argv[i], "arches") == 0) { wantArches = true; all = false; }
         if (std::strcmp(argv[i], "samples") == 0) { wantSamples = true; all = false; }
+        if (std::strcmp(argv[i], "asset") == 0) { wantAsset = true; all = false; }
     }
     if (all || wantFoundation) foundation(quick);
     if (all || wantBlocks) blocksGroup(quick);
@@ -774,5 +860,6 @@ int main(int argc, char** argv)
     if (all || wantFractal) fractalGroup(quick);
     if (all || wantArches) archesGroup(quick);
     if (all || wantSamples) samplesGroup(quick);
+    if (all || wantAsset) assetGroup(quick);
     return 0;
 }

@@ -64,7 +64,7 @@ int main(int argc, char** argv)
         in.names = {{"input", input}, {"grid", in.grid->getName()}};
         if (eachId || p.id >= 0) {
             in.ids = findIdGrid(*grids, idGridName, input);
-            in.names["id_grid"] = in.ids->getName();
+            in.names["id-grid"] = in.ids->getName();
         }
         if (eachId) {
             const AssetSetResult r = tool.stage([&](Task& task) { return runAssetEach(p, in, task); });

@@ -119,6 +119,14 @@ openvdb::FloatGrid::Ptr findIdGrid(const openvdb::GridPtrVec& grids, const std::
 
 namespace {
 
+// An id grid holds ids (block_id, rock_id), not distances: the one check both entries share.
+void requireIds(const AssetInputs& in)
+{
+    if (in.ids->getGridClass() == openvdb::GRID_LEVEL_SET) {
+        fail<ValueError>("asset: the id grid '", in.ids->getName(), "' is a level set, not an id grid");
+    }
+}
+
 // The largest extent of a mesh's bounding box (m).
 double extent(const TriMesh& m)
 {
@@ -152,6 +160,7 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
     nlohmann::json cutStats = nullptr;
     if (p.id >= 0) {
         if (!in.ids) fail<ValueError>("asset: id ", p.id, " asks for an id grid, and none was given");
+        requireIds(in);
         task.phase("cut", 0.1);
         const double limit = memoryLimitBytes(0);
         const CutResult c = cutId(*in.grid, *in.ids, p.id, size_t(limit / 8.0), task);
@@ -190,7 +199,8 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
     if (p.collision) hull = hullMesh(lods.back().mesh);
 
     nlohmann::json prov = stageProvenance(assetSchema().toJson(p), in.names);
-    prov["source"] = gridSource(*in.grid);
+    // Under "sources", as vdb_csg records its inputs: a --params replay skips it.
+    prov["sources"] = nlohmann::json::array({gridSource(*in.grid)});
     r.provenance = prov;
     GltfAsset a;
     a.name = p.name;
@@ -204,6 +214,7 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
     nlohmann::json levels = nlohmann::json::array();
     for (size_t i = 0; i < lods.size(); ++i) {
         const SurfaceError e = surfaceError(lods[i].mesh, *grid);
+        const NormalMapError ne = normalMapError(meshes[i], frames[i], maps[i], *grid);
         double aoMean = 0;
         size_t covered = 0;
         for (size_t t = 0; t < maps[i].covered.size(); ++t) {
@@ -214,13 +225,15 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
         nlohmann::json level = {{"triangles", lods[i].mesh.triangles()}, {"target", budgets[i]},
                                 {"vertices", meshes[i].points.size()}, {"charts", meshes[i].charts},
                                 {"mean_error", e.mean}, {"max_error", e.max},
+                                {"normal_map_degrees", ne.mapDegrees}, {"lod_normal_degrees", ne.meshDegrees},
                                 {"texels_covered", double(covered) / double(maps[i].covered.size())}};
         if (occ) level["occlusion_mean"] = covered ? aoMean / double(covered) : 1.0;
         levels.push_back(level);
-        char line[240];
+        char line[320];
         std::snprintf(line, sizeof line, "LOD%zu: %zu triangles (asked %zu), %zu charts, distance "
-                      "to the level set mean %.3g m, max %.3g m", i, lods[i].mesh.triangles(),
-                      budgets[i], meshes[i].charts, e.mean, e.max);
+                      "to the level set mean %.3g m, max %.3g m; normals off the level set's by "
+                      "%.2f deg with the map, %.1f deg without", i, lods[i].mesh.triangles(),
+                      budgets[i], meshes[i].charts, e.mean, e.max, ne.mapDegrees, ne.meshDegrees);
         r.report.push_back(line);
     }
     r.stats = {{"full_triangles", full.triangles()}, {"lods", levels},
@@ -243,6 +256,7 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
 std::vector<int> assetIds(const AssetInputs& in)
 {
     if (!in.grid || !in.ids) fail<ValueError>("asset: every id needs a level set and an id grid");
+    requireIds(in);
     return surfaceIdList(*in.grid, *in.ids);
 }
 

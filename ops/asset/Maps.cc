@@ -38,6 +38,63 @@ void frameAt(const UvMesh& m, const VertexFrames& f, size_t t, const openvdb::Ve
     bit = n.cross(tan) * (w < 0 ? -1.0 : 1.0);
 }
 
+// The level set's distance and gradient at world points (trilinear samples; central
+// differences one voxel apart), and a point's projection onto the zero set: two Newton steps
+// q = p - phi(p) grad phi / |grad phi|². An unregistered accessor: registering one per
+// triangle would serialise on the tree's accessor registry.
+class SdfProbe
+{
+public:
+    explicit SdfProbe(const openvdb::FloatGrid& grid)
+        : mAcc(grid.tree()), mXf(grid.transform()), mH(grid.transform().voxelSize()[0]) {}
+
+    double phi(const openvdb::Vec3d& p)
+    {
+        return double(openvdb::tools::BoxSampler::sample(mAcc, mXf.worldToIndex(p)));
+    }
+    openvdb::Vec3d grad(const openvdb::Vec3d& p)
+    {
+        const double h = mH;
+        return openvdb::Vec3d(phi(p + openvdb::Vec3d(h, 0, 0)) - phi(p - openvdb::Vec3d(h, 0, 0)),
+                              phi(p + openvdb::Vec3d(0, h, 0)) - phi(p - openvdb::Vec3d(0, h, 0)),
+                              phi(p + openvdb::Vec3d(0, 0, h)) - phi(p - openvdb::Vec3d(0, 0, h))) /
+               (2.0 * h);
+    }
+    openvdb::Vec3d project(openvdb::Vec3d q)
+    {
+        for (int step = 0; step < 2; ++step) {
+            const openvdb::Vec3d g = grad(q);
+            const double gl = g.lengthSqr();
+            if (gl < 1e-12) break;
+            q -= phi(q) * g / gl;
+        }
+        return q;
+    }
+
+private:
+    openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> mAcc;
+    const openvdb::math::Transform& mXf;
+    double mH;
+};
+
+// A texture's bilinear value at uv in [0, 1]² (texel centres at (i + 1/2) / size, clamped at
+// the border), as a GPU reads it without mipmaps.
+openvdb::Vec3d bilinear(const std::vector<openvdb::Vec3f>& tex, int size, const openvdb::Vec2d& uv)
+{
+    const double x = std::clamp(uv.x() * size - 0.5, 0.0, size - 1.0);
+    const double y = std::clamp(uv.y() * size - 0.5, 0.0, size - 1.0);
+    const int x0 = std::min(int(x), size - 2), y0 = std::min(int(y), size - 2);
+    const double fx = x - x0, fy = y - y0;
+    auto at = [&](int i, int j) { return openvdb::Vec3d(tex[size_t(j) * size + i]); };
+    return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) +
+           fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
+}
+
+double degreesBetween(const openvdb::Vec3d& a, const openvdb::Vec3d& b)
+{
+    return std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * 180.0 / M_PI;
+}
+
 } // namespace
 
 VertexFrames vertexFrames(const UvMesh& m)
@@ -105,8 +162,6 @@ BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const openvdb::FloatG
     map.normal.assign(size_t(size) * size, openvdb::Vec3f(0.5f, 0.5f, 1.0f));
     if (occlusion) map.occlusion.assign(size_t(size) * size, 1.0f);
     map.covered.assign(size_t(size) * size, 0);
-    const openvdb::math::Transform& xf = grid.transform();
-    const double h = xf.voxelSize()[0];
     const size_t nt = m.triangles();
     // Triangles are independent and write disjoint texels (the atlas has no overlaps); a
     // texel centre on a shared edge is taken by the lower-numbered triangle (the test is
@@ -114,18 +169,9 @@ BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const openvdb::FloatG
     parallelFor(task, nt, 64, [&](size_t t) {
         // unregistered accessors: registering one per triangle would serialise on the tree's
         // accessor registry
-        openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> acc(grid.tree());
+        SdfProbe sdf(grid);
         std::optional<openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>> oacc;
         if (occlusion) oacc.emplace(occlusion->value->tree());
-        auto phi = [&](const openvdb::Vec3d& p) {
-            return double(openvdb::tools::BoxSampler::sample(acc, xf.worldToIndex(p)));
-        };
-        auto grad = [&](const openvdb::Vec3d& p) {
-            return openvdb::Vec3d(phi(p + openvdb::Vec3d(h, 0, 0)) - phi(p - openvdb::Vec3d(h, 0, 0)),
-                                  phi(p + openvdb::Vec3d(0, h, 0)) - phi(p - openvdb::Vec3d(0, h, 0)),
-                                  phi(p + openvdb::Vec3d(0, 0, h)) - phi(p - openvdb::Vec3d(0, 0, h))) /
-                   (2.0 * h);
-        };
         openvdb::Vec2d uv[3];
         openvdb::Vec3d P[3];
         for (int k = 0; k < 3; ++k) {
@@ -152,16 +198,10 @@ BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const openvdb::FloatG
                     inside = inside && (b[k] > 0 || (b[k] == 0 && (e.y() > 0 || (e.y() == 0 && e.x() < 0))));
                 }
                 if (!inside) continue;
-                openvdb::Vec3d q = b[0] * P[0] + b[1] * P[1] + b[2] * P[2];
-                for (int step = 0; step < 2; ++step) {
-                    const openvdb::Vec3d g = grad(q);
-                    const double gl = g.lengthSqr();
-                    if (gl < 1e-12) break;
-                    q -= phi(q) * g / gl;
-                }
+                const openvdb::Vec3d q = sdf.project(b[0] * P[0] + b[1] * P[1] + b[2] * P[2]);
                 openvdb::Vec3d n, tan, bit;
                 frameAt(m, f, t, b, n, tan, bit);
-                const openvdb::Vec3d hi = safeUnit(grad(q), n);
+                const openvdb::Vec3d hi = safeUnit(sdf.grad(q), n);
                 const openvdb::Vec3d ts(hi.dot(tan), hi.dot(bit), hi.dot(n));
                 const size_t i = size_t(y) * size + x;
                 map.normal[i] = openvdb::Vec3f(0.5 * (ts + openvdb::Vec3d(1.0)));
@@ -199,6 +239,50 @@ BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const openvdb::FloatG
         }
     }
     return map;
+}
+
+NormalMapError normalMapError(const UvMesh& m, const VertexFrames& f, const BakedMaps& maps,
+                              const openvdb::FloatGrid& grid)
+{
+    if (maps.size < 2 || maps.normal.size() != size_t(maps.size) * maps.size) {
+        fail<ValueError>("asset: normalMapError needs a baked normal map");
+    }
+    // Four points per triangle (its centroid and the midpoints towards each corner), weighted
+    // by the triangle's area: serial, so the sums do not depend on the thread count.
+    static const openvdb::Vec3d kBary[4] = {{1 / 3.0, 1 / 3.0, 1 / 3.0}, {2 / 3.0, 1 / 6.0, 1 / 6.0},
+                                            {1 / 6.0, 2 / 3.0, 1 / 6.0}, {1 / 6.0, 1 / 6.0, 2 / 3.0}};
+    SdfProbe sdf(grid);
+    NormalMapError e;
+    double weight = 0;
+    for (size_t t = 0; t < m.triangles(); ++t) {
+        openvdb::Vec3d P[3];
+        openvdb::Vec2d uv[3];
+        for (int k = 0; k < 3; ++k) {
+            P[k] = m.points[m.indices[3 * t + k]];
+            uv[k] = m.uvs[m.indices[3 * t + k]];
+        }
+        const double area = 0.5 * (P[1] - P[0]).cross(P[2] - P[0]).length();
+        if (!(area > 0)) continue;
+        for (const openvdb::Vec3d& b : kBary) {
+            const openvdb::Vec3d q = sdf.project(b[0] * P[0] + b[1] * P[1] + b[2] * P[2]);
+            openvdb::Vec3d n, tan, bit;
+            frameAt(m, f, t, b, n, tan, bit);
+            const openvdb::Vec3d hi = safeUnit(sdf.grad(q), n);
+            const openvdb::Vec3d rgb = bilinear(maps.normal, maps.size, b[0] * uv[0] + b[1] * uv[1] + b[2] * uv[2]);
+            const openvdb::Vec3d c = 2.0 * rgb - openvdb::Vec3d(1.0);
+            const openvdb::Vec3d mapped = safeUnit(c.x() * tan + c.y() * bit + c.z() * n, n);
+            const double w = area / 4;
+            e.mapDegrees += w * degreesBetween(mapped, hi);
+            e.meshDegrees += w * degreesBetween(n, hi);
+            weight += w;
+            ++e.samples;
+        }
+    }
+    if (weight > 0) {
+        e.mapDegrees /= weight;
+        e.meshDegrees /= weight;
+    }
+    return e;
 }
 
 } // namespace asset

@@ -53,5 +53,19 @@ BakedMaps bakeMaps(const UvMesh& mesh, const VertexFrames& frames, const openvdb
 openvdb::Vec3d decodeNormal(const openvdb::Vec3f& rgb, const openvdb::Vec3d& normal,
                             const openvdb::Vec4d& tangent);
 
+/// How far a LOD's normals are from the level set's, with and without its normal map.
+struct NormalMapError
+{
+    double mapDegrees = 0;  ///< the map's normal (bilinear, decoded in the LOD's frame) vs the SDF's
+    double meshDegrees = 0; ///< the LOD's interpolated vertex normal vs the SDF's
+    size_t samples = 0;
+};
+
+/// @brief Mean angles (area-weighted, 4 points per triangle, not texel centres) between the
+/// level set's normal at the LOD point's projection onto the zero set and (a) the normal map's
+/// bilinear value decoded as an engine does, (b) the LOD's own interpolated normal.
+NormalMapError normalMapError(const UvMesh& mesh, const VertexFrames& frames, const BakedMaps& maps,
+                              const openvdb::FloatGrid& grid);
+
 } // namespace asset
 } // namespace rockvdb

@@ -21,7 +21,7 @@ asset::AssetInputs inputs(const Grid& grid, const std::optional<Grid>& ids)
     if (ids) {
         if (!*ids) throw py::type_error("asset: the id grid is None");
         in.ids = *ids;
-        in.names["id_grid"] = (*ids)->getName();
+        in.names["id-grid"] = (*ids)->getName();
     }
     return in;
 }

@@ -1,6 +1,8 @@
 """vdb_asset: a level set as a GLB that Blender's own glTF importer loads (LOD objects, their
-triangles, uvs, normal maps, y up converted back to Blender's z up), with its provenance in the
-asset's extras, the same bytes at any thread count, and one-line errors that write nothing."""
+triangles, uvs, normal and occlusion maps, the collision hull, y up converted back to Blender's
+z up), with its provenance in the asset's extras, the same bytes at any thread count; one block
+cut out of a tile by --id and every one by --each-id, each replayed by its own provenance;
+Python's rockvdb.asset gives the CLI's bytes; one-line errors that write nothing."""
 import json
 import os
 import shutil
@@ -30,7 +32,7 @@ def rock(tmp_path_factory):
     run([tool("vdb_fractal_rock"), "-q", "--levels", "3", "--voxel-size", "0.01", "--seed", "5",
          "-o", str(d / "rock.vdb")], check=True)
     run([tool("vdb_asset"), "-q", str(d / "rock.vdb"), "--lods", "2000,600,150",
-         "--texture-size", "256", "--name", "boulder", "-o", str(d / "rock.glb"),
+         "--texture-size", "256", "--name", "boulder", "--collision", "-o", str(d / "rock.glb"),
          "--stats", str(d / "stats.json")], check=True)
     return d
 
@@ -44,22 +46,31 @@ def test_blender_imports_every_lod_with_uvs_normal_maps_and_z_up(rock, tmp_path)
     assert report.exists(), p.stdout[-3000:] + p.stderr[-3000:]
     r = json.loads(report.read_text())
     stats = json.loads((rock / "stats.json").read_text())
-    assert sorted(r) == ["boulder_LOD0", "boulder_LOD1", "boulder_LOD2"]
+    assert sorted(r) == ["UCX_boulder_00", "boulder_LOD0", "boulder_LOD1", "boulder_LOD2"]
     import pyopenvdb
     g = pyopenvdb.read(str(rock / "rock.vdb"), "surface")
     (i0, j0, k0), (i1, j1, k1) = g.evalActiveVoxelBoundingBox()
     dx = g.transform.voxelSize()[0]
-    for l, (name, want) in enumerate(zip(sorted(r), (2000, 600, 150))):
+    for l, (name, want) in enumerate(zip(sorted(r)[1:], (2000, 600, 150))):
         o = r[name]
         assert o["triangles"] == stats["lods"][l]["triangles"] <= want
         assert o["triangles"] >= 0.8 * want
         assert 0 <= o["uv"][0] and o["uv"][1] <= 1 and 0 <= o["uv"][2] and o["uv"][3] <= 1
-        assert o["images"] == [f"boulder_LOD{l}_normal"] and o["image_size"] == [256, 256]
-        assert o["normal_map_nodes"] == 1
+        assert o["images"] == [f"boulder_LOD{l}_normal", f"boulder_LOD{l}_occlusion"]
+        assert all(size == [256, 256] for size in o["image_sizes"].values())
+        assert o["normal_map_nodes"] == 1 and o["occlusion_linked"] == 1
+        assert 0.3 < stats["lods"][l]["occlusion_mean"] < 1.0
         # the rock's top stays on top: Blender's z is rockvdb's z (the band is 3 voxels wide)
         assert (k0 + 2) * dx < o["z"][0] < (k0 + 4) * dx + 0.02
         assert (k1 - 4) * dx - 0.02 < o["z"][1] < (k1 - 2) * dx
         assert (j0 + 2) * dx < o["y"][0] and o["y"][1] < (j1 - 2) * dx
+    # the collision hull: no material, no uvs, encloses the coarsest LOD, extras as custom props
+    c = r["UCX_boulder_00"]
+    assert c["material"] is None and c["uv_layers"] == 0 and c["images"] == []
+    assert c["triangles"] == stats["collision"]["triangles"] == 2 * c["vertices"] - 4
+    assert c["custom"] == {"rockvdb_collision": "convex"}
+    lod2 = r["boulder_LOD2"]
+    assert c["z"] == pytest.approx(lod2["z"], abs=1e-6) and c["y"] == pytest.approx(lod2["y"], abs=1e-6)
 
 
 def test_provenance_in_extras_and_the_same_bytes_at_any_thread_count(rock, tmp_path):
@@ -67,7 +78,7 @@ def test_provenance_in_extras_and_the_same_bytes_at_any_thread_count(rock, tmp_p
     prov = j["asset"]["extras"]["rockvdb"]
     assert prov["generator"] == "vdb_asset"
     assert prov["params"]["lods"] == "2000,600,150" and prov["params"]["texture-size"] == 256
-    assert prov["params"]["source"]["generator"] == "vdb_fractal_rock"
+    assert prov["params"]["sources"][0]["generator"] == "vdb_fractal_rock"
     assert [n["name"] for n in j["nodes"]] == ["boulder_LOD0", "boulder_LOD1", "boulder_LOD2"]
     again = tmp_path / "one.glb"
     run([tool("vdb_asset"), "-q", "--threads", "1", str(rock / "rock.vdb"), "--lods",
@@ -93,3 +104,116 @@ def test_the_output_must_be_a_glb(rock, tmp_path):
     one_line_error(run([tool("vdb_asset"), str(rock / "rock.vdb"), "-o", str(tmp_path / "x.obj")]),
                    2, "must be a .glb")
     assert not (tmp_path / "x.obj").exists()
+
+
+def glb_chunks(path_or_bytes):
+    """(JSON dict, BIN bytes) of a GLB."""
+    data = path_or_bytes if isinstance(path_or_bytes, bytes) else open(path_or_bytes, "rb").read()
+    n, _ = struct.unpack_from("<I4s", data, 12)
+    m, kind = struct.unpack_from("<I4s", data, 20 + n)
+    assert kind == b"BIN\0"
+    return json.loads(data[20:20 + n]), data[28 + n:28 + n + m]
+
+
+def test_python_gives_the_clis_asset(rock):
+    import pyopenvdb
+    import rockvdb
+    g = pyopenvdb.read(str(rock / "rock.vdb"), "surface")
+    stats = {}
+    data = rockvdb.asset(g, lods="2000,600,150", texture_size=256, name="boulder", collision=True,
+                         stats=stats)
+    j, b = glb_chunks(data)
+    cj, cb = glb_chunks(rock / "rock.glb")
+    assert b == cb
+    # the same but for the inputs' names: the CLI records its input file, Python cannot
+    pp, cp = j["asset"].pop("extras")["rockvdb"]["params"], cj["asset"].pop("extras")["rockvdb"]["params"]
+    assert j == cj
+    assert cp.pop("input") == str(rock / "rock.vdb") and pp == cp
+    assert stats["lods"] == json.loads((rock / "stats.json").read_text())["lods"]
+
+
+@pytest.fixture(scope="module")
+def blocks(tmp_path_factory):
+    d = tmp_path_factory.mktemp("asset_blocks")
+    run([tool("vdb_blocks"), "-q", "--type", "tabular", "--tile-size", "6", "--point-radius", "0.5",
+         "--voxel-size", "0.1", "--seed", "3", "-o", str(d / "t.vdb")], check=True)
+    return d
+
+
+SMALL_ASSET = ["--lods", "300,80", "--texture-size", "64", "--padding", "2"]
+
+
+def test_one_block_by_id_and_every_block_by_each_id_replayed_by_provenance(blocks, tmp_path):
+    import numpy as np
+    import pyopenvdb
+    import rockvdb
+    surface = pyopenvdb.read(str(blocks / "t.vdb"), "surface")
+    block_id = pyopenvdb.read(str(blocks / "t.vdb"), "block_id")
+    ids = rockvdb.asset_ids(surface, block_id)
+    assert len(ids) >= 3 and ids == sorted(set(ids))
+    pick = ids[len(ids) // 2]
+    one = tmp_path / "one.glb"
+    run([tool("vdb_asset"), "-q", str(blocks / "t.vdb"), *SMALL_ASSET, "--id", str(pick),
+         "--stats", str(tmp_path / "one.json"), "-o", str(one)], check=True)
+    assert json.loads((tmp_path / "one.json").read_text())["cut"]["id"] == pick
+    # the asset lies where block `pick` is (its id voxels' box, rockvdb z up = glTF y up)
+    (i0, j0, k0), (i1, j1, k1) = block_id.evalActiveVoxelBoundingBox()
+    a = np.full((i1 - i0 + 1, j1 - j0 + 1, k1 - k0 + 1), -1.0, dtype=np.float32)
+    block_id.copyToArray(a, ijk=(i0, j0, k0))
+    inside = np.zeros(a.shape, dtype=np.float32)
+    surface.copyToArray(inside, ijk=(i0, j0, k0))
+    where = np.argwhere((np.rint(a) == pick) & (inside <= 0))
+    dx = surface.transform.voxelSize()[0]
+    lo = (where.min(axis=0) + (i0, j0, k0)) * dx
+    hi = (where.max(axis=0) + (i0, j0, k0)) * dx
+    j, _ = glb_chunks(one)
+    pos = j["accessors"][j["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]
+    gmin = np.array([pos["min"][0], -pos["max"][2], pos["min"][1]])
+    gmax = np.array([pos["max"][0], -pos["min"][2], pos["max"][1]])
+    assert np.all(gmin > lo - 2 * dx) and np.all(gmax < hi + 2 * dx), (gmin, gmax, lo, hi)
+    assert np.all(gmax - gmin > 0.5 * (hi - lo))
+
+    each = tmp_path / "each"
+    each.mkdir()
+    run([tool("vdb_asset"), "-q", str(blocks / "t.vdb"), *SMALL_ASSET, "--each-id", "--name", "blk",
+         "-o", str(each / "blk_{id}.glb")], check=True)
+    assert sorted(os.listdir(each)) == sorted(f"blk_{i}.glb" for i in ids)
+    mine = each / f"blk_{pick}.glb"
+    mj, mb = glb_chunks(mine)
+    assert mb == glb_chunks(one)[1]  # the same block, only its name differs
+    assert mj["nodes"][0]["name"] == f"blk_{pick}_LOD0"
+    # each file replays from its own provenance, bit for bit
+    params = mj["asset"]["extras"]["rockvdb"]["params"]
+    assert params["id"] == pick and params["id-grid"] == "block_id"
+    (tmp_path / "p.json").write_text(json.dumps(params))
+    run([tool("vdb_asset"), "-q", "--params", str(tmp_path / "p.json"), "-o", str(tmp_path / "again.glb")],
+        check=True)
+    assert (tmp_path / "again.glb").read_bytes() == mine.read_bytes()
+    # and Python makes the same set
+    from_python = rockvdb.asset_each(surface, block_id, lods="300,80", texture_size=64, padding=2,
+                                     name="blk")
+    assert sorted(from_python) == ids
+    assert glb_chunks(from_python[pick])[1] == mb
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--id", "99999"], "id 99999 is not in 'block_id'"),
+    (["--each-id"], "must hold '{id}'"),
+    (["--id-grid", "surface", "--id", "1"], "is a level set, not an id grid"),
+    (["--id-grid", "nope", "--id", "1"], "has no id grid 'nope'"),
+])
+def test_bad_ids_are_one_line_and_write_nothing(blocks, tmp_path, args, message):
+    out = tmp_path / "bad.glb"
+    one_line_error(run([tool("vdb_asset"), str(blocks / "t.vdb"), *SMALL_ASSET, *args, "-o", str(out)]),
+                   2, message)
+    assert not out.exists()
+
+
+def test_ids_need_an_id_grid_and_a_slot(rock, tmp_path):
+    one_line_error(run([tool("vdb_asset"), str(rock / "rock.vdb"), "--id", "3", "-o", str(tmp_path / "a.glb")]),
+                   2, "has no id grid 'block_id' or 'rock_id'")
+    one_line_error(run([tool("vdb_asset"), str(rock / "rock.vdb"), "-o", str(tmp_path / "a_{id}.glb")]),
+                   2, "--each-id is not given")
+    one_line_error(run([tool("vdb_asset"), str(rock / "rock.vdb"), "--each-id", "--id", "1",
+                        "-o", str(tmp_path / "a_{id}.glb")]), 2, "exclude each other")
+    assert os.listdir(tmp_path) == []

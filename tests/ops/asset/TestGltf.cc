@@ -77,6 +77,7 @@ TEST(Gltf, GlbReadsBackWithLodsAttributesYUpAndProvenance)
     const std::string bytes = glb(b);
     tinygltf::Model m;
     tinygltf::TinyGLTF loader;
+    loader.SetPreserveImageChannels(true); // decode RGB as RGB, grey as grey
     std::string err, warn;
     ASSERT_TRUE(loader.LoadBinaryFromMemory(&m, &err, &warn,
                                             reinterpret_cast<const unsigned char*>(bytes.data()),
@@ -101,6 +102,7 @@ TEST(Gltf, GlbReadsBackWithLodsAttributesYUpAndProvenance)
         ASSERT_GE(mat.occlusionTexture.index, 0);
         const auto& occ = m.images[m.textures[mat.occlusionTexture.index].source];
         EXPECT_EQ(occ.name, "boulder_LOD" + std::to_string(l) + "_occlusion");
+        EXPECT_EQ(occ.component, 1);
         // a sphere is open to the sky all round: every texel near 1 (decoded as read)
         int darkest = 255;
         for (size_t i = 0; i < occ.image.size(); i += size_t(occ.component)) darkest = std::min(darkest, int(occ.image[i]));
@@ -151,6 +153,7 @@ TEST(Gltf, SixteenBitMapsAndACollisionHull)
     const std::string bytes = glb(b, 16, true);
     tinygltf::Model m;
     tinygltf::TinyGLTF loader;
+    loader.SetPreserveImageChannels(true); // decode RGB as RGB, grey as grey
     std::string err, warn;
     ASSERT_TRUE(loader.LoadBinaryFromMemory(&m, &err, &warn,
                                             reinterpret_cast<const unsigned char*>(bytes.data()),

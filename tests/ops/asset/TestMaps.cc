@@ -132,6 +132,16 @@ TEST(Maps, ALowPolyLodCarriesTheLevelSetsDetail)
     // the ripples tilt the normal by up to atan(a k) = 20 degrees: the LOD alone misses them
     EXPECT_GT(e.lodMean, 7.0);
     EXPECT_LT(e.mapMean, 1.0) << "LOD alone: " << e.lodMean << " degrees";
+    // normalMapError (the stage's statistic) agrees: bilinear reads between texel centres,
+    // against the level set's own normals rather than the analytic ones
+    const NormalMapError s = normalMapError(m, fr, map, *g);
+    EXPECT_EQ(s.samples, 4 * m.triangles());
+    EXPECT_NEAR(s.meshDegrees, e.lodMean, 1.5);
+    EXPECT_LT(s.mapDegrees, 2.0);
+    // a map baked for another LOD is far off: the statistic can fail
+    const UvMesh other = atlas(makeLods(full, {1500}, task)[0].mesh, size, 2);
+    const VertexFrames ofr = vertexFrames(other);
+    EXPECT_GT(normalMapError(m, fr, bakeMaps(other, ofr, *g, size, nullptr, task), *g).mapDegrees, 5.0 * std::max(s.mapDegrees, 1.0));
     // dilation leaves no texel at the flat default
     size_t flat = 0;
     for (const auto& c : map.normal) flat += c == openvdb::Vec3f(0.5f, 0.5f, 1.0f);

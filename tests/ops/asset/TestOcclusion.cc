@@ -1,5 +1,5 @@
 // Ambient occlusion by cone tracing (asset/Occlusion.h): open sky on a sphere and on a flat
-// top, dark at the bottom of a narrow slot and in between on its wall, as the cosine-weighted
+// top, dark at the bottom of a narrow slot and deep on its wall, lighter near its rim, as the cosine-weighted
 // view of the sky says; the baked grid agrees with the traced value at surface points.
 #include <rockvdb/asset/Occlusion.h>
 #include <rockvdb/core/Error.h>
@@ -55,13 +55,18 @@ TEST(Occlusion, ASlotIsDarkAtItsBottomAndOpenAboveIt)
     Task task;
     const Occlusion occ = occlusion(surfaceMesh(*g), h, 0.5, task);
     const double bottom = traceOcclusion(occ, Vec3d(0, 0, 0.6), Vec3d(0, 0, 1));
-    const double wall = traceOcclusion(occ, Vec3d(0, 0.05, 0.8), Vec3d(0, -1, 0));
+    // the wall 5 cm below the rim: the sky above 27 degrees (atan(0.05 / 0.1)) of elevation,
+    // a cosine-weighted share of about (1 - sin 27°) / 2 = 0.28; deeper on the wall it is dark
+    const double wall = traceOcclusion(occ, Vec3d(0, 0.05, 0.95), Vec3d(0, -1, 0));
+    const double deepWall = traceOcclusion(occ, Vec3d(0, 0.05, 0.7), Vec3d(0, -1, 0));
     const double top = traceOcclusion(occ, Vec3d(0, 0.6, 1.0), Vec3d(0, 0, 1));
     // the bottom's cosine-weighted view of the sky through the slot is sin(atan(0.05 / 0.4))
     // = 0.12; the cones, 20 degrees wide, see a little more
     EXPECT_LT(bottom, 0.35);
     EXPECT_LT(bottom, wall);
-    EXPECT_LT(wall, 0.8);
+    EXPECT_LT(deepWall, wall);
+    EXPECT_GT(wall, 0.1);
+    EXPECT_LT(wall, 0.6);
     EXPECT_GE(top, 0.97);
     EXPECT_NEAR(sampled(occ, Vec3d(0, 0, 0.6)), bottom, 0.15);
     EXPECT_GE(sampled(occ, Vec3d(0, 0.6, 1.0)), 0.95);
