@@ -3,7 +3,7 @@
 #include <rockvdb/core/Error.h>
 
 #include <openvdb/tools/LevelSetRebuild.h>
-#include <openvdb/tools/SignedFloodFill.h>
+#include <openvdb/tools/Prune.h>
 
 #include <algorithm>
 #include <cmath>
@@ -175,11 +175,16 @@ CutResult cutId(const openvdb::FloatGrid& surface, const openvdb::FloatGrid& ids
                     }
                     if (cut) acc.setValueOn(c, std::max(phi[x], -half));
                     else if (phi[x] > -bg) acc.setValueOn(c, phi[x]);
+                    else acc.setValueOff(c, -bg); // deep inside: negative, inactive
                 }
             }
         }
     }
-    openvdb::tools::signedFloodFill(out->tree());
+    // Every voxel's sign is known: the block's inside is written (deep voxels inactive at
+    // -background), everything else is outside, as the background says. No signedFloodFill:
+    // it would guess the sign of unallocated regions (dropped neighbours) from their scan
+    // neighbours, and could turn them inside. Uniform leaves collapse back to tiles.
+    openvdb::tools::pruneLevelSet(out->tree());
     if (r.rebuilt) {
         const float hw = float(bg / h);
         out = openvdb::tools::levelSetRebuild(*out, 0.0f, hw, hw, nullptr, task.interrupter());

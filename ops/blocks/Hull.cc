@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <map>
+#include <tuple>
 #include <cmath>
 
 namespace rockvdb {
@@ -106,6 +107,28 @@ Hull convexHull(const std::vector<Vec3d>& points, double tolerance)
             h.areas.push_back(area);
         }
     }
+    // CGAL hands the hull's vertices and facets over in an order that follows memory addresses
+    // (handles in hashed maps), so it changes from run to run: vertices sorted by position,
+    // each triangle from its lowest index on (orientation kept), triangles sorted, make the
+    // mesh a function of the points alone.
+    std::vector<uint32_t> order(h.vertices.size());
+    for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+        const Vec3d &p = h.vertices[a], &q = h.vertices[b];
+        return std::make_tuple(p[0], p[1], p[2]) < std::make_tuple(q[0], q[1], q[2]);
+    });
+    std::vector<uint32_t> rank(order.size());
+    std::vector<Vec3d> sorted(order.size());
+    for (uint32_t i = 0; i < order.size(); ++i) {
+        rank[order[i]] = i;
+        sorted[i] = h.vertices[order[i]];
+    }
+    h.vertices.swap(sorted);
+    for (auto& t : h.triangles) {
+        for (auto& v : t) v = rank[v];
+        std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+    }
+    std::sort(h.triangles.begin(), h.triangles.end());
     return h;
 }
 

@@ -15,7 +15,7 @@ struct Hull
     int dimension = -1;                        ///< affine dimension of the points, 0..3
     std::vector<std::array<double, 4>> planes; ///< dimension 3: outward unit n, d (n·p <= d)
     std::vector<double> areas;                 ///< facet area per plane (coplanar facets merged)
-    std::vector<Vec3d> vertices;               ///< hull vertices (dimension 3)
+    std::vector<Vec3d> vertices;               ///< hull vertices (dimension 3), sorted by position
     std::vector<std::array<uint32_t, 3>> triangles; ///< dimension 3: outward (counter-clockwise
                                                     ///< seen from outside) over `vertices`
 };

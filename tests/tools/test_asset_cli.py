@@ -79,10 +79,12 @@ def test_provenance_in_extras_and_the_same_bytes_at_any_thread_count(rock, tmp_p
     assert prov["generator"] == "vdb_asset"
     assert prov["params"]["lods"] == "2000,600,150" and prov["params"]["texture-size"] == 256
     assert prov["params"]["sources"][0]["generator"] == "vdb_fractal_rock"
-    assert [n["name"] for n in j["nodes"]] == ["boulder_LOD0", "boulder_LOD1", "boulder_LOD2"]
+    assert [n["name"] for n in j["nodes"]] == ["boulder_LOD0", "boulder_LOD1", "boulder_LOD2",
+                                               "UCX_boulder_00"]
     again = tmp_path / "one.glb"
     run([tool("vdb_asset"), "-q", "--threads", "1", str(rock / "rock.vdb"), "--lods",
-         "2000,600,150", "--texture-size", "256", "--name", "boulder", "-o", str(again)], check=True)
+         "2000,600,150", "--texture-size", "256", "--name", "boulder", "--collision", "-o", str(again)],
+        check=True)
     assert again.read_bytes() == (rock / "rock.glb").read_bytes()
 
 

@@ -1,6 +1,7 @@
 // One block or rock cut out by its id (asset/Cut.h): a rock standing apart keeps its band
 // bit for bit; two blocks fused without a gap are parted at the face where their ids meet;
-// an id that is not there is named with the ids that are.
+// a thin layer between two big blocks keeps its inside; an id that is not there is named
+// with the ids that are.
 #include <rockvdb/asset/Cut.h>
 #include <rockvdb/core/Error.h>
 
@@ -103,4 +104,28 @@ TEST(Cut, AnIdThatIsNotThereIsNamed)
     auto moved = id->deepCopy();
     moved->setTransform(openvdb::math::Transform::createLinearTransform(0.1));
     EXPECT_THROW(cutId(*s, *moved, 3, 1u << 26, task), ValueError);
+}
+
+TEST(Cut, AThinLayerBetweenTwoBigBlocksKeepsItsInside)
+{
+    // a 4 x 4 x 3 m box in three fused layers: 0 below z = 1.2, 1 up to z = 1.5 (6 voxels
+    // thick), 2 above. Cutting 1 drops the big blocks, which span whole leaves: their space
+    // must come out as outside and the layer's as inside (a sign guessed by flood filling the
+    // emptied leaves loses it)
+    const double h = 0.05;
+    auto g = openvdb::tools::createLevelSetBox<FloatGrid>(openvdb::BBoxd(Vec3d(0), Vec3d(4, 4, 3)),
+        *openvdb::math::Transform::createLinearTransform(h), 3.0f);
+    const auto id = ids(*g, [](const Vec3d& p) { return p.z() < 1.2 ? 0 : (p.z() < 1.5 ? 1 : 2); });
+    Task task;
+    const CutResult c = cutId(*g, *id, 1, 1u << 26, task);
+    EXPECT_TRUE(c.rebuilt);
+    for (const Vec3d xy : {Vec3d(2, 2, 0), Vec3d(0.3, 0.3, 0), Vec3d(3.7, 0.4, 0), Vec3d(1.1, 3.3, 0)}) {
+        EXPECT_LT(phiAt(*c.grid, xy + Vec3d(0, 0, 1.35)), -0.1) << xy;
+        // the faces lie half way between the last voxel centre of one id and the first of the
+        // next (centres at multiples of h: layer 1 holds z = 1.20 ... 1.45)
+        EXPECT_NEAR(phiAt(*c.grid, xy + Vec3d(0, 0, 1.175)), 0.0, 0.25 * h) << xy;
+        EXPECT_NEAR(phiAt(*c.grid, xy + Vec3d(0, 0, 1.475)), 0.0, 0.25 * h) << xy;
+        EXPECT_GT(phiAt(*c.grid, xy + Vec3d(0, 0, 0.6)), 0.0) << xy;
+        EXPECT_GT(phiAt(*c.grid, xy + Vec3d(0, 0, 2.3)), 0.0) << xy;
+    }
 }

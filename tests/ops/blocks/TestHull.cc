@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 using namespace rockvdb;
@@ -75,6 +76,31 @@ TEST(Hull, RandomCloudContainsEveryPointAndVerticesLieOnPlanes)
     for (double a : h.areas) area += a;
     EXPECT_LT(area, 4 * M_PI * 4);
     EXPECT_GT(area, 2 * M_PI * 4);
+}
+
+TEST(Hull, ItsMeshIsClosedOutwardAndTheSameForShuffledPoints)
+{
+    std::vector<Vec3d> pts;
+    for (int i = 0; i < 300; ++i) {
+        pts.emplace_back(random::uniform(8, 0, uint64_t(i), -1, 1), random::uniform(8, 1, uint64_t(i), -1, 1),
+                         random::uniform(8, 2, uint64_t(i), -1, 1));
+    }
+    const Hull h = convexHull(pts, 1e-9);
+    ASSERT_EQ(h.dimension, 3);
+    // closed: Euler's formula for a triangulated sphere; outward: positive volume
+    EXPECT_EQ(h.triangles.size(), 2 * h.vertices.size() - 4);
+    double volume = 0;
+    for (const auto& t : h.triangles) {
+        volume += h.vertices[t[0]].dot(h.vertices[t[1]].cross(h.vertices[t[2]])) / 6.0;
+    }
+    EXPECT_GT(volume, 2.0); // the cube [-1, 1]³ holds 8; 300 points hull most of it
+    EXPECT_LT(volume, 8.0);
+    // the mesh is a function of the point set (CGAL's own order follows memory addresses)
+    std::vector<Vec3d> shuffled(pts.rbegin(), pts.rend());
+    std::rotate(shuffled.begin(), shuffled.begin() + 77, shuffled.end());
+    const Hull again = convexHull(shuffled, 1e-9);
+    EXPECT_EQ(again.vertices, h.vertices);
+    EXPECT_EQ(again.triangles, h.triangles);
 }
 
 TEST(Hull, DegenerateCloudsReportTheirDimension)
