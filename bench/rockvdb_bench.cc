@@ -800,10 +800,15 @@ void assetGroup(bool quick)
                 fp.voxelSize * 1e3, ap.lods.c_str(), ap.textureSize,
                 r.stats["full_triangles"].get<size_t>(), t, ref, t / ref, lods.c_str());
     std::printf("ratio asset vs volumeToMesh (1 m rock): %.1fx\n", t / ref);
+    std::fflush(stdout);
 
     // 100 rocks of a pile, each its own asset
+    // game-sized pile rocks: 1 to 4 seeds per 20 cm cell at 20 voxels per cell (1 cm)
     rockpile::RockTileParams tp;
     tp.n = 5;
+    tp.seedsMin = 1;
+    tp.seedsMax = 4;
+    tp.voxelsPerCell = 20;
     const rockpile::TileSet set = rockpile::generateTiles(tp);
     auto slab = box(Vec3d(0.0), Vec3d(1.5, 1.5, 0.3));
     rockpile::PileParams pp;
@@ -811,7 +816,7 @@ void assetGroup(bool quick)
     instances.resize(std::min<size_t>(instances.size(), quick ? 20 : 100));
     const rockpile::Pile pile = rockpile::buildPile(set, instances, pp);
     asset::AssetParams each;
-    each.lods = "1500,500,150";
+    each.lods = "1000,300,100";
     each.textureSize = 512;
     asset::AssetInputs pin;
     pin.grid = pile.surface;

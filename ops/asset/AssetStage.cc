@@ -135,6 +135,25 @@ double extent(const TriMesh& m)
     return box.extents()[box.maxExtent()];
 }
 
+// Budgets scaled by full / budgets[0] (LOD 0 = the whole surface), each at least one below
+// the one before, as the lods text.
+std::string fitLods(const std::vector<size_t>& budgets, size_t full)
+{
+    std::string text;
+    size_t prev = full + 1;
+    for (size_t b : budgets) {
+        size_t v = size_t(double(b) * double(full) / double(budgets.front()));
+        v = std::min(v, prev - 1);
+        if (v < 1) {
+            fail<ValueError>("asset: the surface has ", full, " triangles, too few for ", budgets.size(),
+                             " levels of detail");
+        }
+        text += (text.empty() ? "" : ",") + std::to_string(v);
+        prev = v;
+    }
+    return text;
+}
+
 TriMesh hullMesh(const TriMesh& lod)
 {
     std::vector<Vec3d> pts(lod.points.begin(), lod.points.end());
@@ -153,7 +172,8 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
     assetSchema().validate(p);
     if (!in.grid) fail<ValueError>("asset: no input grid");
     requireLevelSet(*in.grid, "asset input");
-    const std::vector<size_t> budgets = parseLods(p.lods);
+    std::vector<size_t> budgets = parseLods(p.lods);
+    AssetParams used = p; // the values this asset was made with (fitted LODs)
     AssetResult r;
 
     openvdb::FloatGrid::ConstPtr grid = in.grid;
@@ -172,6 +192,11 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
 
     task.phase("mesh", 0.1 * share);
     const TriMesh full = surfaceMesh(*grid);
+    const bool fitted = in.fitLods && budgets.front() > full.triangles();
+    if (fitted) {
+        used.lods = fitLods(budgets, full.triangles());
+        budgets = parseLods(used.lods);
+    }
     task.phase("simplify", 0.2 * share);
     const std::vector<Lod> lods = makeLods(full, budgets, task);
     task.phase("atlas", 0.1 * share);
@@ -198,7 +223,7 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
     TriMesh hull;
     if (p.collision) hull = hullMesh(lods.back().mesh);
 
-    nlohmann::json prov = stageProvenance(assetSchema().toJson(p), in.names);
+    nlohmann::json prov = stageProvenance(assetSchema().toJson(used), in.names);
     // Under "sources", as vdb_csg records its inputs: a --params replay skips it.
     prov["sources"] = nlohmann::json::array({gridSource(*in.grid)});
     r.provenance = prov;
@@ -248,6 +273,7 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
                            std::to_string(hull.triangles()) + " triangles");
     }
     if (!cutStats.is_null()) r.stats["cut"] = cutStats;
+    if (fitted) r.stats["lods_fitted"] = used.lods;
     r.report.insert(r.report.begin(), "surface: " + std::to_string(full.triangles()) + " triangles" +
                     (p.id >= 0 ? " (id " + std::to_string(p.id) + " of '" + in.ids->getName() + "')" : ""));
     return r;
@@ -283,6 +309,8 @@ AssetSetResult runAssetEach(const AssetParams& p, const AssetInputs& in, Task& t
     const std::vector<int> ids = assetIds(in);
     if (ids.empty()) fail<ValueError>("asset: the id grid '", in.ids->getName(), "' holds no ids");
     AssetSetResult out;
+    AssetInputs fit = in;
+    fit.fitLods = true;
     nlohmann::json each = nlohmann::json::array();
     task.phase("assets", 1.0);
     for (size_t i = 0; i < ids.size(); ++i) {
@@ -292,7 +320,7 @@ AssetSetResult runAssetEach(const AssetParams& p, const AssetInputs& in, Task& t
         one.name = p.name + "_" + std::to_string(ids[i]);
         SubHost host(task, double(i) / double(ids.size()), double(i + 1) / double(ids.size()));
         Task sub(&host);
-        AssetResult r = runAsset(one, in, sub);
+        AssetResult r = runAsset(one, fit, sub);
         nlohmann::json st = r.stats;
         st.erase("phases");
         each.push_back({{"id", ids[i]}, {"stats", st}});

@@ -47,6 +47,10 @@ struct AssetInputs
     openvdb::FloatGrid::ConstPtr grid;               ///< the level set
     openvdb::FloatGrid::ConstPtr ids;                ///< the id grid (needed for id >= 0)
     nlohmann::json names = nlohmann::json::object(); ///< e.g. {"input": path, "grid": name}
+    /// A surface with fewer triangles than LOD 0 asks has every budget scaled down so that
+    /// LOD 0 is the whole surface (runAssetEach: a pile's small rocks), instead of an error;
+    /// the provenance records the budgets used, so it replays without this flag.
+    bool fitLods = false;
 };
 
 struct AssetResult : StageResult
@@ -69,7 +73,8 @@ struct AssetSetResult : StageResult
 };
 
 /// @brief runAsset for every id of assetIds (params.id ignored), each named <name>_<id> with
-/// its own provenance (its id and name): stats hold each asset's, report a line per asset.
+/// its own provenance (its id and name) and its LODs fitted (AssetInputs::fitLods): stats
+/// hold each asset's, report a line per asset.
 AssetSetResult runAssetEach(const AssetParams& params, const AssetInputs& inputs, Task& task);
 
 } // namespace asset
