@@ -19,14 +19,15 @@ const Schema<AssetParams>& assetSchema()
 {
     static const Schema<AssetParams> s = [] {
         Schema<AssetParams> t("asset", "A level set as a game asset: one GLB (glTF 2.0) with "
-                                       "levels of detail, a UV atlas and a normal map baked "
-                                       "from the level set, y up, metres.");
+                                       "levels of detail, each with a UV atlas and normal "
+                                       "and ambient-occlusion maps baked from the level set, "
+                                       "y up, metres.");
         t.member(param("lods", ParamType::Text, "", "5000,1500,400", Range::any(),
                        "Triangles of each level of detail, finest first, decreasing (each is "
                        "simplified from the full surface)"),
                  &AssetParams::lods);
         t.member(param("texture-size", ParamType::Int, "texels", 1024, Range::closed(8, 16384),
-                       "Normal map size (square; every LOD shares the atlas)"),
+                       "Size of each LOD's maps (square; each LOD has its own atlas)"),
                  &AssetParams::textureSize);
         t.member(param("padding", ParamType::Int, "texels", 4, Range::closed(0, 512),
                        "Texels between UV charts (and at the border)"),

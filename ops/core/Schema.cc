@@ -15,6 +15,8 @@ namespace {
 
 std::string number(double v)
 {
+    // whole numbers as integers (an id's limit 16777215, not 1.67772e+07)
+    if (v == std::floor(v) && std::abs(v) < 1e15) return std::to_string((long long)v);
     std::ostringstream os;
     os << v;
     return os.str();
