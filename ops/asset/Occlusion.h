@@ -3,7 +3,7 @@
 // A game asset's occlusion map says how much of the sky each surface point sees, within a
 // distance D (nearer geometry occludes, farther does not). It is computed from a distance
 // field, not by casting rays at a mesh:
-//   - the field: the asset's LOD0 mesh as a level set (tools::meshToLevelSet) at a coarse voxel
+//   - the field: the asset's LOD0 mesh as a signed distance field (tools::meshToSignedDistanceField) at a coarse voxel
 //     hc = max(h, D / 12) with an exterior band reaching D, so a cone can be traced through it
 //     (the stage's own narrow band is 3 voxels wide: a ray leaves it at once);
 //   - the occlusion at a surface point p with normal n: kCones cones of half angle θ = 20°

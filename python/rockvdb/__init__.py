@@ -46,7 +46,7 @@ Job = _rockvdb.Job
 Job.__doc__ = ("A stage call watched from another thread: enter it (with job:) on the thread "
                "that calls; read progress (0..1) and phase, or cancel(), from any other.")
 
-__all__ = ["BlockTile", "Field", "Job", "amplify", "block_tile", "box", "capsule", "coverage", "csg",
+__all__ = ["BlockTile", "Field", "Job", "amplify", "asset", "asset_each", "asset_ids", "block_tile", "box", "capsule", "coverage", "csg",
            "detail", "expression", "fractal_carve", "fractal_rock", "fractal_scatter", "heightfield", "load_tile", "mesh", "plane",
            "polytope", "preview",
            "provenance", "read", "read_image", "rock_library", "rock_pile", "rock_tiles",
