@@ -25,9 +25,11 @@ int main(int argc, char** argv)
         " Each LOD is a node <name>_LOD<i> with POSITION, NORMAL, TANGENT, TEXCOORD_0 and its "
         "own material with normal and occlusion maps; rockvdb's z up becomes glTF's y up; the "
         "provenance sits in the asset's extras. --id N cuts one block or rock out of the id "
-        "grid; --each-id writes one GLB per id, -o holding '{id}' (e.g. rocks/rock_{id}.glb).");
+        "grid; --each-id writes one GLB per id, -o holding '{id}' (e.g. rocks/rock_{id}.glb); "
+        "--tiles makes the input a rock pile's points (vdb_rockpile pile --points): one GLB whose "
+        "unique rocks are drawn at every instance by EXT_mesh_gpu_instancing.");
     CLI::App& app = tool.app();
-    std::string input, gridName, idGridName;
+    std::string input, gridName, idGridName, tilesPath;
     bool eachId = false;
     app.add_option("input", input, "Input .vdb ('-' = stdin)")->required();
     app.add_option("--grid", gridName, "Level-set grid (default: 'surface', else the only level set)");
@@ -35,6 +37,9 @@ int main(int argc, char** argv)
                    "Id grid for --id / --each-id (default: 'block_id', else 'rock_id')");
     app.add_flag("--each-id", eachId, "One asset per id of the id grid, named <name>_<id>, written "
                  "where -o's '{id}' is replaced by the id");
+    app.add_option("--tiles", tilesPath,
+                   "The tile set (vdb_rockpile tiles) of a pile whose points are the input: its "
+                   "unique rocks as assets <name>_<rock>, instanced (EXT_mesh_gpu_instancing)");
     tool.addParams(app, assetSchema());
     tool.addOutput(app, "Output .glb ('-' = stdout; with --each-id a path holding '{id}')");
     tool.addStats(app);
@@ -57,6 +62,20 @@ int main(int argc, char** argv)
             return out.substr(0, slot) + std::to_string(id) + out.substr(slot + 4);
         };
         requireWritable(eachId ? at(0) : out);
+
+        if (!tilesPath.empty()) {
+            if (eachId || p.id >= 0 || !gridName.empty() || !idGridName.empty()) {
+                fail<ValueError>("--tiles makes the input a pile's points: --each-id, --id, --grid "
+                                 "and --id-grid do not apply");
+            }
+            if (input == "-") fail<ValueError>("--tiles: the points must be a file, not stdin");
+            const AssetResult r = tool.stage([&](Task& task) {
+                const PileInstances pile = readPileInstances(input, tilesPath, 3.0, task);
+                return runAssetInstances(p, pile, {{"input", input}, {"tiles", tilesPath}}, task);
+            });
+            writeFileAtomic(out, r.glb);
+            return;
+        }
 
         const auto grids = readGrids(input);
         AssetInputs in;

@@ -138,7 +138,7 @@ double extent(const TriMesh& m)
 
 // Budgets scaled by full / budgets[0] (LOD 0 = the whole surface), each at least one below
 // the one before, as the lods text.
-std::string fitLods(const std::vector<size_t>& budgets, size_t full)
+std::string fitBudgets(const std::vector<size_t>& budgets, size_t full)
 {
     std::string text;
     size_t prev = full + 1;
@@ -168,13 +168,130 @@ TriMesh hullMesh(const TriMesh& lod)
 
 } // namespace
 
+namespace {
+
+// A sub-task's host for work run side by side (parallelFor counts the progress): the parent's
+// cancel only.
+class CancelHost : public TaskHost
+{
+public:
+    explicit CancelHost(Task& parent) : mParent(parent) {}
+    bool cancelled() override { return mParent.cancelled(); }
+
+private:
+    Task& mParent;
+};
+
+} // namespace
+
+namespace {
+
+// One asset made from its level set: the meshes, atlases and maps (all a GLB needs), with its
+// statistics and report lines.
+struct Built
+{
+    AssetParams used; ///< the values it was made with (fitted LODs)
+    std::vector<size_t> budgets;
+    std::vector<Lod> lods;
+    std::vector<UvMesh> meshes;
+    std::vector<VertexFrames> frames;
+    std::vector<BakedMaps> maps;
+    TriMesh hull;
+    bool fitted = false;
+    nlohmann::json stats;
+    std::vector<std::string> report;
+
+    GltfAsset gltf() const
+    {
+        GltfAsset a;
+        a.name = used.name;
+        a.mapBits = used.mapBits;
+        a.collision = used.collision ? &hull : nullptr;
+        for (size_t i = 0; i < meshes.size(); ++i) a.lods.push_back({&meshes[i], &frames[i], &maps[i]});
+        return a;
+    }
+};
+
+// Mesh, simplify, unwrap and bake @a grid (phases share @a share of the task).
+Built build(const AssetParams& p, const openvdb::FloatGrid& grid, bool fitLods, double share, Task& task)
+{
+    Built b;
+    b.used = p;
+    b.budgets = parseLods(p.lods);
+    task.phase("mesh", 0.1 * share);
+    const TriMesh full = surfaceMesh(grid);
+    b.fitted = fitLods && b.budgets.front() > full.triangles();
+    if (b.fitted) {
+        b.used.lods = fitBudgets(b.budgets, full.triangles());
+        b.budgets = parseLods(b.used.lods);
+    }
+    task.phase("simplify", 0.2 * share);
+    b.lods = makeLods(full, b.budgets, task);
+    task.phase("atlas", 0.1 * share);
+    // An atlas and maps per LOD: each LOD's maps are baked on its own surface.
+    for (const Lod& l : b.lods) {
+        task.check();
+        b.meshes.push_back(atlas(l.mesh, p.textureSize, p.padding));
+        b.frames.push_back(vertexFrames(b.meshes.back()));
+    }
+    std::optional<Occlusion> occ;
+    const double aoDistance = p.aoDistance > 0 ? p.aoDistance : 0.25 * extent(full);
+    if (p.occlusion) {
+        task.phase("occlusion", 0.15 * share);
+        occ = occlusion(b.lods.front().mesh, grid.voxelSize()[0], aoDistance, task);
+    }
+    task.phase("maps", (p.occlusion ? 0.4 : 0.55) * share);
+    for (size_t i = 0; i < b.meshes.size(); ++i) {
+        b.maps.push_back(bakeMaps(b.meshes[i], b.frames[i], grid, p.textureSize, occ ? &*occ : nullptr, task));
+    }
+    task.phase("write", 0.05 * share);
+    if (p.collision) b.hull = hullMesh(b.lods.back().mesh);
+
+    nlohmann::json levels = nlohmann::json::array();
+    for (size_t i = 0; i < b.lods.size(); ++i) {
+        const SurfaceError e = surfaceError(b.lods[i].mesh, grid);
+        const NormalMapError ne = normalMapError(b.meshes[i], b.frames[i], b.maps[i], grid);
+        double aoMean = 0;
+        size_t covered = 0;
+        for (size_t t = 0; t < b.maps[i].covered.size(); ++t) {
+            if (!b.maps[i].covered[t]) continue;
+            ++covered;
+            if (occ) aoMean += b.maps[i].occlusion[t];
+        }
+        nlohmann::json level = {{"triangles", b.lods[i].mesh.triangles()}, {"target", b.budgets[i]},
+                                {"vertices", b.meshes[i].points.size()}, {"charts", b.meshes[i].charts},
+                                {"mean_error", e.mean}, {"max_error", e.max},
+                                {"normal_map_degrees", ne.mapDegrees}, {"lod_normal_degrees", ne.meshDegrees},
+                                {"texels_covered", double(covered) / double(b.maps[i].covered.size())}};
+        if (occ) level["occlusion_mean"] = covered ? aoMean / double(covered) : 1.0;
+        levels.push_back(level);
+        char line[320];
+        std::snprintf(line, sizeof line, "LOD%zu: %zu triangles (asked %zu), %zu charts, distance "
+                      "to the level set mean %.3g m, max %.3g m; normals off the level set's by "
+                      "%.2f deg with the map, %.1f deg without", i, b.lods[i].mesh.triangles(),
+                      b.budgets[i], b.meshes[i].charts, e.mean, e.max, ne.mapDegrees, ne.meshDegrees);
+        b.report.push_back(line);
+    }
+    b.stats = {{"full_triangles", full.triangles()}, {"lods", levels},
+               {"texels_per_metre", b.meshes.back().texelsPerMetre}};
+    if (occ) b.stats["occlusion"] = {{"distance", aoDistance}, {"voxel", occ->voxel}};
+    if (p.collision) {
+        b.stats["collision"] = {{"vertices", b.hull.points.size()}, {"triangles", b.hull.triangles()}};
+        b.report.push_back("collision hull: " + std::to_string(b.hull.points.size()) + " vertices, " +
+                           std::to_string(b.hull.triangles()) + " triangles");
+    }
+    if (b.fitted) b.stats["lods_fitted"] = b.used.lods;
+    b.report.insert(b.report.begin(), "surface: " + std::to_string(full.triangles()) + " triangles");
+    return b;
+}
+
+} // namespace
+
 AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
 {
     assetSchema().validate(p);
     if (!in.grid) fail<ValueError>("asset: no input grid");
     requireLevelSet(*in.grid, "asset input");
-    std::vector<size_t> budgets = parseLods(p.lods);
-    AssetParams used = p; // the values this asset was made with (fitted LODs)
     AssetResult r;
 
     openvdb::FloatGrid::ConstPtr grid = in.grid;
@@ -184,99 +301,84 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
         requireIds(in);
         task.phase("cut", 0.1);
         const double limit = memoryLimitBytes(0);
-        const CutResult c = cutId(*in.grid, *in.ids, p.id, size_t(limit / 8.0), task);
+        const openvdb::CoordBBox* box = nullptr;
+        if (in.idBoxes) {
+            const auto found = in.idBoxes->find(p.id);
+            if (found != in.idBoxes->end()) box = &found->second;
+        }
+        const CutResult c = cutId(*in.grid, *in.ids, p.id, size_t(limit / 8.0), task, box);
         grid = c.grid;
         cutStats = {{"id", p.id}, {"id_grid", in.ids->getName()}, {"voxels_searched", c.voxels},
                     {"rebuilt", c.rebuilt}};
     }
-    const double share = p.id >= 0 ? 0.9 : 1.0;
+    Built b = build(p, *grid, in.fitLods, p.id >= 0 ? 0.9 : 1.0, task);
 
-    task.phase("mesh", 0.1 * share);
-    const TriMesh full = surfaceMesh(*grid);
-    const bool fitted = in.fitLods && budgets.front() > full.triangles();
-    if (fitted) {
-        used.lods = fitLods(budgets, full.triangles());
-        budgets = parseLods(used.lods);
-    }
-    task.phase("simplify", 0.2 * share);
-    const std::vector<Lod> lods = makeLods(full, budgets, task);
-    task.phase("atlas", 0.1 * share);
-    // An atlas and maps per LOD: each LOD's maps are baked on its own surface.
-    std::vector<UvMesh> meshes;
-    std::vector<VertexFrames> frames;
-    for (const Lod& l : lods) {
-        task.check();
-        meshes.push_back(atlas(l.mesh, p.textureSize, p.padding));
-        frames.push_back(vertexFrames(meshes.back()));
-    }
-    std::optional<Occlusion> occ;
-    const double aoDistance = p.aoDistance > 0 ? p.aoDistance : 0.25 * extent(full);
-    if (p.occlusion) {
-        task.phase("occlusion", 0.15 * share);
-        occ = occlusion(lods.front().mesh, grid->voxelSize()[0], aoDistance, task);
-    }
-    task.phase("maps", (p.occlusion ? 0.4 : 0.55) * share);
-    std::vector<BakedMaps> maps;
-    for (size_t i = 0; i < meshes.size(); ++i) {
-        maps.push_back(bakeMaps(meshes[i], frames[i], *grid, p.textureSize, occ ? &*occ : nullptr, task));
-    }
-    task.phase("write", 0.05 * share);
-    TriMesh hull;
-    if (p.collision) hull = hullMesh(lods.back().mesh);
-
-    nlohmann::json prov = stageProvenance(assetSchema().toJson(used), in.names);
+    nlohmann::json prov = stageProvenance(assetSchema().toJson(b.used), in.names);
     // Under "sources", as vdb_csg records its inputs: a --params replay skips it.
     prov["sources"] = nlohmann::json::array({gridSource(*in.grid)});
     r.provenance = prov;
-    GltfAsset a;
-    a.name = p.name;
-    a.mapBits = p.mapBits;
-    a.collision = p.collision ? &hull : nullptr;
-    for (size_t i = 0; i < meshes.size(); ++i) a.lods.push_back({&meshes[i], &frames[i], &maps[i]});
+    GltfAsset a = b.gltf();
     a.extras = {{"rockvdb", {{"version", version()}, {"generator", kAssetTool}, {"params", prov}}}};
     r.glb = writeGlb(a);
     task.done();
 
-    nlohmann::json levels = nlohmann::json::array();
-    for (size_t i = 0; i < lods.size(); ++i) {
-        const SurfaceError e = surfaceError(lods[i].mesh, *grid);
-        const NormalMapError ne = normalMapError(meshes[i], frames[i], maps[i], *grid);
-        double aoMean = 0;
-        size_t covered = 0;
-        for (size_t t = 0; t < maps[i].covered.size(); ++t) {
-            if (!maps[i].covered[t]) continue;
-            ++covered;
-            if (occ) aoMean += maps[i].occlusion[t];
-        }
-        nlohmann::json level = {{"triangles", lods[i].mesh.triangles()}, {"target", budgets[i]},
-                                {"vertices", meshes[i].points.size()}, {"charts", meshes[i].charts},
-                                {"mean_error", e.mean}, {"max_error", e.max},
-                                {"normal_map_degrees", ne.mapDegrees}, {"lod_normal_degrees", ne.meshDegrees},
-                                {"texels_covered", double(covered) / double(maps[i].covered.size())}};
-        if (occ) level["occlusion_mean"] = covered ? aoMean / double(covered) : 1.0;
-        levels.push_back(level);
-        char line[320];
-        std::snprintf(line, sizeof line, "LOD%zu: %zu triangles (asked %zu), %zu charts, distance "
-                      "to the level set mean %.3g m, max %.3g m; normals off the level set's by "
-                      "%.2f deg with the map, %.1f deg without", i, lods[i].mesh.triangles(),
-                      budgets[i], meshes[i].charts, e.mean, e.max, ne.mapDegrees, ne.meshDegrees);
-        r.report.push_back(line);
-    }
-    r.stats = {{"full_triangles", full.triangles()}, {"lods", levels},
-               {"texels_per_metre", meshes.back().texelsPerMetre}, {"glb_bytes", r.glb.size()},
-               {"phases", phasesJson(task)}};
-    if (occ) {
-        r.stats["occlusion"] = {{"distance", aoDistance}, {"voxel", occ->voxel}};
-    }
-    if (p.collision) {
-        r.stats["collision"] = {{"vertices", hull.points.size()}, {"triangles", hull.triangles()}};
-        r.report.push_back("collision hull: " + std::to_string(hull.points.size()) + " vertices, " +
-                           std::to_string(hull.triangles()) + " triangles");
-    }
+    r.stats = std::move(b.stats);
+    r.stats["glb_bytes"] = r.glb.size();
+    r.stats["phases"] = phasesJson(task);
     if (!cutStats.is_null()) r.stats["cut"] = cutStats;
-    if (fitted) r.stats["lods_fitted"] = used.lods;
-    r.report.insert(r.report.begin(), "surface: " + std::to_string(full.triangles()) + " triangles" +
-                    (p.id >= 0 ? " (id " + std::to_string(p.id) + " of '" + in.ids->getName() + "')" : ""));
+    r.report = std::move(b.report);
+    if (p.id >= 0) r.report.front() += " (id " + std::to_string(p.id) + " of '" + in.ids->getName() + "')";
+    return r;
+}
+
+AssetResult runAssetInstances(const AssetParams& p, const PileInstances& pile, const nlohmann::json& names,
+                              Task& task)
+{
+    assetSchema().validate(p);
+    if (p.id >= 0) fail<ValueError>("asset: a pile's instances take no id (each unique rock is an asset)");
+    if (pile.prototypes.empty()) fail<ValueError>("asset: the pile has no instances");
+    AssetResult r;
+    // The rocks side by side (each bake is parallel inside, but a small rock's leaves do not
+    // fill two cores): each in its own slot, so the order of completion does not matter.
+    const size_t n = pile.prototypes.size();
+    std::vector<Built> built(n);
+    task.phase("rocks", 0.95);
+    CancelHost host(task);
+    parallelFor(task, n, 1, [&](size_t i) {
+        const Prototype& proto = pile.prototypes[i];
+        AssetParams one = p;
+        one.name = p.name + "_" + std::to_string(proto.rock);
+        Task sub(&host);
+        built[i] = build(one, *proto.grid, true, 1.0, sub);
+    });
+    nlohmann::json each = nlohmann::json::array();
+    for (size_t i = 0; i < n; ++i) {
+        nlohmann::json st = built[i].stats;
+        st["rock"] = pile.prototypes[i].rock;
+        st["instances"] = pile.prototypes[i].seeds.size();
+        each.push_back(st);
+    }
+    task.phase("write", 0.05);
+    std::vector<GltfAsset> assets;
+    for (size_t i = 0; i < n; ++i) {
+        GltfAsset a = built[i].gltf();
+        a.pivot = pile.prototypes[i].pivot;
+        a.instances = pile.prototypes[i].seeds;
+        a.extras = {{"rockvdb_rock", pile.prototypes[i].rock}, {"rockvdb_lods", built[i].used.lods}};
+        assets.push_back(std::move(a));
+    }
+    nlohmann::json prov = stageProvenance(assetSchema().toJson(p), names);
+    r.provenance = prov;
+    r.glb = writeGlb(assets, p.name,
+                     {{"rockvdb", {{"version", version()}, {"generator", kAssetTool}, {"params", prov}}}});
+    task.done();
+    r.stats = {{"rocks", each}, {"unique_rocks", n}, {"instances", pile.instances},
+               {"glb_bytes", r.glb.size()}, {"phases", phasesJson(task)}};
+    size_t triangles = 0;
+    for (const Built& b : built) triangles += b.lods.front().mesh.triangles();
+    r.report.push_back(std::to_string(pile.instances) + " instances of " + std::to_string(n) +
+                       " unique rocks (EXT_mesh_gpu_instancing), LOD0 " + std::to_string(triangles) +
+                       " triangles in all, " + std::to_string(r.glb.size()) + " bytes");
     return r;
 }
 
@@ -287,45 +389,39 @@ std::vector<int> assetIds(const AssetInputs& in)
     return surfaceIdList(*in.grid, *in.ids);
 }
 
-namespace {
-
-// A sub-task's host: the parent's cancel; its progress maps into [lo, hi] of the parent's phase.
-class SubHost : public TaskHost
-{
-public:
-    SubHost(Task& parent, double lo, double hi) : mParent(parent), mLo(lo), mHi(hi) {}
-    bool cancelled() override { return mParent.cancelled(); }
-    void progress(const char*, double f) override { mParent.advance(mLo + (mHi - mLo) * f); }
-
-private:
-    Task& mParent;
-    double mLo, mHi;
-};
-
-} // namespace
 
 AssetSetResult runAssetEach(const AssetParams& p, const AssetInputs& in, Task& task)
 {
     assetSchema().validate(p);
-    const std::vector<int> ids = assetIds(in);
+    if (!in.grid || !in.ids) fail<ValueError>("asset: every id needs a level set and an id grid");
+    requireIds(in);
+    const std::map<int, openvdb::CoordBBox> boxes = surfaceIdBoxes(*in.grid, *in.ids);
+    std::vector<int> ids;
+    for (const auto& [id, box] : boxes) ids.push_back(id);
     if (ids.empty()) fail<ValueError>("asset: the id grid '", in.ids->getName(), "' holds no ids");
     AssetSetResult out;
     AssetInputs fit = in;
     fit.fitLods = true;
-    nlohmann::json each = nlohmann::json::array();
+    fit.idBoxes = &boxes;
+    // The ids side by side, each in its own slot (see runAssetInstances).
+    std::vector<AssetResult> made(ids.size());
+    std::vector<std::string> names(ids.size());
     task.phase("assets", 1.0);
-    for (size_t i = 0; i < ids.size(); ++i) {
-        task.check();
+    CancelHost host(task);
+    parallelFor(task, ids.size(), 1, [&](size_t i) {
         AssetParams one = p;
         one.id = ids[i];
-        one.name = p.name + "_" + std::to_string(ids[i]);
-        SubHost host(task, double(i) / double(ids.size()), double(i + 1) / double(ids.size()));
+        one.name = names[i] = p.name + "_" + std::to_string(ids[i]);
         Task sub(&host);
-        AssetResult r = runAsset(one, fit, sub);
+        made[i] = runAsset(one, fit, sub);
+    });
+    nlohmann::json each = nlohmann::json::array();
+    for (size_t i = 0; i < ids.size(); ++i) {
+        AssetResult& r = made[i];
         nlohmann::json st = r.stats;
         st.erase("phases");
         each.push_back({{"id", ids[i]}, {"stats", st}});
-        out.report.push_back(one.name + ": " + std::to_string(r.glb.size()) + " bytes, " +
+        out.report.push_back(names[i] + ": " + std::to_string(r.glb.size()) + " bytes, " +
                              (r.report.size() > 1 ? r.report[1] : r.report.front()));
         out.glbs.emplace_back(ids[i], std::move(r.glb));
     }

@@ -4,11 +4,13 @@
 // keywords; runAsset is the one entry point (runAssetEach: every id of an id grid).
 #pragma once
 
+#include <rockvdb/asset/Instances.h>
 #include <rockvdb/core/Schema.h>
 #include <rockvdb/core/StageResult.h>
 
 #include <openvdb/openvdb.h>
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -51,6 +53,9 @@ struct AssetInputs
     /// LOD 0 is the whole surface (runAssetEach: a pile's small rocks), instead of an error;
     /// the provenance records the budgets used, so it replays without this flag.
     bool fitLods = false;
+    /// Every id's box (asset/Cut.h, surfaceIdBoxes), when known: a cut need not search the
+    /// id grid (runAssetEach finds them all in one pass).
+    const std::map<int, openvdb::CoordBBox>* idBoxes = nullptr;
 };
 
 struct AssetResult : StageResult
@@ -76,6 +81,13 @@ struct AssetSetResult : StageResult
 /// its own provenance (its id and name) and its LODs fitted (AssetInputs::fitLods): stats
 /// hold each asset's, report a line per asset.
 AssetSetResult runAssetEach(const AssetParams& params, const AssetInputs& inputs, Task& task);
+
+/// @brief A rock pile's unique rocks as one GLB (readPileInstances): each rock an asset named
+/// <name>_<rock> with its LODs fitted (as runAssetEach), its mesh centred on its seed, drawn at
+/// every instance's seed by EXT_mesh_gpu_instancing. @a names (e.g. {"input": points path,
+/// "tiles": tile set path}) go in the provenance. params.id must be -1.
+AssetResult runAssetInstances(const AssetParams& params, const PileInstances& pile,
+                              const nlohmann::json& names, Task& task);
 
 } // namespace asset
 } // namespace rockvdb

@@ -7,7 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <set>
+#include <map>
 
 namespace rockvdb {
 namespace asset {
@@ -26,25 +26,33 @@ bool asId(float v, int& id)
 
 } // namespace
 
-std::vector<int> surfaceIdList(const openvdb::FloatGrid& surface, const openvdb::FloatGrid& ids)
+std::map<int, openvdb::CoordBBox> surfaceIdBoxes(const openvdb::FloatGrid& surface,
+                                                 const openvdb::FloatGrid& ids)
 {
     const float bg = surface.background();
     Unregistered acc(surface.tree());
-    std::set<int> found;
+    std::map<int, openvdb::CoordBBox> boxes;
     for (auto it = ids.cbeginValueOn(); it; ++it) {
         int id;
         if (!asId(*it, id)) continue;
-        if (it.isVoxelValue()) {
-            if (std::abs(acc.getValue(it.getCoord())) < bg) found.insert(id);
-        } else {
-            found.insert(id); // a tile of ids: take it (rare: ids live in the band)
-        }
+        // a tile of ids counts whole (rare: ids live in the band)
+        if (it.isVoxelValue() && !(std::abs(acc.getValue(it.getCoord())) < bg)) continue;
+        openvdb::CoordBBox b;
+        it.getBoundingBox(b);
+        boxes[id].expand(b);
     }
-    return {found.begin(), found.end()};
+    return boxes;
+}
+
+std::vector<int> surfaceIdList(const openvdb::FloatGrid& surface, const openvdb::FloatGrid& ids)
+{
+    std::vector<int> out;
+    for (const auto& [id, box] : surfaceIdBoxes(surface, ids)) out.push_back(id);
+    return out;
 }
 
 CutResult cutId(const openvdb::FloatGrid& surface, const openvdb::FloatGrid& ids, int id,
-                size_t maxVoxels, Task& task)
+                size_t maxVoxels, Task& task, const openvdb::CoordBBox* known)
 {
     if (surface.transform() != ids.transform()) {
         fail<ValueError>("asset: the id grid '", ids.getName(), "' and the level set '",
@@ -55,16 +63,12 @@ CutResult cutId(const openvdb::FloatGrid& surface, const openvdb::FloatGrid& ids
 
     // The block's band voxels give its box.
     openvdb::CoordBBox box;
-    {
-        Unregistered acc(surface.tree());
-        for (auto it = ids.cbeginValueOn(); it; ++it) {
-            int v;
-            if (!asId(*it, v) || v != id) continue;
-            openvdb::CoordBBox b;
-            it.getBoundingBox(b);
-            if (it.isVoxelValue() && !(std::abs(acc.getValue(it.getCoord())) < bg)) continue;
-            box.expand(b);
-        }
+    if (known) {
+        box = *known;
+    } else {
+        const auto boxes = surfaceIdBoxes(surface, ids);
+        const auto found = boxes.find(id);
+        if (found != boxes.end()) box = found->second;
     }
     if (box.empty()) {
         const std::vector<int> all = surfaceIdList(surface, ids);

@@ -16,6 +16,7 @@
 
 #include <openvdb/openvdb.h>
 
+#include <map>
 #include <vector>
 
 namespace rockvdb {
@@ -25,6 +26,10 @@ namespace asset {
 /// (integers ≥ 0), sorted.
 std::vector<int> surfaceIdList(const openvdb::FloatGrid& surface, const openvdb::FloatGrid& ids);
 
+/// @brief The index-space box of every such id's voxels (one pass over the id grid).
+std::map<int, openvdb::CoordBBox> surfaceIdBoxes(const openvdb::FloatGrid& surface,
+                                                 const openvdb::FloatGrid& ids);
+
 struct CutResult
 {
     openvdb::FloatGrid::Ptr grid; ///< the block's level set (same transform and band)
@@ -32,11 +37,12 @@ struct CutResult
     size_t voxels = 0;            ///< voxels of the box searched
 };
 
-/// @brief Block @a id of @a surface, owned as above.
+/// @brief Block @a id of @a surface, owned as above; @a box, when given, is its entry of
+/// surfaceIdBoxes (saves a pass over the id grid per id).
 /// @throw ValueError when @a id is not in @a ids (the message lists the range there is), when
 /// the grids' transforms differ, or when the block's box exceeds @a maxVoxels voxels.
 CutResult cutId(const openvdb::FloatGrid& surface, const openvdb::FloatGrid& ids, int id,
-                size_t maxVoxels, Task& task);
+                size_t maxVoxels, Task& task, const openvdb::CoordBBox* box = nullptr);
 
 } // namespace asset
 } // namespace rockvdb

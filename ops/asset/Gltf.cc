@@ -4,8 +4,10 @@
 #include <rockvdb/core/Image.h>
 
 #include <tiny_gltf.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -71,32 +73,73 @@ int addAccessor(tinygltf::Model& model, int view, int componentType, int type, s
 
 std::string writeGlb(const GltfAsset& asset)
 {
-    if (asset.lods.empty()) fail<ValueError>("asset: nothing to write (no LODs)");
-    tinygltf::Model model;
-    model.asset.version = "2.0";
-    model.asset.generator = "rockvdb";
-    model.asset.extras = toValue(asset.extras);
-    model.buffers.emplace_back();
-    tinygltf::Scene scene;
-    scene.name = asset.name;
+    GltfAsset one = asset;
+    one.extras = nlohmann::json::object();
+    return writeGlb({one}, asset.name, asset.extras);
+}
 
-    const int bits = asset.mapBits;
-    if (bits != 8 && bits != 16) fail<ValueError>("asset: map bits must be 8 or 16 (got ", bits, ")");
+namespace {
+
+// rockvdb's z up to glTF's y up: (x, y, z) -> (x, z, -y), a rotation.
+std::array<float, 3> yUp(const openvdb::Vec3d& p)
+{
+    return {float(p.x()), float(p.z()), float(-p.y())};
+}
+
+// A baked map as PNG bytes: the normal map (RGB) or the occlusion (grey: glTF reads occlusion
+// from the red channel, a grey image serves every reader). PNG rows run top down and glTF's
+// v = 0 is the top, so texel row y (v = y / size, bottom up in the atlas) is image row
+// size - 1 - y.
+std::string mapPng(const BakedMaps& maps, bool occlusion, int bits)
+{
     const double top = bits == 16 ? 65535.0 : 255.0;
-    // A texture from a baked channel: PNG rows run top down and glTF's v = 0 is the top, so
-    // texel row y (v = y / size, bottom up in the atlas) is image row size - 1 - y.
-    auto addTexture = [&](const std::string& name, int size, int channels, auto texel) {
-        std::vector<uint16_t> values(size_t(size) * size * channels);
-        for (int y = 0; y < size; ++y) {
-            for (int x = 0; x < size; ++x) {
-                uint16_t* out = &values[(size_t(size - 1 - y) * size + x) * channels];
-                for (int k = 0; k < channels; ++k) {
-                    const double c = std::clamp(double(texel(size_t(y) * size + x, k)), 0.0, 1.0);
-                    out[k] = uint16_t(std::lround(c * top));
-                }
+    const int size = maps.size, channels = occlusion ? 1 : 3;
+    std::vector<uint16_t> values(size_t(size) * size * channels);
+    for (int y = 0; y < size; ++y) {
+        for (int x = 0; x < size; ++x) {
+            const size_t i = size_t(y) * size + x;
+            uint16_t* out = &values[(size_t(size - 1 - y) * size + x) * channels];
+            for (int k = 0; k < channels; ++k) {
+                const double c = std::clamp(double(occlusion ? maps.occlusion[i] : maps.normal[i][k]), 0.0, 1.0);
+                out[k] = uint16_t(std::lround(c * top));
             }
         }
-        const std::string png = encodePng(size, size, channels, bits, values);
+    }
+    return encodePng(size, size, channels, bits, values);
+}
+
+// One asset's nodes (its LODs, then its collision hull) appended to the model and scene.
+void addAsset(tinygltf::Model& model, tinygltf::Scene& scene, const GltfAsset& asset,
+              const std::vector<std::array<std::string, 2>>& pngs)
+{
+    // Instances: one TRANSLATION accessor, shared by the asset's nodes.
+    int translations = -1;
+    if (!asset.instances.empty()) {
+        std::vector<float> t;
+        t.reserve(3 * asset.instances.size());
+        for (const openvdb::Vec3d& p : asset.instances) {
+            const auto q = yUp(p);
+            t.insert(t.end(), q.begin(), q.end());
+        }
+        translations = addAccessor(model, addView(model, t.data(), t.size() * 4, 0),
+                                   TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, asset.instances.size());
+        const std::string ext = "EXT_mesh_gpu_instancing";
+        if (std::find(model.extensionsUsed.begin(), model.extensionsUsed.end(), ext) == model.extensionsUsed.end()) {
+            model.extensionsUsed.push_back(ext);
+        }
+    }
+    auto addNode = [&](tinygltf::Node node) {
+        if (translations >= 0) {
+            tinygltf::Value::Object attributes{{"TRANSLATION", tinygltf::Value(translations)}};
+            node.extensions["EXT_mesh_gpu_instancing"] =
+                tinygltf::Value(tinygltf::Value::Object{{"attributes", tinygltf::Value(std::move(attributes))}});
+        }
+        model.nodes.push_back(std::move(node));
+        scene.nodes.push_back(int(model.nodes.size() - 1));
+    };
+    const openvdb::Vec3d pivot = asset.pivot;
+    // A texture from its PNG bytes (mapPng).
+    auto addTexture = [&](const std::string& name, const std::string& png) {
         tinygltf::Image image;
         image.name = name;
         image.mimeType = "image/png";
@@ -116,19 +159,16 @@ std::string writeGlb(const GltfAsset& asset)
         return int(model.textures.size() - 1);
     };
     // A material per LOD: each LOD's maps are baked on its own atlas.
-    auto addMaterial = [&](const std::string& name, const BakedMaps* maps) {
+    auto addMaterial = [&](const std::string& name, const BakedMaps* maps, size_t l) {
         tinygltf::Material material;
         material.name = name;
         material.pbrMetallicRoughness.metallicFactor = 0.0;
         material.pbrMetallicRoughness.roughnessFactor = 0.9;
         material.pbrMetallicRoughness.baseColorFactor = {0.45, 0.42, 0.39, 1.0};
         if (maps) {
-            material.normalTexture.index = addTexture(name + "_normal", maps->size, 3,
-                [&](size_t i, int k) { return maps->normal[i][k]; });
+            material.normalTexture.index = addTexture(name + "_normal", pngs[l][0]);
             if (!maps->occlusion.empty()) {
-                // glTF reads occlusion from the red channel: a grey image serves every reader
-                material.occlusionTexture.index = addTexture(name + "_occlusion", maps->size, 1,
-                    [&](size_t i, int) { return maps->occlusion[i]; });
+                material.occlusionTexture.index = addTexture(name + "_occlusion", pngs[l][1]);
             }
         }
         model.materials.push_back(material);
@@ -142,8 +182,7 @@ std::string writeGlb(const GltfAsset& asset)
         std::vector<float> pos(3 * nv), nrm(3 * nv), tan(4 * nv), uv(2 * nv);
         std::vector<double> lo(3, 1e300), hi(3, -1e300);
         for (size_t v = 0; v < nv; ++v) {
-            const openvdb::Vec3f& p = m.points[v];
-            const float q[3] = {p.x(), p.z(), -p.y()}; // z up -> y up
+            const auto q = yUp(openvdb::Vec3d(m.points[v]) - pivot);
             for (int k = 0; k < 3; ++k) {
                 pos[3 * v + k] = q[k];
                 lo[k] = std::min(lo[k], double(q[k]));
@@ -158,7 +197,7 @@ std::string writeGlb(const GltfAsset& asset)
         }
         tinygltf::Primitive prim;
         prim.mode = TINYGLTF_MODE_TRIANGLES;
-        prim.material = addMaterial(asset.name + "_LOD" + std::to_string(l), asset.lods[l].maps);
+        prim.material = addMaterial(asset.name + "_LOD" + std::to_string(l), asset.lods[l].maps, l);
         prim.attributes["POSITION"] = addAccessor(
             model, addView(model, pos.data(), pos.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER),
             TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_TYPE_VEC3, nv, lo, hi);
@@ -181,16 +220,15 @@ std::string writeGlb(const GltfAsset& asset)
         tinygltf::Node node;
         node.name = mesh.name;
         node.mesh = int(model.meshes.size() - 1);
-        model.nodes.push_back(node);
-        scene.nodes.push_back(int(model.nodes.size() - 1));
+        if (l == 0 && !asset.extras.empty()) node.extras = toValue(asset.extras);
+        addNode(std::move(node));
     }
     if (asset.collision && asset.collision->triangles()) {
         const TriMesh& c = *asset.collision;
         std::vector<float> pos(3 * c.points.size());
         std::vector<double> lo(3, 1e300), hi(3, -1e300);
         for (size_t v = 0; v < c.points.size(); ++v) {
-            const openvdb::Vec3f& p = c.points[v];
-            const float q[3] = {p.x(), p.z(), -p.y()}; // z up -> y up
+            const auto q = yUp(openvdb::Vec3d(c.points[v]) - pivot);
             for (int k = 0; k < 3; ++k) {
                 pos[3 * v + k] = q[k];
                 lo[k] = std::min(lo[k], double(q[k]));
@@ -213,9 +251,43 @@ std::string writeGlb(const GltfAsset& asset)
         node.name = mesh.name;
         node.mesh = int(model.meshes.size() - 1);
         node.extras = tinygltf::Value(tinygltf::Value::Object{{"rockvdb_collision", tinygltf::Value(std::string("convex"))}});
-        model.nodes.push_back(node);
-        scene.nodes.push_back(int(model.nodes.size() - 1));
+        addNode(std::move(node));
     }
+}
+
+} // namespace
+
+std::string writeGlb(const std::vector<GltfAsset>& assets, const std::string& sceneName,
+                     const nlohmann::json& extras)
+{
+    if (assets.empty()) fail<ValueError>("asset: nothing to write (no assets)");
+    tinygltf::Model model;
+    model.asset.version = "2.0";
+    model.asset.generator = "rockvdb";
+    model.asset.extras = toValue(extras);
+    model.buffers.emplace_back();
+    tinygltf::Scene scene;
+    scene.name = sceneName;
+    // Every map's PNG first, side by side (zlib is serial, and a pile has hundreds).
+    std::vector<std::vector<std::array<std::string, 2>>> pngs(assets.size());
+    std::vector<std::array<size_t, 3>> jobs; // asset, LOD, occlusion?
+    for (size_t a = 0; a < assets.size(); ++a) {
+        if (assets[a].lods.empty()) fail<ValueError>("asset: nothing to write (no LODs)");
+        const int bits = assets[a].mapBits;
+        if (bits != 8 && bits != 16) fail<ValueError>("asset: map bits must be 8 or 16 (got ", bits, ")");
+        pngs[a].resize(assets[a].lods.size());
+        for (size_t l = 0; l < assets[a].lods.size(); ++l) {
+            const BakedMaps* maps = assets[a].lods[l].maps;
+            if (!maps) continue;
+            jobs.push_back({a, l, 0});
+            if (!maps->occlusion.empty()) jobs.push_back({a, l, 1});
+        }
+    }
+    tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
+        const auto [a, l, occ] = jobs[j];
+        pngs[a][l][occ] = mapPng(*assets[a].lods[l].maps, occ == 1, assets[a].mapBits);
+    });
+    for (size_t a = 0; a < assets.size(); ++a) addAsset(model, scene, assets[a], pngs[a]);
     model.scenes.push_back(scene);
     model.defaultScene = 0;
 

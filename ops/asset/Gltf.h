@@ -7,7 +7,10 @@
 // (x, z, -y), a rotation, so windings, normals and tangents' handedness carry over; glTF's
 // texture v runs down, so v is written 1 - v. The rockvdb provenance sits in the asset's
 // extras ("rockvdb": version, generator, params). Written with tinygltf; the same asset gives
-// the same bytes.
+// the same bytes. Several assets can share one file (a pile's unique rocks), each drawn at its
+// instances' positions by EXT_mesh_gpu_instancing (TRANSLATION per instance on every node of
+// the asset; listed in extensionsUsed, not extensionsRequired: a reader without it draws each
+// rock once, at its pivot).
 #pragma once
 
 #include <rockvdb/asset/Maps.h>
@@ -34,10 +37,22 @@ struct GltfAsset
     const TriMesh* collision = nullptr; ///< a convex hull, or none
     int mapBits = 8;           ///< PNG bits per channel: 8 or 16
     nlohmann::json extras = nlohmann::json::object();
+    /// Subtracted from every vertex (rockvdb's world, m): the mesh's origin.
+    openvdb::Vec3d pivot = openvdb::Vec3d(0.0);
+    /// Where copies of the asset's pivot stand (rockvdb's world, m), written as
+    /// EXT_mesh_gpu_instancing translations; none: the asset stands once, at the origin.
+    std::vector<openvdb::Vec3d> instances;
 };
 
-/// @brief The asset as GLB bytes. @throw ValueError for an asset without LODs.
+/// @brief The asset as GLB bytes (its extras are the file's). @throw ValueError for an asset
+/// without LODs.
 std::string writeGlb(const GltfAsset& asset);
+
+/// @brief Several assets in one GLB (one scene named @a scene, nodes in the assets' order;
+/// each asset's extras on its first node, @a extras the file's).
+/// @throw ValueError for no assets or an asset without LODs.
+std::string writeGlb(const std::vector<GltfAsset>& assets, const std::string& scene,
+                     const nlohmann::json& extras);
 
 } // namespace asset
 } // namespace rockvdb

@@ -105,6 +105,12 @@ Vec3d voxelToWorld(const TileSet& set, const Vec3d& v)
     return v * set.params.voxelSize();
 }
 
+Vec3d seedWorld(const TileSet& set, const Rock& rock, const Coord& shift)
+{
+    const double m = double(set.params.voxelsPerCell);
+    return voxelToWorld(set, rock.seed.p * m - Vec3d(0.5) + shift.asVec3d());
+}
+
 std::vector<Instance> selectRocks(const TileSet& set, const Field& support, const PileParams& p,
                                   PileStats* stats)
 {
@@ -210,8 +216,8 @@ std::vector<Instance> selectRocks(const TileSet& set, const Field& support, cons
         const Feature& f = features[candidates[c].feature];
         const size_t ri = candidates[c].rock;
         const Rock& r = set.rocks[ri];
-        const Vec3d seedWorld = voxelToWorld(set, r.seed.p * double(m) - Vec3d(0.5) + f.shift.asVec3d());
-        const double fs = support.eval(seedWorld);
+        const Vec3d seed = seedWorld(set, r, f.shift);
+        const double fs = support.eval(seed);
         // Supports are distances (or bounds of them, beyond a grid's band): a rock
         // whose seed is farther out than its radius has no anchor inside.
         if (fs > radius[ri]) return;
@@ -231,7 +237,7 @@ std::vector<Instance> selectRocks(const TileSet& set, const Field& support, cons
         const double fraction = double(inside) / double(total);
         if (fraction >= p.threshold) {
             keep[c] = 1;
-            found[c] = {ri, f.region, f.shift, seedWorld, fraction};
+            found[c] = {ri, f.region, f.shift, seed, fraction};
         }
     });
     std::vector<Instance> out;

@@ -80,6 +80,10 @@ struct Pile
 /// at (i·n·m − ½)·dx).
 Vec3d voxelToWorld(const TileSet& set, const Vec3d& v);
 
+/// @brief World position of rock @a rock's seed when its canonical voxels are shifted by
+/// @a shift voxels (what an instance's position and the points' P hold).
+Vec3d seedWorld(const TileSet& set, const Rock& rock, const openvdb::Coord& shift);
+
 /// @brief The largest embedding radius of the set's rocks (m): the farthest solid voxel
 /// from its seed, plus a voxel.
 double maxRockRadius(const TileSet& set);

@@ -46,7 +46,7 @@ Job = _rockvdb.Job
 Job.__doc__ = ("A stage call watched from another thread: enter it (with job:) on the thread "
                "that calls; read progress (0..1) and phase, or cancel(), from any other.")
 
-__all__ = ["BlockTile", "Field", "Job", "amplify", "asset", "asset_each", "asset_ids", "block_tile", "box", "capsule", "coverage", "csg",
+__all__ = ["BlockTile", "Field", "Job", "amplify", "asset", "asset_each", "asset_ids", "asset_instances", "block_tile", "box", "capsule", "coverage", "csg",
            "detail", "expression", "fractal_carve", "fractal_rock", "fractal_scatter", "heightfield", "load_tile", "mesh", "plane",
            "polytope", "preview",
            "provenance", "read", "read_image", "rock_library", "rock_pile", "rock_tiles",
@@ -804,6 +804,31 @@ asset_each = _stage_function(
     "Python), each named <name>_<id>.",
     "Returns {id: GLB bytes}. stats (a dict) receives each asset's statistics.",
     before=["grid", "ids"], after=[("stats", None)], exclude=("id",))
+
+
+def _asset_instances(points, tiles, path=None, stats=None, **params):
+    fn = "asset_instances"
+    if stats is not None and not isinstance(stats, dict):
+        raise _type_error(fn, "stats", "a dict", stats)
+    if "id" in params:
+        raise TypeError("rockvdb.asset_instances() makes every unique rock: it takes no 'id'")
+    glb, info = _rockvdb.asset_instances(_path(points, "points", fn), _path(tiles, "tiles", fn),
+                                         _stage_params(_ASSET, fn, params),
+                                         _opt(path, _path, "path", fn))
+    if stats is not None:
+        stats.update(info)
+    return glb
+
+
+asset_instances = _stage_function(
+    _ASSET, _asset_instances, "asset_instances",
+    "A rock pile as one GLB (vdb_asset POINTS --tiles TILES from Python): each unique rock of "
+    "the tile set an asset <name>_<rock> centred on its seed, drawn at every instance of the "
+    "points file (vdb_rockpile pile --points) by EXT_mesh_gpu_instancing.",
+    "points and tiles are paths (pyopenvdb cannot hold points grids). Returns the GLB's bytes, "
+    "the CLI's for the same paths; path (a .glb) also writes them there, atomically. stats (a "
+    "dict) receives each rock's LODs and instance count. Ctrl-C raises KeyboardInterrupt.",
+    before=["points", "tiles"], after=[("path", None), ("stats", None)], exclude=("id",))
 
 
 # ---------------------------------------------------------------------------------------------

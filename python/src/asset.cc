@@ -1,4 +1,5 @@
-// rockvdb.asset's native half: the asset stage's entry points, runAsset and runAssetEach
+// rockvdb.asset's native half: the asset stage's entry points, runAsset, runAssetEach and
+// runAssetInstances
 // (asset/AssetStage.h), and the GLB bytes written atomically like every rockvdb output.
 #include "GridCaster.h"
 #include "Host.h"
@@ -48,6 +49,17 @@ void bindAsset(py::module_& m)
         for (const auto& [id, glb] : r.glbs) out.append(py::make_tuple(id, py::bytes(glb)));
         return py::make_tuple(out, pyJson(r.stats));
     }, py::arg("grid"), py::arg("params"), py::arg("ids"));
+    m.def("asset_instances", [](const std::string& points, const std::string& tiles,
+                                const std::string& params, std::optional<std::string> path) {
+        const asset::AssetParams p = asset::assetSchema().fromJson(parseParams(params, "asset"));
+        if (path) requireWritable(*path);
+        const asset::AssetResult r = withTask([&](Task& task) {
+            const asset::PileInstances pile = asset::readPileInstances(points, tiles, 3.0, task);
+            return asset::runAssetInstances(p, pile, {{"input", points}, {"tiles", tiles}}, task);
+        });
+        if (path) writeFileAtomic(*path, r.glb);
+        return py::make_tuple(py::bytes(r.glb), pyJson(r.stats));
+    }, py::arg("points"), py::arg("tiles"), py::arg("params"), py::arg("path") = std::nullopt);
     m.def("asset_ids", [](Grid grid, Grid ids) { return asset::assetIds(inputs(grid, ids)); },
           py::arg("grid"), py::arg("ids"));
 }

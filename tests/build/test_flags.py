@@ -42,7 +42,8 @@ def test_ops_sources_keep_the_determinism_flags(commands):
 LAYERS = {"core": set(), "relief": {"core"}, "blocks": {"core", "relief"},
           "amplify": {"core", "relief", "blocks"}, "detail": {"core", "relief"},
           "rockpile": {"core"}, "fractal": {"core"}, "arches": {"core", "rockpile"},
-          "asset": {"core", "blocks"}}  # asset: only blocks/Hull.h (the rockvdb_hull library)
+          "asset": {"core", "blocks", "rockpile"}}  # asset: blocks/Hull.h (rockvdb_hull) and
+# the rock pile's public headers (a pile's points and tile set as instances)
 
 
 def test_stage_libraries_include_only_the_layers_below():

@@ -219,3 +219,116 @@ def test_ids_need_an_id_grid_and_a_slot(rock, tmp_path):
     one_line_error(run([tool("vdb_asset"), str(rock / "rock.vdb"), "--each-id", "--id", "1",
                         "-o", str(tmp_path / "a_{id}.glb")]), 2, "exclude each other")
     assert os.listdir(tmp_path) == []
+
+
+@pytest.fixture(scope="module")
+def pile(tmp_path_factory):
+    d = tmp_path_factory.mktemp("asset_pile")
+    run([tool("vdb_rockpile"), "-q", "tiles", "--n", "4", "--seed", "2", "-o", str(d / "rocks.tiles")],
+        check=True)
+    (d / "ball.json").write_text(json.dumps({"type": "sphere", "radius": 0.6}))
+    run([tool("vdb_rockpile"), "-q", "pile", "--tiles", str(d / "rocks.tiles"), "--support",
+         str(d / "ball.json"), "--points", str(d / "points.vdb"), "--stats", str(d / "pile.json"),
+         "-o", str(d / "pile.vdb")], check=True)
+    run([tool("vdb_asset"), "-q", str(d / "points.vdb"), "--tiles", str(d / "rocks.tiles"),
+         *SMALL_ASSET, "--name", "pebble", "--collision", "--stats", str(d / "asset.json"),
+         "-o", str(d / "pile.glb")], check=True)
+    return d
+
+
+def accessor(j, b, i):
+    import numpy as np
+    a = j["accessors"][i]
+    v = j["bufferViews"][a["bufferView"]]
+    n = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}[a["type"]]
+    dtype = np.float32 if a["componentType"] == 5126 else np.uint32
+    return np.frombuffer(b, dtype, a["count"] * n, v.get("byteOffset", 0) + a.get("byteOffset", 0)).reshape(-1, n)
+
+
+def test_a_pile_as_instanced_unique_rocks_that_stand_on_the_piles_surface(pile):
+    import numpy as np
+    import pyopenvdb
+    j, b = glb_chunks(pile / "pile.glb")
+    assert j["extensionsUsed"] == ["EXT_mesh_gpu_instancing"]
+    assert "extensionsRequired" not in j  # a reader without it still draws every rock once
+    stats = json.loads((pile / "asset.json").read_text())
+    placed = json.loads((pile / "pile.json").read_text())["placed"]
+    assert stats["instances"] == placed and 10 <= stats["unique_rocks"] < placed
+    names = [n["name"] for n in j["nodes"]]
+    lod0 = [n for n in j["nodes"] if n["name"].endswith("_LOD0")]
+    assert len(lod0) == stats["unique_rocks"]
+    surface = pyopenvdb.read(str(pile / "pile.vdb"), "surface")
+    dx = surface.transform.voxelSize()[0]
+    (i0, j0, k0), (i1, j1, k1) = surface.evalActiveVoxelBoundingBox()
+    phi = np.full((i1 - i0 + 3, j1 - j0 + 3, k1 - k0 + 3), surface.background, dtype=np.float32)
+    surface.copyToArray(phi, ijk=(i0 - 1, j0 - 1, k0 - 1))
+
+    def trilinear(p):  # rockvdb world (n, 3) -> phi, voxel centres at index * dx
+        u = p / dx - (i0 - 1, j0 - 1, k0 - 1)
+        f = np.floor(u).astype(int)
+        t = u - f
+        out = 0.0
+        for c in range(8):
+            o = ((c >> 2) & 1, (c >> 1) & 1, c & 1)
+            w = np.prod(np.where(o, t, 1 - t), axis=1)
+            out = out + w * phi[f[:, 0] + o[0], f[:, 1] + o[1], f[:, 2] + o[2]]
+        return out
+
+    count, near, worst, counted = 0, 0, -1.0, 0
+    for node in lod0:
+        rock = node["name"][len("pebble_"):-len("_LOD0")]
+        assert node["extras"]["rockvdb_rock"] == int(rock)
+        # every node of the rock (its LODs, its hull) is drawn at the same instances
+        mine = [n for n in j["nodes"] if n["name"].startswith(f"pebble_{rock}_LOD") or
+                n["name"] == f"UCX_pebble_{rock}_00"]
+        assert len(mine) == 3 and f"UCX_pebble_{rock}_00" in names
+        t = {n["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"] for n in mine}
+        assert len(t) == 1
+        seeds = accessor(j, b, t.pop())
+        count += len(seeds)
+        pos = accessor(j, b, j["meshes"][node["mesh"]]["primitives"][0]["attributes"]["POSITION"])
+        # centred on its seed: the mesh's pivot is inside the rock
+        assert np.all(np.abs(pos).max(axis=0) < 0.5)
+        for s in seeds:
+            w = pos + s  # glTF y up -> rockvdb z up: (x, y, z) = (x, -z, y)
+            d = trilinear(np.stack([w[:, 0], -w[:, 2], w[:, 1]], axis=1))
+            worst = max(worst, float(d.max()))
+            near += int(np.count_nonzero(np.abs(d) < 0.25 * dx))
+            counted += len(d)
+    total = sum(len(accessor(j, b, n["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["TRANSLATION"]))
+                for n in lod0)
+    assert count == total == placed
+    # every instanced vertex lies on the pile's surface, within the LOD's simplification
+    # error, none outside it (a vertex inside a neighbour rock may lie deeper: fused rocks)
+    assert worst < 0.5 * dx, worst
+    assert near >= 0.8 * counted, near / counted
+
+
+def test_a_pile_replays_from_its_provenance_and_python_gives_the_same_bytes(pile, tmp_path):
+    import rockvdb
+    j, _ = glb_chunks(pile / "pile.glb")
+    params = j["asset"]["extras"]["rockvdb"]["params"]
+    assert params["input"] == str(pile / "points.vdb") and params["tiles"] == str(pile / "rocks.tiles")
+    (tmp_path / "p.json").write_text(json.dumps(params))
+    run([tool("vdb_asset"), "-q", "--params", str(tmp_path / "p.json"), "-o", str(tmp_path / "again.glb")],
+        check=True)
+    assert (tmp_path / "again.glb").read_bytes() == (pile / "pile.glb").read_bytes()
+    data = rockvdb.asset_instances(str(pile / "points.vdb"), str(pile / "rocks.tiles"), lods="300,80",
+                                   texture_size=64, padding=2, name="pebble", collision=True)
+    assert data == (pile / "pile.glb").read_bytes()
+
+
+def test_bad_pile_inputs_are_one_line_and_write_nothing(pile, tmp_path):
+    out = tmp_path / "bad.glb"
+    pts, tiles = str(pile / "points.vdb"), str(pile / "rocks.tiles")
+    # points of another tile set: not on its rocks' lattice
+    run([tool("vdb_rockpile"), "-q", "tiles", "--n", "4", "--seed", "9", "-o", str(tmp_path / "other.tiles")],
+        check=True)
+    one_line_error(run([tool("vdb_asset"), pts, "--tiles", str(tmp_path / "other.tiles"), "-o", str(out)]),
+                   2, "do not belong together")
+    one_line_error(run([tool("vdb_asset"), str(pile / "pile.vdb"), "--tiles", tiles, "-o", str(out)]),
+                   2, "has no points grid")
+    one_line_error(run([tool("vdb_asset"), pts, "--tiles", pts, "-o", str(out)]), 2, "holds no tile set")
+    one_line_error(run([tool("vdb_asset"), pts, "--tiles", tiles, "--id", "3", "-o", str(out)]),
+                   2, "do not apply")
+    assert not out.exists()

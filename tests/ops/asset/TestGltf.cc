@@ -186,3 +186,59 @@ TEST(Gltf, SameAssetSameBytes)
     GltfAsset empty;
     EXPECT_THROW(writeGlb(empty), ValueError);
 }
+
+TEST(Gltf, AssetsShareAFileEachCentredOnItsPivotAndInstanced)
+{
+    const Built b = build();
+    GltfAsset one, two;
+    one.name = "a";
+    two.name = "b";
+    for (size_t i = 0; i < b.meshes.size(); ++i) {
+        one.lods.push_back({&b.meshes[i], &b.frames[i], &b.maps[i]});
+        two.lods.push_back({&b.meshes[i], &b.frames[i], nullptr});
+    }
+    two.collision = &b.hull;
+    // the sphere's centre (0, 0.5, 2) as the pivot: vertices become centred on it
+    two.pivot = openvdb::Vec3d(0, 0.5, 2);
+    two.instances = {{10, 20, 30}, {-1, -2, -3}};
+    two.extras = {{"rockvdb_rock", 7}};
+    const std::string bytes = writeGlb({one, two}, "pile", {{"rockvdb", {{"generator", "vdb_asset"}}}});
+    tinygltf::Model m;
+    tinygltf::TinyGLTF loader;
+    std::string err, warn;
+    ASSERT_TRUE(loader.LoadBinaryFromMemory(&m, &err, &warn,
+                                            reinterpret_cast<const unsigned char*>(bytes.data()),
+                                            unsigned(bytes.size())))
+        << err;
+    ASSERT_EQ(m.scenes.size(), 1u);
+    EXPECT_EQ(m.scenes[0].name, "pile");
+    ASSERT_EQ(m.nodes.size(), 5u); // a_LOD0, a_LOD1, b_LOD0, b_LOD1, UCX_b_00
+    EXPECT_EQ(m.nodes[2].name, "b_LOD0");
+    EXPECT_EQ(m.nodes[4].name, "UCX_b_00");
+    EXPECT_EQ(m.extensionsUsed, std::vector<std::string>{"EXT_mesh_gpu_instancing"});
+    EXPECT_TRUE(m.extensionsRequired.empty());
+    EXPECT_EQ(m.images.size(), 4u); // only a's maps
+    EXPECT_EQ(m.asset.extras.Get("rockvdb").Get("generator").Get<std::string>(), "vdb_asset");
+    EXPECT_EQ(m.nodes[2].extras.Get("rockvdb_rock").Get<int>(), 7);
+    EXPECT_TRUE(m.nodes[0].extensions.empty());
+    int shared = -1;
+    for (size_t n = 2; n < 5; ++n) {
+        const auto& ext = m.nodes[n].extensions.at("EXT_mesh_gpu_instancing");
+        const int t = ext.Get("attributes").Get("TRANSLATION").Get<int>();
+        if (shared < 0) shared = t;
+        EXPECT_EQ(t, shared); // every node of b at the same instances
+    }
+    const auto t = read<float>(m, shared, 3);
+    // y up: (10, 20, 30) -> (10, 30, -20)
+    EXPECT_EQ(t, (std::vector<float>{10, 30, -20, -1, -3, 2}));
+    // a's sphere stays where it is; b's is centred on the pivot
+    auto centre = [&](int node) {
+        const auto pos = read<float>(m, m.meshes[m.nodes[node].mesh].primitives[0].attributes.at("POSITION"), 3);
+        openvdb::Vec3d c(0.0);
+        for (size_t v = 0; v < pos.size(); v += 3) c += openvdb::Vec3d(pos[v], pos[v + 1], pos[v + 2]);
+        return c / double(pos.size() / 3);
+    };
+    EXPECT_NEAR((centre(0) - openvdb::Vec3d(0, 2, -0.5)).length(), 0.0, 0.02);
+    EXPECT_NEAR(centre(2).length(), 0.0, 0.02);
+    EXPECT_THROW(writeGlb(std::vector<GltfAsset>{}, "x", {}), ValueError);
+}
