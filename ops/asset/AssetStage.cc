@@ -241,16 +241,17 @@ Built build(const AssetParams& p, const openvdb::FloatGrid& grid, bool fitLods, 
         occ = occlusion(b.lods.front().mesh, grid.voxelSize()[0], aoDistance, task);
     }
     task.phase("maps", (p.occlusion ? 0.4 : 0.55) * share);
+    const SurfaceField field(grid);
     for (size_t i = 0; i < b.meshes.size(); ++i) {
-        b.maps.push_back(bakeMaps(b.meshes[i], b.frames[i], grid, p.textureSize, occ ? &*occ : nullptr, task));
+        b.maps.push_back(bakeMaps(b.meshes[i], b.frames[i], field, p.textureSize, occ ? &*occ : nullptr, task));
     }
     task.phase("write", 0.05 * share);
     if (p.collision) b.hull = hullMesh(b.lods.back().mesh);
 
     nlohmann::json levels = nlohmann::json::array();
     for (size_t i = 0; i < b.lods.size(); ++i) {
-        const SurfaceError e = surfaceError(b.lods[i].mesh, grid);
-        const NormalMapError ne = normalMapError(b.meshes[i], b.frames[i], b.maps[i], grid);
+        const SurfaceError e = surfaceError(b.lods[i].mesh, full, grid);
+        const NormalMapError ne = normalMapError(b.meshes[i], b.frames[i], b.maps[i], field);
         double aoMean = 0;
         size_t covered = 0;
         for (size_t t = 0; t < b.maps[i].covered.size(); ++t) {
@@ -261,15 +262,16 @@ Built build(const AssetParams& p, const openvdb::FloatGrid& grid, bool fitLods, 
         nlohmann::json level = {{"triangles", b.lods[i].mesh.triangles()}, {"target", b.budgets[i]},
                                 {"vertices", b.meshes[i].points.size()}, {"charts", b.meshes[i].charts},
                                 {"mean_error", e.mean}, {"max_error", e.max},
+                                {"surface_to_lod_error", e.back}, {"hausdorff", e.hausdorff},
                                 {"normal_map_degrees", ne.mapDegrees}, {"lod_normal_degrees", ne.meshDegrees},
                                 {"texels_covered", double(covered) / double(b.maps[i].covered.size())}};
         if (occ) level["occlusion_mean"] = covered ? aoMean / double(covered) : 1.0;
         levels.push_back(level);
-        char line[320];
+        char line[360];
         std::snprintf(line, sizeof line, "LOD%zu: %zu triangles (asked %zu), %zu charts, distance "
-                      "to the level set mean %.3g m, max %.3g m; normals off the level set's by "
-                      "%.2f deg with the map, %.1f deg without", i, b.lods[i].mesh.triangles(),
-                      b.budgets[i], b.meshes[i].charts, e.mean, e.max, ne.mapDegrees, ne.meshDegrees);
+                      "to the level set mean %.3g m, Hausdorff %.3g m; normals off the level set's "
+                      "by %.2f deg with the map, %.1f deg without", i, b.lods[i].mesh.triangles(),
+                      b.budgets[i], b.meshes[i].charts, e.mean, e.hausdorff, ne.mapDegrees, ne.meshDegrees);
         b.report.push_back(line);
     }
     b.stats = {{"full_triangles", full.triangles()}, {"lods", levels},

@@ -47,15 +47,38 @@ struct Lod
 /// not decrease.
 std::vector<Lod> makeLods(const TriMesh& full, const std::vector<size_t>& targets, Task& task);
 
-/// How far a mesh lies from a level set's surface: |phi| (trilinear, tools::BoxSampler) at
-/// its vertices and at the centroid and edge midpoints of every triangle, in metres. This is
-/// the mesh-to-surface half of the Hausdorff distance (points outside the band read the
-/// background: an upper bound there).
+/// @brief Exact distances from points to a triangle mesh: triangles binned in a uniform grid
+/// of cells about twice their mean edge, each query searching shells of cells outward until
+/// no nearer triangle can remain. Thread-safe once built.
+class TriangleDistance
+{
+public:
+    explicit TriangleDistance(const TriMesh& mesh);
+    /// Distance (m) from @a p to the nearest triangle.
+    double operator()(const openvdb::Vec3d& p) const;
+
+private:
+    const TriMesh& mMesh;
+    openvdb::Vec3d mOrigin;
+    double mCell = 1;
+    openvdb::Coord mDims;
+    std::vector<uint32_t> mStart, mItems; ///< cell c's triangles: mItems[mStart[c] .. mStart[c + 1])
+};
+
+/// How far a level of detail lies from the level set's surface, both ways (metres):
+/// - lod -> surface: |phi| (trilinear, tools::BoxSampler) at its vertices and at the centroid
+///   and edge midpoints of every triangle; beyond the band, where phi saturates, the exact
+///   distance to the full-resolution surface mesh;
+/// - surface -> lod: the exact distance from every vertex of the full-resolution surface mesh
+///   (points of the zero surface) to the LOD's triangles.
+/// hausdorff, the larger of the two maxima, is the (sampled) Hausdorff distance.
 struct SurfaceError
 {
-    double mean = 0, max = 0;
+    double mean = 0, max = 0; ///< lod -> surface
+    double back = 0;          ///< surface -> lod, max
+    double hausdorff = 0;     ///< max(max, back)
 };
-SurfaceError surfaceError(const TriMesh& mesh, const openvdb::FloatGrid& grid);
+SurfaceError surfaceError(const TriMesh& lod, const TriMesh& full, const openvdb::FloatGrid& grid);
 
 } // namespace asset
 } // namespace rockvdb

@@ -2,6 +2,7 @@
 
 #include <rockvdb/core/Error.h>
 
+#include <openvdb/tools/GridOperators.h>
 #include <openvdb/tools/Interpolation.h>
 
 #include <algorithm>
@@ -38,15 +39,15 @@ void frameAt(const UvMesh& m, const VertexFrames& f, size_t t, const openvdb::Ve
     bit = n.cross(tan) * (w < 0 ? -1.0 : 1.0);
 }
 
-// The level set's distance and gradient at world points (trilinear samples; central
-// differences one voxel apart), and a point's projection onto the zero set: two Newton steps
-// q = p - phi(p) grad phi / |grad phi|². An unregistered accessor: registering one per
+// The level set's distance and gradient at world points (trilinear samples of the level set
+// and of its gradient grid), and a point's projection onto the zero set: two Newton steps
+// q = p - phi(p) grad phi / |grad phi|². Unregistered accessors: registering one per
 // triangle would serialise on the tree's accessor registry.
 class SdfProbe
 {
 public:
-    explicit SdfProbe(const openvdb::FloatGrid& grid)
-        : mAcc(grid.tree()), mXf(grid.transform()), mH(grid.transform().voxelSize()[0]) {}
+    explicit SdfProbe(const SurfaceField& f)
+        : mAcc(f.grid.tree()), mGrad(f.gradient->tree()), mXf(f.grid.transform()) {}
 
     double phi(const openvdb::Vec3d& p)
     {
@@ -54,11 +55,7 @@ public:
     }
     openvdb::Vec3d grad(const openvdb::Vec3d& p)
     {
-        const double h = mH;
-        return openvdb::Vec3d(phi(p + openvdb::Vec3d(h, 0, 0)) - phi(p - openvdb::Vec3d(h, 0, 0)),
-                              phi(p + openvdb::Vec3d(0, h, 0)) - phi(p - openvdb::Vec3d(0, h, 0)),
-                              phi(p + openvdb::Vec3d(0, 0, h)) - phi(p - openvdb::Vec3d(0, 0, h))) /
-               (2.0 * h);
+        return openvdb::Vec3d(openvdb::tools::BoxSampler::sample(mGrad, mXf.worldToIndex(p)));
     }
     openvdb::Vec3d project(openvdb::Vec3d q)
     {
@@ -73,8 +70,8 @@ public:
 
 private:
     openvdb::tree::ValueAccessor<const openvdb::FloatTree, false> mAcc;
+    openvdb::tree::ValueAccessor<const openvdb::Vec3STree, false> mGrad;
     const openvdb::math::Transform& mXf;
-    double mH;
 };
 
 // A texture's bilinear value at uv in [0, 1]² (texel centres at (i + 1/2) / size, clamped at
@@ -150,12 +147,30 @@ openvdb::Vec3d decodeNormal(const openvdb::Vec3f& rgb, const openvdb::Vec3d& nor
     return safeUnit(c.x() * t + c.y() * b + c.z() * n, n);
 }
 
-BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const openvdb::FloatGrid& grid,
-                   int size, const Occlusion* occlusion, Task& task)
+SurfaceField::SurfaceField(const openvdb::FloatGrid& g) : grid(g)
 {
     if (grid.getGridClass() != openvdb::GRID_LEVEL_SET) {
         fail<ValueError>("asset: grid '", grid.getName(), "' is not a level set");
     }
+    // (tools::gradient's second-order central differences; transform-aware: world units)
+    gradient = openvdb::tools::gradient(grid);
+}
+
+BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const openvdb::FloatGrid& grid,
+                   int size, const Occlusion* occlusion, Task& task)
+{
+    return bakeMaps(m, f, SurfaceField(grid), size, occlusion, task);
+}
+
+NormalMapError normalMapError(const UvMesh& m, const VertexFrames& f, const BakedMaps& maps,
+                              const openvdb::FloatGrid& grid)
+{
+    return normalMapError(m, f, maps, SurfaceField(grid));
+}
+
+BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const SurfaceField& field,
+                   int size, const Occlusion* occlusion, Task& task)
+{
     require(size >= 8 && size <= 16384, "asset", "texture-size", "in [8, 16384]", size);
     BakedMaps map;
     map.size = size;
@@ -169,7 +184,7 @@ BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const openvdb::FloatG
     parallelFor(task, nt, 64, [&](size_t t) {
         // unregistered accessors: registering one per triangle would serialise on the tree's
         // accessor registry
-        SdfProbe sdf(grid);
+        SdfProbe sdf(field);
         std::optional<openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>> oacc;
         if (occlusion) oacc.emplace(occlusion->value->tree());
         openvdb::Vec2d uv[3];
@@ -242,7 +257,7 @@ BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const openvdb::FloatG
 }
 
 NormalMapError normalMapError(const UvMesh& m, const VertexFrames& f, const BakedMaps& maps,
-                              const openvdb::FloatGrid& grid)
+                              const SurfaceField& field)
 {
     if (maps.size < 2 || maps.normal.size() != size_t(maps.size) * maps.size) {
         fail<ValueError>("asset: normalMapError needs a baked normal map");
@@ -251,7 +266,7 @@ NormalMapError normalMapError(const UvMesh& m, const VertexFrames& f, const Bake
     // by the triangle's area: serial, so the sums do not depend on the thread count.
     static const openvdb::Vec3d kBary[4] = {{1 / 3.0, 1 / 3.0, 1 / 3.0}, {2 / 3.0, 1 / 6.0, 1 / 6.0},
                                             {1 / 6.0, 2 / 3.0, 1 / 6.0}, {1 / 6.0, 1 / 6.0, 2 / 3.0}};
-    SdfProbe sdf(grid);
+    SdfProbe sdf(field);
     NormalMapError e;
     double weight = 0;
     for (size_t t = 0; t < m.triangles(); ++t) {

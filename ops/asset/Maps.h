@@ -4,9 +4,9 @@
 //
 // For each texel of a chart: the point p on the LOD triangle under the texel centre, moved to
 // the level set's zero along its gradient (two Newton steps, q = p - phi(p) grad phi), and the
-// gradient's direction there (central differences of trilinear samples, one voxel apart) is
-// the high-resolution normal. It is written in the LOD's tangent frame as engines rebuild it:
-// the vertex normal, tangent and handedness interpolated over the triangle (vertexFrames), the
+// gradient's direction there (the trilinear sample of the voxels' central differences, see
+// SurfaceField) is the high-resolution normal. It is written in the LOD's tangent frame as
+// engines rebuild it: the vertex normal, tangent and handedness interpolated over the triangle (vertexFrames), the
 // tangent made orthogonal to the normal, the bitangent their cross product times the
 // handedness; rgb = (n·t, n·b, n·n_vertex) / 2 + 1/2 (glTF's convention: +y is +v, "OpenGL").
 // The occlusion, when asked, is the Occlusion grid's value at q.
@@ -42,9 +42,25 @@ struct BakedMaps
     std::vector<uint8_t> covered;       ///< 1 where a triangle covers the texel centre
 };
 
-/// @brief Bake @a grid's normals (and @a occlusion's values, when given) into @a mesh's atlas
+/// The level set the maps are baked from, with its gradient grid (tools::gradient: central
+/// differences of the voxels, in world units), made once and shared by every LOD's bake. The
+/// gradient at a point is the trilinear sample of that grid: the same as central differences
+/// of trilinear samples a voxel apart (trilinear interpolation is linear and commutes with
+/// whole-voxel shifts), in 8 lookups instead of 48.
+struct SurfaceField
+{
+    /// @throw ValueError when @a grid is not a level set.
+    explicit SurfaceField(const openvdb::FloatGrid& grid);
+    const openvdb::FloatGrid& grid;
+    openvdb::Vec3SGrid::Ptr gradient;
+};
+
+/// @brief Bake @a field's normals (and @a occlusion's values, when given) into @a mesh's atlas
 /// at @a size² texels (the atlas must have been made for this size).
-/// @throw ValueError when @a grid is not a level set.
+BakedMaps bakeMaps(const UvMesh& mesh, const VertexFrames& frames, const SurfaceField& field,
+                   int size, const Occlusion* occlusion, Task& task);
+/// @brief As above, making the SurfaceField of @a grid. @throw ValueError when @a grid is not
+/// a level set.
 BakedMaps bakeMaps(const UvMesh& mesh, const VertexFrames& frames, const openvdb::FloatGrid& grid,
                    int size, const Occlusion* occlusion, Task& task);
 
@@ -64,6 +80,8 @@ struct NormalMapError
 /// @brief Mean angles (area-weighted, 4 points per triangle, not texel centres) between the
 /// level set's normal at the LOD point's projection onto the zero set and (a) the normal map's
 /// bilinear value decoded as an engine does, (b) the LOD's own interpolated normal.
+NormalMapError normalMapError(const UvMesh& mesh, const VertexFrames& frames, const BakedMaps& maps,
+                              const SurfaceField& field);
 NormalMapError normalMapError(const UvMesh& mesh, const VertexFrames& frames, const BakedMaps& maps,
                               const openvdb::FloatGrid& grid);
 

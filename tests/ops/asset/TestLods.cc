@@ -77,9 +77,10 @@ TEST(Lods, SurfaceMeshIsClosedOutwardAndOnTheSurface)
     for (const auto& p : m.points) {
         EXPECT_NEAR((openvdb::Vec3d(p) - openvdb::Vec3d(0.1, -0.2, 0.05)).length(), 1.0, 0.5 * dx);
     }
-    const SurfaceError e = surfaceError(m, *g);
+    const SurfaceError e = surfaceError(m, m, *g);
     EXPECT_LT(e.mean, 0.05 * dx);
     EXPECT_LT(e.max, 0.2 * dx);
+    EXPECT_EQ(e.back, 0.0); // every vertex is on the mesh itself
 }
 
 TEST(Lods, LevelsMeetTheirBudgetsKeepTheTopologyAndStayNearTheSurface)
@@ -111,11 +112,59 @@ TEST(Lods, LevelsMeetTheirBudgetsKeepTheTopologyAndStayNearTheSurface)
         const double c = side / std::sqrt(3.0), sag = 1.0 - std::sqrt(1.0 - c * c);
         const double exact = 4.0 / 3.0 * M_PI;
         EXPECT_NEAR(signedVolume(m), exact, 4.0 * sag * exact) << i;
-        const SurfaceError e = surfaceError(m, *g);
+        const SurfaceError e = surfaceError(m, full, *g);
+        // a polyhedron inscribed in the sphere: its faces sag inward, the surface's points
+        // between its vertices are as far from it as its centroids from the surface
+        EXPECT_NEAR(e.back, e.max, 0.5 * e.max + 0.25 * dx) << i;
+        EXPECT_EQ(e.hausdorff, std::max(e.max, e.back));
         EXPECT_GE(e.max, previous) << "coarser levels lie further from the surface";
         previous = e.max;
         EXPECT_LT(e.max, 3.0 * sag + 0.25 * dx) << i;
         EXPECT_GT(e.max, 0.5 * sag) << i << ": closer than a polyhedron can be?";
+    }
+}
+
+TEST(Lods, TheErrorIsMeasuredBothWaysAndBeyondTheBand)
+{
+    const float dx = 0.04f;
+    auto g = sphere(1.0f, dx);
+    const TriMesh full = surfaceMesh(*g);
+    const openvdb::Vec3d c(0.1, -0.2, 0.05);
+    // The surface scaled by 1.2 about its centre: 0.2 m out, far beyond the band (3 dx = 0.12 m)
+    // where phi reads the background: the exact distance to the full mesh is measured there.
+    TriMesh big = full;
+    for (auto& p : big.points) p = openvdb::Vec3f(c + (openvdb::Vec3d(p) - c) * 1.2);
+    const SurfaceError out = surfaceError(big, full, *g);
+    EXPECT_NEAR(out.max, 0.2, 0.01);
+    EXPECT_NEAR(out.mean, 0.2, 0.01);
+    EXPECT_NEAR(out.back, 0.2, 0.01);
+    // Half the triangles dropped (those with a centroid above the centre's plane z = 0.05):
+    // what is left still lies on the surface, but the top of the surface is far from it, up
+    // to the sphere's pole, about the radius away from the cut's rim.
+    TriMesh half;
+    half.points = full.points;
+    for (size_t t = 0; t < full.triangles(); ++t) {
+        double z = 0;
+        for (int k = 0; k < 3; ++k) z += full.points[full.indices[3 * t + k]].z() / 3.0;
+        if (z > 0.05) continue;
+        half.indices.insert(half.indices.end(), full.indices.begin() + 3 * t, full.indices.begin() + 3 * t + 3);
+    }
+    const SurfaceError cut = surfaceError(half, full, *g);
+    EXPECT_LT(cut.max, 0.2 * dx);
+    EXPECT_NEAR(cut.back, std::sqrt(2.0), 0.05); // the pole to the rim's nearest point
+    EXPECT_EQ(cut.hausdorff, cut.back);
+    // The index agrees with brute force.
+    const TriangleDistance dist(half);
+    for (const openvdb::Vec3d p : {openvdb::Vec3d(0, 0, 3), openvdb::Vec3d(0.3, 0.2, 0.4), openvdb::Vec3d(-5, 1, -2)}) {
+        double brute = 1e300;
+        for (size_t t = 0; t < half.triangles(); ++t) {
+            TriMesh one;
+            one.points = {half.points[half.indices[3 * t]], half.points[half.indices[3 * t + 1]],
+                          half.points[half.indices[3 * t + 2]]};
+            one.indices = {0, 1, 2};
+            brute = std::min(brute, TriangleDistance(one)(p));
+        }
+        EXPECT_NEAR(dist(p), brute, 1e-9);
     }
 }
 
