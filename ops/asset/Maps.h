@@ -6,9 +6,9 @@
 // the level set's zero along its gradient (two Newton steps, q = p - phi(p) grad phi), and the
 // gradient's direction there (the trilinear sample of the voxels' central differences, see
 // SurfaceField) is the high-resolution normal. It is written in the LOD's tangent frame as
-// engines rebuild it: the vertex normal, tangent and handedness interpolated over the triangle (vertexFrames), the
-// tangent made orthogonal to the normal, the bitangent their cross product times the
-// handedness; rgb = (n·t, n·b, n·n_vertex) / 2 + 1/2 (glTF's convention: +y is +v, "OpenGL").
+// engines rebuild it: the vertex normal, tangent and handedness interpolated over the
+// triangle (vertexFrames), the tangent made orthogonal to the normal, the bitangent their
+// cross product times the handedness; rgb = (n·t, n·b, n·n_vertex) / 2 + 1/2 (glTF's convention: +y is +v, "OpenGL").
 // The occlusion, when asked, is the Occlusion grid's value at q.
 // Texels outside every chart take the nearest covered texel's value (dilation over the whole
 // texture), so bilinear reads and mip levels at chart borders stay on the chart's colours.
