@@ -29,12 +29,16 @@ int main(int argc, char** argv)
         "--tiles makes the input a rock pile's points (vdb_rockpile pile --points): one GLB whose "
         "unique rocks are drawn at every instance by EXT_mesh_gpu_instancing.");
     CLI::App& app = tool.app();
-    std::string input, gridName, idGridName, tilesPath;
+    std::string input, gridName, idGridName, tilesPath, maskGrid;
     bool eachId = false;
     app.add_option("input", input, "Input .vdb ('-' = stdin)")->required();
     app.add_option("--grid", gridName, "Level-set grid (default: 'surface', else the only level set)");
     app.add_option("--id-grid", idGridName,
                    "Id grid for --id / --each-id (default: 'block_id', else 'rock_id')");
+    app.add_option("--mask-grid", maskGrid,
+                   "Bake this id grid of the input (e.g. material, block_id) into a grey mask "
+                   "texture per LOD: the id at each texel, 255 (65535 with --map-bits 16) where "
+                   "none is; referenced from the material's extras 'rockvdb_mask'");
     app.add_flag("--each-id", eachId, "One asset per id of the id grid, named <name>_<id>, written "
                  "where -o's '{id}' is replaced by the id");
     app.add_option("--tiles", tilesPath,
@@ -64,9 +68,9 @@ int main(int argc, char** argv)
         requireWritable(eachId ? at(0) : out);
 
         if (!tilesPath.empty()) {
-            if (eachId || p.id >= 0 || !gridName.empty() || !idGridName.empty()) {
-                fail<ValueError>("--tiles makes the input a pile's points: --each-id, --id, --grid "
-                                 "and --id-grid do not apply");
+            if (eachId || p.id >= 0 || !gridName.empty() || !idGridName.empty() || !maskGrid.empty()) {
+                fail<ValueError>("--tiles makes the input a pile's points: --each-id, --id, --grid, "
+                                 "--id-grid and --mask-grid do not apply");
             }
             if (input == "-") fail<ValueError>("--tiles: the points must be a file, not stdin");
             const AssetResult r = tool.stage([&](Task& task) {
@@ -84,6 +88,10 @@ int main(int argc, char** argv)
         if (eachId || p.id >= 0) {
             in.ids = findIdGrid(*grids, idGridName, input);
             in.names["id-grid"] = in.ids->getName();
+        }
+        if (!maskGrid.empty()) {
+            in.mask = findIdGrid(*grids, maskGrid, input);
+            in.names["mask-grid"] = in.mask->getName();
         }
         if (eachId) {
             const AssetSetResult r = tool.stage([&](Task& task) { return runAssetEach(p, in, task); });

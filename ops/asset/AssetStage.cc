@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <optional>
+#include <set>
 #include <sstream>
 
 namespace rockvdb {
@@ -120,13 +121,15 @@ openvdb::FloatGrid::Ptr findIdGrid(const openvdb::GridPtrVec& grids, const std::
 
 namespace {
 
-// An id grid holds ids (block_id, rock_id), not distances: the one check both entries share.
-void requireIds(const AssetInputs& in)
+// An id grid holds ids (block_id, rock_id, material), not distances.
+void requireIdGrid(const openvdb::FloatGrid& ids)
 {
-    if (in.ids->getGridClass() == openvdb::GRID_LEVEL_SET) {
-        fail<ValueError>("asset: the id grid '", in.ids->getName(), "' is a level set, not an id grid");
+    if (ids.getGridClass() == openvdb::GRID_LEVEL_SET) {
+        fail<ValueError>("asset: the id grid '", ids.getName(), "' is a level set, not an id grid");
     }
 }
+
+void requireIds(const AssetInputs& in) { requireIdGrid(*in.ids); }
 
 // The largest extent of a mesh's bounding box (m).
 double extent(const TriMesh& m)
@@ -213,7 +216,8 @@ struct Built
 };
 
 // Mesh, simplify, unwrap and bake @a grid (phases share @a share of the task).
-Built build(const AssetParams& p, const openvdb::FloatGrid& grid, bool fitLods, double share, Task& task)
+Built build(const AssetParams& p, const openvdb::FloatGrid& grid, const openvdb::FloatGrid* mask,
+            bool fitLods, double share, Task& task)
 {
     Built b;
     b.used = p;
@@ -241,7 +245,7 @@ Built build(const AssetParams& p, const openvdb::FloatGrid& grid, bool fitLods, 
         occ = occlusion(b.lods.front().mesh, grid.voxelSize()[0], aoDistance, task);
     }
     task.phase("maps", (p.occlusion ? 0.4 : 0.55) * share);
-    const SurfaceField field(grid);
+    const SurfaceField field(grid, mask);
     for (size_t i = 0; i < b.meshes.size(); ++i) {
         b.maps.push_back(bakeMaps(b.meshes[i], b.frames[i], field, p.textureSize, occ ? &*occ : nullptr, task));
     }
@@ -283,6 +287,27 @@ Built build(const AssetParams& p, const openvdb::FloatGrid& grid, bool fitLods, 
                            std::to_string(b.hull.triangles()) + " triangles");
     }
     if (b.fitted) b.stats["lods_fitted"] = b.used.lods;
+    if (mask) {
+        // Every id must fit the PNG below its "none" value.
+        const int32_t top = p.mapBits == 16 ? 65535 : 255;
+        std::set<int32_t> ids;
+        size_t none = 0, texels = 0;
+        for (const BakedMaps& m : b.maps) {
+            for (size_t t = 0; t < m.mask.size(); ++t) {
+                if (!m.covered[t]) continue;
+                ++texels;
+                if (m.mask[t] < 0) ++none;
+                else ids.insert(m.mask[t]);
+            }
+        }
+        if (!ids.empty() && *ids.rbegin() >= top) {
+            fail<ValueError>("asset: the mask grid '", mask->getName(), "' holds id ", *ids.rbegin(),
+                             p.mapBits == 8 ? std::string(", above 254: use --map-bits 16")
+                                            : std::string(", above 65534: too large for a 16-bit mask"));
+        }
+        b.stats["mask"] = {{"grid", mask->getName()}, {"ids", std::vector<int32_t>(ids.begin(), ids.end())},
+                           {"texels_without_id", texels ? double(none) / double(texels) : 0.0}};
+    }
     b.report.insert(b.report.begin(), "surface: " + std::to_string(full.triangles()) + " triangles");
     return b;
 }
@@ -313,13 +338,15 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
         cutStats = {{"id", p.id}, {"id_grid", in.ids->getName()}, {"voxels_searched", c.voxels},
                     {"rebuilt", c.rebuilt}};
     }
-    Built b = build(p, *grid, in.fitLods, p.id >= 0 ? 0.9 : 1.0, task);
+    if (in.mask) requireIdGrid(*in.mask);
+    Built b = build(p, *grid, in.mask.get(), in.fitLods, p.id >= 0 ? 0.9 : 1.0, task);
 
     nlohmann::json prov = stageProvenance(assetSchema().toJson(b.used), in.names);
     // Under "sources", as vdb_csg records its inputs: a --params replay skips it.
     prov["sources"] = nlohmann::json::array({gridSource(*in.grid)});
     r.provenance = prov;
     GltfAsset a = b.gltf();
+    if (in.mask) a.maskName = in.mask->getName();
     a.extras = {{"rockvdb", {{"version", version()}, {"generator", kAssetTool}, {"params", prov}}}};
     r.glb = writeGlb(a);
     task.done();
@@ -351,7 +378,7 @@ AssetResult runAssetInstances(const AssetParams& p, const PileInstances& pile, c
         AssetParams one = p;
         one.name = p.name + "_" + std::to_string(proto.rock);
         Task sub(&host);
-        built[i] = build(one, *proto.grid, true, 1.0, sub);
+        built[i] = build(one, *proto.grid, nullptr, true, 1.0, sub);
     });
     nlohmann::json each = nlohmann::json::array();
     for (size_t i = 0; i < n; ++i) {

@@ -48,6 +48,9 @@ struct AssetInputs
 {
     openvdb::FloatGrid::ConstPtr grid;               ///< the level set
     openvdb::FloatGrid::ConstPtr ids;                ///< the id grid (needed for id >= 0)
+    /// An id grid (material, block_id, rock_id) to bake into a mask texture per LOD (Maps.h,
+    /// SurfaceField::mask; Gltf.h, GltfAsset::maskName), or none.
+    openvdb::FloatGrid::ConstPtr mask;
     nlohmann::json names = nlohmann::json::object(); ///< e.g. {"input": path, "grid": name}
     /// A surface with fewer triangles than LOD 0 asks has every budget scaled down so that
     /// LOD 0 is the whole surface (runAssetEach: a pile's small rocks), instead of an error;

@@ -86,14 +86,24 @@ std::array<float, 3> yUp(const openvdb::Vec3d& p)
     return {float(p.x()), float(p.z()), float(-p.y())};
 }
 
-// A baked map as PNG bytes: the normal map (RGB) or the occlusion (grey: glTF reads occlusion
-// from the red channel, a grey image serves every reader). PNG rows run top down and glTF's
+// A baked map as PNG bytes: the normal map (kind 0, RGB), the occlusion (1, grey: glTF reads
+// occlusion from the red channel, a grey image serves every reader) or the id mask (2, grey). PNG rows run top down and glTF's
 // v = 0 is the top, so texel row y (v = y / size, bottom up in the atlas) is image row
 // size - 1 - y.
-std::string mapPng(const BakedMaps& maps, bool occlusion, int bits)
+std::string mapPng(const BakedMaps& maps, int kind, int bits)
 {
     const double top = bits == 16 ? 65535.0 : 255.0;
-    const int size = maps.size, channels = occlusion ? 1 : 3;
+    const int size = maps.size, channels = kind == 0 ? 3 : 1;
+    if (kind == 2) { // the mask: ids as they are, none = top (ids were checked below top)
+        std::vector<uint16_t> values(size_t(size) * size);
+        for (int y = 0; y < size; ++y)
+            for (int x = 0; x < size; ++x) {
+                const int32_t id = maps.mask[size_t(y) * size + x];
+                values[size_t(size - 1 - y) * size + x] = uint16_t(id < 0 || id >= top ? top : id);
+            }
+        return encodePng(size, size, 1, bits, values);
+    }
+    const bool occlusion = kind == 1;
     std::vector<uint16_t> values(size_t(size) * size * channels);
     for (int y = 0; y < size; ++y) {
         for (int x = 0; x < size; ++x) {
@@ -110,7 +120,7 @@ std::string mapPng(const BakedMaps& maps, bool occlusion, int bits)
 
 // One asset's nodes (its LODs, then its collision hull) appended to the model and scene.
 void addAsset(tinygltf::Model& model, tinygltf::Scene& scene, const GltfAsset& asset,
-              const std::vector<std::array<std::string, 2>>& pngs)
+              const std::vector<std::array<std::string, 3>>& pngs)
 {
     // Instances: one TRANSLATION accessor, shared by the asset's nodes.
     int translations = -1;
@@ -169,6 +179,12 @@ void addAsset(tinygltf::Model& model, tinygltf::Scene& scene, const GltfAsset& a
             material.normalTexture.index = addTexture(name + "_normal", pngs[l][0]);
             if (!maps->occlusion.empty()) {
                 material.occlusionTexture.index = addTexture(name + "_occlusion", pngs[l][1]);
+            }
+            if (!maps->mask.empty()) {
+                const int index = addTexture(name + "_" + asset.maskName, pngs[l][2]);
+                material.extras = tinygltf::Value(tinygltf::Value::Object{{"rockvdb_mask", tinygltf::Value(tinygltf::Value::Object{
+                    {"index", tinygltf::Value(index)}, {"grid", tinygltf::Value(asset.maskName)},
+                    {"none", tinygltf::Value(asset.mapBits == 16 ? 65535 : 255)}})}});
             }
         }
         model.materials.push_back(material);
@@ -269,8 +285,8 @@ std::string writeGlb(const std::vector<GltfAsset>& assets, const std::string& sc
     tinygltf::Scene scene;
     scene.name = sceneName;
     // Every map's PNG first, side by side (zlib is serial, and a pile has hundreds).
-    std::vector<std::vector<std::array<std::string, 2>>> pngs(assets.size());
-    std::vector<std::array<size_t, 3>> jobs; // asset, LOD, occlusion?
+    std::vector<std::vector<std::array<std::string, 3>>> pngs(assets.size());
+    std::vector<std::array<size_t, 3>> jobs; // asset, LOD, kind (mapPng)
     for (size_t a = 0; a < assets.size(); ++a) {
         if (assets[a].lods.empty()) fail<ValueError>("asset: nothing to write (no LODs)");
         const int bits = assets[a].mapBits;
@@ -281,11 +297,12 @@ std::string writeGlb(const std::vector<GltfAsset>& assets, const std::string& sc
             if (!maps) continue;
             jobs.push_back({a, l, 0});
             if (!maps->occlusion.empty()) jobs.push_back({a, l, 1});
+            if (!maps->mask.empty()) jobs.push_back({a, l, 2});
         }
     }
     tbb::parallel_for(size_t(0), jobs.size(), [&](size_t j) {
-        const auto [a, l, occ] = jobs[j];
-        pngs[a][l][occ] = mapPng(*assets[a].lods[l].maps, occ == 1, assets[a].mapBits);
+        const auto [a, l, kind] = jobs[j];
+        pngs[a][l][kind] = mapPng(*assets[a].lods[l].maps, int(kind), assets[a].mapBits);
     });
     for (size_t a = 0; a < assets.size(); ++a) addAsset(model, scene, assets[a], pngs[a]);
     model.scenes.push_back(scene);

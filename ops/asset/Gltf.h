@@ -36,6 +36,11 @@ struct GltfAsset
     std::vector<GltfLod> lods; ///< finest first
     const TriMesh* collision = nullptr; ///< a convex hull, or none
     int mapBits = 8;           ///< PNG bits per channel: 8 or 16
+    /// The id grid baked into BakedMaps::mask (when there is one): a grey PNG per LOD, the id
+    /// in each texel and 2^bits - 1 where none is, referenced from the material's extras
+    /// {"rockvdb_mask": {"index": texture, "grid": name, "none": 2^bits - 1}} (glTF has no
+    /// slot for an id mask).
+    std::string maskName = "mask";
     nlohmann::json extras = nlohmann::json::object();
     /// Subtracted from every vertex (rockvdb's world, m): the mesh's origin.
     openvdb::Vec3d pivot = openvdb::Vec3d(0.0);

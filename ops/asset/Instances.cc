@@ -42,13 +42,8 @@ PileInstances readPileInstances(const std::string& pointsPath, const std::string
 {
     const auto grids = readGrids(pointsPath);
     const PointDataGrid::Ptr points = findPoints(*grids, pointsPath);
-    const rockpile::TileSet set = rockpile::readTileSet(tilesPath);
-    const double dx = set.params.voxelSize();
-
-    // Every point's rock and its shift in whole voxels: P = seedWorld(rock, shift).
-    std::map<size_t, std::vector<openvdb::Coord>> shifts;
-    size_t n = 0;
     const std::string rockType = openvdb::typeNameAsString<int32_t>();
+    std::vector<PilePoint> list;
     for (auto leaf = points->tree().cbeginLeaf(); leaf; ++leaf) {
         task.check();
         const auto& desc = leaf->attributeSet().descriptor();
@@ -59,31 +54,45 @@ PileInstances readPileInstances(const std::string& pointsPath, const std::string
         }
         openvdb::points::AttributeHandle<openvdb::Vec3f> pos(leaf->constAttributeArray("P"));
         openvdb::points::AttributeHandle<int32_t> rock(leaf->constAttributeArray(ri));
-        for (auto it = leaf->beginIndexOn(); it; ++it, ++n) {
-            const openvdb::Vec3d world =
-                points->transform().indexToWorld(it.getCoord().asVec3d() + openvdb::Vec3d(pos.get(*it)));
-            const int32_t r = rock.get(*it);
-            if (r < 0 || size_t(r) >= set.rocks.size() || set.rocks[size_t(r)].solidVoxels() == 0) {
-                fail<ValueError>("asset: point at (", world.x(), ", ", world.y(), ", ", world.z(), ") of '",
-                                 pointsPath, "' names rock ", r, ", not a rock of the tile set '", tilesPath,
-                                 "' (", set.rocks.size(), " rocks)");
-            }
-            const openvdb::Vec3d off =
-                (world - rockpile::seedWorld(set, set.rocks[size_t(r)], openvdb::Coord(0))) / dx;
-            const openvdb::Vec3d whole(std::round(off.x()), std::round(off.y()), std::round(off.z()));
-            if ((off - whole).length() > 1e-3 || std::abs(whole.x()) > 1e9 || std::abs(whole.y()) > 1e9 ||
-                std::abs(whole.z()) > 1e9) {
-                fail<ValueError>("asset: point at (", world.x(), ", ", world.y(), ", ", world.z(), ") of '",
-                                 pointsPath, "' is not where a copy of rock ", r, " of '", tilesPath,
-                                 "' can stand: the points and the tile set do not belong together");
-            }
-            shifts[size_t(r)].push_back(openvdb::Coord(int(whole.x()), int(whole.y()), int(whole.z())));
+        for (auto it = leaf->beginIndexOn(); it; ++it) {
+            list.push_back({rock.get(*it), points->transform().indexToWorld(
+                                               it.getCoord().asVec3d() + openvdb::Vec3d(pos.get(*it)))});
         }
     }
-    if (n == 0) fail<ValueError>("asset: the points grid of '", pointsPath, "' holds no points");
+    if (list.empty()) fail<ValueError>("asset: the points grid of '", pointsPath, "' holds no points");
+    return pileInstances(rockpile::readTileSet(tilesPath), list, halfWidth,
+                         "'" + pointsPath + "' (tile set '" + tilesPath + "')", task);
+}
+
+PileInstances pileInstances(const rockpile::TileSet& set, const std::vector<PilePoint>& points,
+                            double halfWidth, const std::string& source, Task& task)
+{
+    const double dx = set.params.voxelSize();
+    // Every point's rock and its shift in whole voxels: P = seedWorld(rock, shift).
+    std::map<size_t, std::vector<openvdb::Coord>> shifts;
+    for (const PilePoint& pt : points) {
+        const openvdb::Vec3d& world = pt.position;
+        const int64_t r = pt.rock;
+        if (r < 0 || size_t(r) >= set.rocks.size() || set.rocks[size_t(r)].solidVoxels() == 0) {
+            fail<ValueError>("asset: point at (", world.x(), ", ", world.y(), ", ", world.z(), ") of ",
+                             source, " names rock ", r, ", not a rock of the tile set (", set.rocks.size(),
+                             " rocks)");
+        }
+        const openvdb::Vec3d off =
+            (world - rockpile::seedWorld(set, set.rocks[size_t(r)], openvdb::Coord(0))) / dx;
+        const openvdb::Vec3d whole(std::round(off.x()), std::round(off.y()), std::round(off.z()));
+        if (!((off - whole).length() <= 1e-3) || std::abs(whole.x()) > 1e9 || std::abs(whole.y()) > 1e9 ||
+            std::abs(whole.z()) > 1e9) {
+            fail<ValueError>("asset: point at (", world.x(), ", ", world.y(), ", ", world.z(), ") of ",
+                             source, " is not where a copy of rock ", r, " can stand: the points and "
+                             "the tile set do not belong together");
+        }
+        shifts[size_t(r)].push_back(openvdb::Coord(int(whole.x()), int(whole.y()), int(whole.z())));
+    }
+    if (points.empty()) fail<ValueError>("asset: ", source, " holds no points");
 
     PileInstances out;
-    out.instances = n;
+    out.instances = points.size();
     out.voxelSize = dx;
     out.prototypes.reserve(shifts.size());
     for (auto& [rock, list] : shifts) {

@@ -10,10 +10,14 @@
 
 #include <openvdb/openvdb.h>
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
 namespace rockvdb {
+namespace rockpile {
+struct TileSet;
+}
 namespace asset {
 
 /// One unique rock and where its copies stand.
@@ -43,6 +47,19 @@ struct PileInstances
 /// unreadable files.
 PileInstances readPileInstances(const std::string& pointsPath, const std::string& tilesPath,
                                 double halfWidth, Task& task);
+
+/// One instance as the points hold it: its library rock and its seed (world, m).
+struct PilePoint
+{
+    int64_t rock = 0;
+    openvdb::Vec3d position;
+};
+
+/// @brief The instances of @a points in the tile set @a set (what readPileInstances makes of
+/// a file's points); @a source names the points in messages.
+/// @throw ValueError as readPileInstances.
+PileInstances pileInstances(const rockpile::TileSet& set, const std::vector<PilePoint>& points,
+                            double halfWidth, const std::string& source, Task& task);
 
 } // namespace asset
 } // namespace rockvdb

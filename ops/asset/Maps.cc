@@ -74,6 +74,30 @@ private:
     const openvdb::math::Transform& mXf;
 };
 
+// The id at index point u: the nearest voxel's, else the nearest (then lowest in x, y, z
+// order) of the 27 round it that holds an integer id >= 0; -1 when none does.
+template<typename Acc>
+int32_t maskId(Acc& acc, const openvdb::Vec3d& u)
+{
+    const openvdb::Coord c(int(std::floor(u.x() + 0.5)), int(std::floor(u.y() + 0.5)), int(std::floor(u.z() + 0.5)));
+    auto id = [&](const openvdb::Coord& v) {
+        const float x = acc.getValue(v);
+        return x >= 0.0f && x < 16777216.0f && x == std::floor(x) ? int32_t(x) : int32_t(-1);
+    };
+    int32_t best = id(c);
+    if (best >= 0) return best;
+    double bestD = 1e300;
+    for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dz = -1; dz <= 1; ++dz) {
+                const openvdb::Coord v = c.offsetBy(dx, dy, dz);
+                const int32_t i = id(v);
+                const double d = (v.asVec3d() - u).lengthSqr();
+                if (i >= 0 && d < bestD) best = i, bestD = d;
+            }
+    return best;
+}
+
 // A texture's bilinear value at uv in [0, 1]² (texel centres at (i + 1/2) / size, clamped at
 // the border), as a GPU reads it without mipmaps.
 openvdb::Vec3d bilinear(const std::vector<openvdb::Vec3f>& tex, int size, const openvdb::Vec2d& uv)
@@ -147,10 +171,14 @@ openvdb::Vec3d decodeNormal(const openvdb::Vec3f& rgb, const openvdb::Vec3d& nor
     return safeUnit(c.x() * t + c.y() * b + c.z() * n, n);
 }
 
-SurfaceField::SurfaceField(const openvdb::FloatGrid& g) : grid(g)
+SurfaceField::SurfaceField(const openvdb::FloatGrid& g, const openvdb::FloatGrid* m) : grid(g), mask(m)
 {
     if (grid.getGridClass() != openvdb::GRID_LEVEL_SET) {
         fail<ValueError>("asset: grid '", grid.getName(), "' is not a level set");
+    }
+    if (mask && mask->transform() != grid.transform()) {
+        fail<ValueError>("asset: the mask grid '", mask->getName(), "' and the level set '", grid.getName(),
+                         "' have different transforms");
     }
     // (tools::gradient's second-order central differences; transform-aware: world units)
     gradient = openvdb::tools::gradient(grid);
@@ -177,6 +205,7 @@ BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const SurfaceField& f
     map.normal.assign(size_t(size) * size, openvdb::Vec3f(0.5f, 0.5f, 1.0f));
     if (occlusion) map.occlusion.assign(size_t(size) * size, 1.0f);
     map.covered.assign(size_t(size) * size, 0);
+    if (field.mask) map.mask.assign(size_t(size) * size, -1);
     const size_t nt = m.triangles();
     // Triangles are independent and write disjoint texels (the atlas has no overlaps); a
     // texel centre on a shared edge is taken by the lower-numbered triangle (the test is
@@ -187,6 +216,8 @@ BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const SurfaceField& f
         SdfProbe sdf(field);
         std::optional<openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>> oacc;
         if (occlusion) oacc.emplace(occlusion->value->tree());
+        std::optional<openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>> macc;
+        if (field.mask) macc.emplace(field.mask->tree());
         openvdb::Vec2d uv[3];
         openvdb::Vec3d P[3];
         for (int k = 0; k < 3; ++k) {
@@ -224,6 +255,7 @@ BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const SurfaceField& f
                     map.occlusion[i] = std::clamp(openvdb::tools::BoxSampler::sample(
                         *oacc, occlusion->value->transform().worldToIndex(q)), 0.0f, 1.0f);
                 }
+                if (macc) map.mask[i] = maskId(*macc, field.mask->transform().worldToIndex(q));
                 map.covered[i] = 1;
             }
         }
@@ -250,6 +282,7 @@ BakedMaps bakeMaps(const UvMesh& m, const VertexFrames& f, const SurfaceField& f
             from[j] = from[i];
             map.normal[j] = map.normal[i];
             if (occlusion) map.occlusion[j] = map.occlusion[i];
+            if (!map.mask.empty()) map.mask[j] = map.mask[i];
             queue.push_back(j);
         }
     }

@@ -9,7 +9,7 @@
 // engines rebuild it: the vertex normal, tangent and handedness interpolated over the
 // triangle (vertexFrames), the tangent made orthogonal to the normal, the bitangent their
 // cross product times the handedness; rgb = (n·t, n·b, n·n_vertex) / 2 + 1/2 (glTF's convention: +y is +v, "OpenGL").
-// The occlusion, when asked, is the Occlusion grid's value at q.
+// The occlusion, when asked, is the Occlusion grid's value at q; the mask, the id at q.
 // Texels outside every chart take the nearest covered texel's value (dilation over the whole
 // texture), so bilinear reads and mip levels at chart borders stay on the chart's colours.
 #pragma once
@@ -40,6 +40,7 @@ struct BakedMaps
     std::vector<openvdb::Vec3f> normal; ///< size² texels, row 0 at v = 0 (bottom), values in [0, 1]
     std::vector<float> occlusion;       ///< size² texels in [0, 1] (1 = open), or empty
     std::vector<uint8_t> covered;       ///< 1 where a triangle covers the texel centre
+    std::vector<int32_t> mask;          ///< size² ids (SurfaceField::mask), -1: none there; or empty
 };
 
 /// The level set the maps are baked from, with its gradient grid (tools::gradient: central
@@ -50,9 +51,13 @@ struct BakedMaps
 struct SurfaceField
 {
     /// @throw ValueError when @a grid is not a level set.
-    explicit SurfaceField(const openvdb::FloatGrid& grid);
+    explicit SurfaceField(const openvdb::FloatGrid& grid, const openvdb::FloatGrid* mask = nullptr);
     const openvdb::FloatGrid& grid;
     openvdb::Vec3SGrid::Ptr gradient;
+    /// An id grid (material, block_id, rock_id: integer ids, background -1) baked as a mask:
+    /// each texel takes the id of the voxel nearest its surface point, else of the nearest of
+    /// the voxels round it that holds one (ids live in the band). Same transform as grid.
+    const openvdb::FloatGrid* mask = nullptr;
 };
 
 /// @brief Bake @a field's normals (and @a occlusion's values, when given) into @a mesh's atlas

@@ -754,13 +754,14 @@ detail = _stage_function(
 # ---------------------------------------------------------------------------------------------
 # Game assets (issue 37): vdb_asset from Python
 
-def _asset(grid, path=None, ids=None, stats=None, **params):
+def _asset(grid, path=None, ids=None, mask=None, stats=None, **params):
     fn = "asset"
     _grid(grid, "grid", fn)
     if stats is not None and not isinstance(stats, dict):
         raise _type_error(fn, "stats", "a dict", stats)
     glb, info = _rockvdb.asset(grid, _stage_params(_ASSET, fn, params),
-                               _opt(ids, _grid, "ids", fn), _opt(path, _path, "path", fn))
+                               _opt(ids, _grid, "ids", fn), _opt(path, _path, "path", fn),
+                               _opt(mask, _grid, "mask", fn))
     if stats is not None:
         stats.update(info)
     return glb
@@ -772,10 +773,11 @@ asset = _stage_function(
     "A level set as a game asset (vdb_asset from Python): one GLB (glTF 2.0) with levels of "
     "detail, a UV atlas, normal and occlusion maps baked from the level set, y up, metres.",
     "Returns the GLB's bytes; path (a .glb) also writes them there, atomically. ids: the id "
-    "grid (block_id, rock_id) that id cuts from. stats (a dict) receives each LOD's triangles, "
-    "charts and distance to the level set, as vdb_asset --stats writes them. Ctrl-C raises "
-    "KeyboardInterrupt.",
-    before=["grid"], after=[("path", None), ("ids", None), ("stats", None)])
+    "grid (block_id, rock_id) that id cuts from. mask: an id grid (material, block_id) baked "
+    "into a mask texture per LOD (vdb_asset --mask-grid). stats (a dict) receives each LOD's "
+    "triangles, charts and distance to the level set, as vdb_asset --stats writes them. "
+    "Ctrl-C raises KeyboardInterrupt.",
+    before=["grid"], after=[("path", None), ("ids", None), ("mask", None), ("stats", None)])
 
 
 def asset_ids(grid, ids):
@@ -785,14 +787,15 @@ def asset_ids(grid, ids):
     return _rockvdb.asset_ids(_grid(grid, "grid", fn), _grid(ids, "ids", fn))
 
 
-def _asset_each(grid, ids, stats=None, **params):
+def _asset_each(grid, ids, mask=None, stats=None, **params):
     fn = "asset_each"
     _grid(grid, "grid", fn)
     if stats is not None and not isinstance(stats, dict):
         raise _type_error(fn, "stats", "a dict", stats)
     if "id" in params:
         raise TypeError("rockvdb.asset_each() makes every id: it takes no 'id'")
-    glbs, info = _rockvdb.asset_each(grid, _stage_params(_ASSET, fn, params), _grid(ids, "ids", fn))
+    glbs, info = _rockvdb.asset_each(grid, _stage_params(_ASSET, fn, params), _grid(ids, "ids", fn),
+                                     _opt(mask, _grid, "mask", fn))
     if stats is not None:
         stats.update(info)
     return dict(glbs)
@@ -802,8 +805,9 @@ asset_each = _stage_function(
     _ASSET, _asset_each, "asset_each",
     "Every block or rock of an id grid as its own game asset (vdb_asset --each-id from "
     "Python), each named <name>_<id>.",
-    "Returns {id: GLB bytes}. stats (a dict) receives each asset's statistics.",
-    before=["grid", "ids"], after=[("stats", None)], exclude=("id",))
+    "Returns {id: GLB bytes}. mask: an id grid baked into a mask texture (as asset). stats (a "
+    "dict) receives each asset's statistics.",
+    before=["grid", "ids"], after=[("mask", None), ("stats", None)], exclude=("id",))
 
 
 def _asset_instances(points, tiles, path=None, stats=None, **params):

@@ -332,3 +332,76 @@ def test_bad_pile_inputs_are_one_line_and_write_nothing(pile, tmp_path):
     one_line_error(run([tool("vdb_asset"), pts, "--tiles", tiles, "--id", "3", "-o", str(out)]),
                    2, "do not apply")
     assert not out.exists()
+
+
+def png_grey(data):
+    """Pixels of a grey 8-bit PNG (rows top down), decoded with zlib and the five row filters."""
+    import zlib
+    import numpy as np
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    pos, idat, width, height = 8, b"", 0, 0
+    while pos < len(data):
+        n, kind = struct.unpack_from(">I4s", data, pos)
+        body = data[pos + 8:pos + 8 + n]
+        if kind == b"IHDR":
+            width, height, depth, colour = struct.unpack_from(">IIBB", body)
+            assert depth == 8 and colour == 0
+        elif kind == b"IDAT":
+            idat += body
+        pos += 12 + n
+    raw = zlib.decompress(idat)
+    out = np.zeros((height, width), dtype=np.int32)
+    prev = np.zeros(width, dtype=np.int32)
+    for y in range(height):
+        f, row = raw[y * (width + 1)], np.frombuffer(raw, np.uint8, width, y * (width + 1) + 1).astype(np.int32)
+        cur = np.zeros(width, dtype=np.int32)
+        for x in range(width):
+            a = cur[x - 1] if x else 0
+            b, c = prev[x], (prev[x - 1] if x else 0)
+            if f == 0: p = 0
+            elif f == 1: p = a
+            elif f == 2: p = b
+            elif f == 3: p = (a + b) // 2
+            else:
+                pa, pb, pc = abs(b - c), abs(a - c), abs(a + b - 2 * c)
+                p = a if pa <= pb and pa <= pc else (b if pb <= pc else c)
+            cur[x] = (row[x] + p) & 255
+        out[y], prev = cur, cur
+    return out
+
+
+def test_a_mask_texture_holds_the_ids_where_they_are_and_replays(blocks, tmp_path):
+    import numpy as np
+    import pyopenvdb
+    import rockvdb
+    surface = pyopenvdb.read(str(blocks / "t.vdb"), "surface")
+    block_id = pyopenvdb.read(str(blocks / "t.vdb"), "block_id")
+    ids = set(rockvdb.asset_ids(surface, block_id))
+    out = tmp_path / "tile.glb"
+    run([tool("vdb_asset"), "-q", str(blocks / "t.vdb"), "--lods", "3000", "--texture-size", "256",
+         "--mask-grid", "block_id", "--stats", str(tmp_path / "s.json"), "-o", str(out)], check=True)
+    stats = json.loads((tmp_path / "s.json").read_text())
+    assert stats["mask"]["grid"] == "block_id" and set(stats["mask"]["ids"]) <= ids
+    assert len(stats["mask"]["ids"]) >= 0.8 * len(ids) and stats["mask"]["texels_without_id"] < 0.01
+    j, b = glb_chunks(out)
+    mask = j["materials"][0]["extras"]["rockvdb_mask"]
+    assert mask["grid"] == "block_id" and mask["none"] == 255
+    image = j["images"][j["textures"][mask["index"]]["source"]]
+    assert image["name"] == "rock_LOD0_block_id"
+    view = j["bufferViews"][image["bufferView"]]
+    pixels = png_grey(b[view.get("byteOffset", 0):view.get("byteOffset", 0) + view["byteLength"]])
+    assert pixels.shape == (256, 256)
+    values = set(np.unique(pixels).tolist())
+    assert values - {255} == set(stats["mask"]["ids"])
+    # the provenance names the mask grid: it replays bit for bit; Python gives the same bytes
+    (tmp_path / "p.json").write_text(json.dumps(j["asset"]["extras"]["rockvdb"]["params"]))
+    run([tool("vdb_asset"), "-q", "--params", str(tmp_path / "p.json"), "-o", str(tmp_path / "again.glb")],
+        check=True)
+    assert (tmp_path / "again.glb").read_bytes() == out.read_bytes()
+    data = rockvdb.asset(surface, lods="3000", texture_size=256, mask=block_id)
+    assert glb_chunks(data)[1] == b
+    one_line_error(run([tool("vdb_asset"), str(blocks / "t.vdb"), "--mask-grid", "surface",
+                        "-o", str(tmp_path / "bad.glb")]), 2, "is a level set, not an id grid")
+    one_line_error(run([tool("vdb_asset"), str(blocks / "t.vdb"), "--mask-grid", "nope",
+                        "-o", str(tmp_path / "bad.glb")]), 2, "has no id grid 'nope'")
+    assert not (tmp_path / "bad.glb").exists()

@@ -172,3 +172,58 @@ TEST(Maps, SameBitsAtOneAndTwoThreads)
     FloatGrid fog(0.0f);
     EXPECT_THROW(bakeMaps(m, fr, fog, 128, nullptr, task), ValueError);
 }
+
+TEST(Maps, AnIdMaskTakesTheIdWhereEachTexelLies)
+{
+    const double dx = 0.02;
+    auto g = rippled(dx);
+    // material ids on the band: 3 above z = 0, 7 below (background -1, as rockvdb's id grids)
+    auto ids = FloatGrid::create(-1.0f);
+    ids->setTransform(g->transform().copy());
+    ids->setName("material");
+    auto acc = ids->getAccessor();
+    for (auto it = g->cbeginValueOn(); it; ++it) {
+        if (!it.isVoxelValue()) continue;
+        acc.setValue(it.getCoord(), it.getCoord().z() > 0 ? 3.0f : 7.0f);
+    }
+    Task task;
+    const TriMesh lod = makeLods(surfaceMesh(*g), {600}, task)[0].mesh;
+    const int size = 128;
+    const UvMesh m = atlas(lod, size, 2);
+    const VertexFrames fr = vertexFrames(m);
+    const BakedMaps map = bakeMaps(m, fr, SurfaceField(*g, ids.get()), size, nullptr, task);
+    ASSERT_EQ(map.mask.size(), size_t(size * size));
+    size_t checked = 0;
+    for (size_t t = 0; t < m.triangles(); ++t) {
+        openvdb::Vec2d uv[3];
+        openvdb::Vec3d P[3];
+        for (int k = 0; k < 3; ++k) {
+            uv[k] = openvdb::Vec2d(m.uvs[m.indices[3 * t + k]]) * double(size);
+            P[k] = m.points[m.indices[3 * t + k]];
+        }
+        const double area = (uv[1] - uv[0]).x() * (uv[2] - uv[0]).y() - (uv[2] - uv[0]).x() * (uv[1] - uv[0]).y();
+        for (int y = 0; y < size; ++y)
+            for (int x = 0; x < size; ++x) {
+                const openvdb::Vec2d c(x + 0.5, y + 0.5);
+                openvdb::Vec3d b;
+                bool inside = true;
+                for (int k = 0; k < 3; ++k) {
+                    const openvdb::Vec2d a = uv[(k + 2) % 3] - uv[(k + 1) % 3], d = c - uv[(k + 1) % 3];
+                    b[k] = (a.x() * d.y() - a.y() * d.x()) / area;
+                    inside = inside && b[k] > 1e-6;
+                }
+                const double z = (b[0] * P[0] + b[1] * P[1] + b[2] * P[2]).z();
+                if (!inside || std::abs(z) < 3 * dx) continue;
+                EXPECT_EQ(map.mask[size_t(y) * size + x], z > 0 ? 3 : 7) << z;
+                ++checked;
+            }
+    }
+    EXPECT_GT(checked, 3000u);
+    // dilation: every texel holds an id
+    EXPECT_EQ(std::count(map.mask.begin(), map.mask.end(), -1), 0);
+    // without a mask grid, no mask; a mask on other voxels is refused
+    EXPECT_TRUE(bakeMaps(m, fr, *g, size, nullptr, task).mask.empty());
+    auto shifted = ids->deepCopy();
+    shifted->setTransform(openvdb::math::Transform::createLinearTransform(2 * dx));
+    EXPECT_THROW(SurfaceField(*g, shifted.get()), ValueError);
+}
