@@ -215,7 +215,8 @@ struct Built
     }
 };
 
-// Mesh, simplify, unwrap and bake @a grid (phases share @a share of the task).
+// Mesh, simplify, unwrap and bake @a grid (phases cover 0.95 * @a share of the task: the
+// caller writes).
 Built build(const AssetParams& p, const openvdb::FloatGrid& grid, const openvdb::FloatGrid* mask,
             bool fitLods, double share, Task& task)
 {
@@ -244,13 +245,14 @@ Built build(const AssetParams& p, const openvdb::FloatGrid& grid, const openvdb:
         task.phase("occlusion", 0.15 * share);
         occ = occlusion(b.lods.front().mesh, grid.voxelSize()[0], aoDistance, task);
     }
-    task.phase("maps", (p.occlusion ? 0.4 : 0.55) * share);
+    task.phase("maps", (p.occlusion ? 0.35 : 0.5) * share);
     const SurfaceField field(grid, mask);
     for (size_t i = 0; i < b.meshes.size(); ++i) {
         b.maps.push_back(bakeMaps(b.meshes[i], b.frames[i], field, p.textureSize, occ ? &*occ : nullptr, task));
     }
-    task.phase("write", 0.05 * share);
+    task.phase("hull", 0.02 * share);
     if (p.collision) b.hull = hullMesh(b.lods.back().mesh);
+    task.phase("measure", 0.03 * share);
 
     nlohmann::json levels = nlohmann::json::array();
     for (size_t i = 0; i < b.lods.size(); ++i) {
@@ -345,6 +347,7 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
     // Under "sources", as vdb_csg records its inputs: a --params replay skips it.
     prov["sources"] = nlohmann::json::array({gridSource(*in.grid)});
     r.provenance = prov;
+    task.phase("write", 0.05);
     GltfAsset a = b.gltf();
     if (in.mask) a.maskName = in.mask->getName();
     a.extras = {{"rockvdb", {{"version", version()}, {"generator", kAssetTool}, {"params", prov}}}};

@@ -63,10 +63,11 @@ std::vector<Lod> makeLods(const TriMesh& full, const std::vector<size_t>& target
                              targets[i], " after ", targets[i - 1], ")");
         }
     }
+    // The levels side by side: each is simplified from the full mesh alone (meshoptimizer is
+    // serial inside and keeps no state), so the order they finish in does not matter.
     std::vector<Lod> lods(targets.size());
     const float* positions = full.points[0].asPointer();
-    for (size_t i = 0; i < targets.size(); ++i) {
-        task.check();
+    parallelFor(task, targets.size(), 1, [&](size_t i) {
         Lod& lod = lods[i];
         lod.target = targets[i];
         std::vector<uint32_t> indices(full.indices.size());
@@ -87,8 +88,7 @@ std::vector<Lod> makeLods(const TriMesh& full, const std::vector<size_t>& target
         points.resize(used);
         lod.mesh.points = std::move(points);
         lod.mesh.indices = std::move(indices);
-        task.step(double(i + 1) / double(targets.size()));
-    }
+    });
     return lods;
 }
 
@@ -169,7 +169,13 @@ TriangleDistance::TriangleDistance(const TriMesh& mesh) : mMesh(mesh)
     }
 }
 
-double TriangleDistance::operator()(const openvdb::Vec3d& p) const
+double TriangleDistance::to(const openvdb::Vec3d& p, uint32_t t) const
+{
+    return pointTriangle(p, mMesh.points[mMesh.indices[3 * t]], mMesh.points[mMesh.indices[3 * t + 1]],
+                         mMesh.points[mMesh.indices[3 * t + 2]]);
+}
+
+double TriangleDistance::operator()(const openvdb::Vec3d& p, uint32_t* nearest) const
 {
     // The query's cell (clamped into the grid) and its distance outside the grid's box.
     openvdb::Coord c;
@@ -200,9 +206,12 @@ double TriangleDistance::operator()(const openvdb::Vec3d& p) const
                     const size_t cell = (size_t(x) * size_t(mDims[1]) + size_t(y)) * size_t(mDims[2]) + size_t(z);
                     for (uint32_t i = mStart[cell]; i < mStart[cell + 1]; ++i) {
                         const uint32_t t = mItems[i];
-                        best = std::min(best, pointTriangle(p, mMesh.points[mMesh.indices[3 * t]],
-                                                            mMesh.points[mMesh.indices[3 * t + 1]],
-                                                            mMesh.points[mMesh.indices[3 * t + 2]]));
+                        const double d = to(p, t);
+                        // (ties: the lowest triangle, so the hint does not depend on the order)
+                        if (d < best || (d == best && nearest && t < *nearest)) {
+                            best = d;
+                            if (nearest) *nearest = t;
+                        }
                     }
                 }
             }
@@ -257,12 +266,20 @@ SurfaceError surfaceError(const TriMesh& mesh, const TriMesh& full, const openvd
             x.count += y.count;
             return x;
         });
-    // surface -> lod: every vertex of the full mesh (a max: any order gives the same).
+    // surface -> lod: every vertex of the full mesh (a max: any order gives the same). Early
+    // out (Taha & Hanbury 2015): the distance to the triangle nearest the previous vertex
+    // bounds this one's from above; at or below the maximum found so far, the vertex cannot
+    // raise it. volumeToMesh's vertices come leaf by leaf, so neighbours follow each other.
     const TriangleDistance toLod(mesh);
     const double back = tbb::parallel_reduce(
         tbb::blocked_range<size_t>(0, full.points.size(), 4096), 0.0,
         [&](const tbb::blocked_range<size_t>& r, double m) {
-            for (size_t v = r.begin(); v < r.end(); ++v) m = std::max(m, toLod(openvdb::Vec3d(full.points[v])));
+            uint32_t hint = 0;
+            for (size_t v = r.begin(); v < r.end(); ++v) {
+                const openvdb::Vec3d p(full.points[v]);
+                if (toLod.to(p, hint) <= m) continue;
+                m = std::max(m, toLod(p, &hint));
+            }
             return m;
         },
         [](double x, double y) { return std::max(x, y); });

@@ -42,7 +42,7 @@ struct Lod
 /// keep the topology, quadric error), then ordered for the vertex cache and compacted
 /// (meshopt_optimizeVertexCache, meshopt_optimizeVertexFetch). A level the simplifier cannot
 /// bring under its target without breaking the topology keeps the triangles it reached.
-/// Deterministic (meshoptimizer is serial).
+/// Deterministic: each level is made alone (meshoptimizer is serial), levels side by side.
 /// @throw ValueError when a target is 0, exceeds the full mesh's triangles, or the targets do
 /// not decrease.
 std::vector<Lod> makeLods(const TriMesh& full, const std::vector<size_t>& targets, Task& task);
@@ -54,8 +54,10 @@ class TriangleDistance
 {
 public:
     explicit TriangleDistance(const TriMesh& mesh);
-    /// Distance (m) from @a p to the nearest triangle.
-    double operator()(const openvdb::Vec3d& p) const;
+    /// Distance (m) from @a p to the nearest triangle (its index in @a nearest, when given).
+    double operator()(const openvdb::Vec3d& p, uint32_t* nearest = nullptr) const;
+    /// Distance (m) from @a p to triangle @a t.
+    double to(const openvdb::Vec3d& p, uint32_t t) const;
 
 private:
     const TriMesh& mMesh;
