@@ -169,10 +169,6 @@ TriMesh hullMesh(const TriMesh& lod)
     return m;
 }
 
-} // namespace
-
-namespace {
-
 // A sub-task's host for work run side by side (parallelFor counts the progress): the parent's
 // cancel only.
 class CancelHost : public TaskHost
@@ -184,10 +180,6 @@ public:
 private:
     Task& mParent;
 };
-
-} // namespace
-
-namespace {
 
 // One asset made from its level set: the meshes, atlases and maps (all a GLB needs), with its
 // statistics and report lines.
@@ -420,7 +412,6 @@ std::vector<int> assetIds(const AssetInputs& in)
     requireIds(in);
     return surfaceIdList(*in.grid, *in.ids);
 }
-
 
 AssetSetResult runAssetEach(const AssetParams& p, const AssetInputs& in, Task& task)
 {

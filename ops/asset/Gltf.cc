@@ -87,9 +87,9 @@ std::array<float, 3> yUp(const openvdb::Vec3d& p)
 }
 
 // A baked map as PNG bytes: the normal map (kind 0, RGB), the occlusion (1, grey: glTF reads
-// occlusion from the red channel, a grey image serves every reader) or the id mask (2, grey). PNG rows run top down and glTF's
-// v = 0 is the top, so texel row y (v = y / size, bottom up in the atlas) is image row
-// size - 1 - y.
+// occlusion from the red channel, a grey image serves every reader) or the id mask (2, grey).
+// PNG rows run top down and glTF's v = 0 is the top, so texel row y (v = y / size, bottom up
+// in the atlas) is image row size - 1 - y.
 std::string mapPng(const BakedMaps& maps, int kind, int bits)
 {
     const double top = bits == 16 ? 65535.0 : 255.0;
@@ -182,9 +182,10 @@ void addAsset(tinygltf::Model& model, tinygltf::Scene& scene, const GltfAsset& a
             }
             if (!maps->mask.empty()) {
                 const int index = addTexture(name + "_" + asset.maskName, pngs[l][2]);
-                material.extras = tinygltf::Value(tinygltf::Value::Object{{"rockvdb_mask", tinygltf::Value(tinygltf::Value::Object{
+                const tinygltf::Value::Object mask{
                     {"index", tinygltf::Value(index)}, {"grid", tinygltf::Value(asset.maskName)},
-                    {"none", tinygltf::Value(asset.mapBits == 16 ? 65535 : 255)}})}});
+                    {"none", tinygltf::Value(asset.mapBits == 16 ? 65535 : 255)}};
+                material.extras = tinygltf::Value(tinygltf::Value::Object{{"rockvdb_mask", tinygltf::Value(mask)}});
             }
         }
         model.materials.push_back(material);
