@@ -44,8 +44,9 @@ TABLE_FUNCTIONS = [
     (rockvdb.mesh, "mesh", [], {"grid", "path"}),
     (rockvdb.preview, "preview", [], {"grid", "path", "ids", "palette"}),
     (rockvdb.csg, "csg", ["ids"], {"op", "grids", "ids"}),
-    (rockvdb.asset, "asset", [], {"grid", "path", "ids", "stats"}),
-    (rockvdb.asset_each, "asset", ["id"], {"grid", "ids", "stats"}),
+    (rockvdb.asset, "asset", [], {"grid", "path", "ids", "mask", "stats"}),
+    (rockvdb.asset_each, "asset", ["id"], {"grid", "ids", "mask", "stats"}),
+    (rockvdb.asset_instances, "asset", ["id"], {"points", "tiles", "path", "stats"}),
 ]
 
 

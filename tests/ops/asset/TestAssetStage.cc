@@ -1,13 +1,21 @@
 // The asset stage's entry points (asset/AssetStage.h): every id as its own asset, a rock
 // smaller than LOD 0's budget fitted (LOD 0 = its whole surface) with the budgets it used in
 // its provenance, so that the same cut by --id replays it byte for byte; the same budgets
-// asked of that rock alone are an error.
+// asked of that rock alone are an error. A pile's copies share their rock's asset.
 #include <rockvdb/asset/AssetStage.h>
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Primitives.h>
+#include <rockvdb/rockpile/RockPile.h>
+#include <rockvdb/rockpile/RockTiles.h>
 
 #include <gtest/gtest.h>
 #include <openvdb/tools/Composite.h>
+#include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/LevelSetSphere.h>
+
+#include <algorithm>
+#include <cmath>
+#include <tuple>
 
 using namespace rockvdb;
 using namespace rockvdb::asset;
@@ -63,4 +71,59 @@ TEST(AssetStage, EveryIdIsAnAssetAndSmallRocksHaveTheirLodsFitted)
     EXPECT_THROW(runAsset(one, in, task), ValueError);
     one.lods = small["lods_fitted"].get<std::string>();
     EXPECT_EQ(runAsset(one, in, task).glb, all.glbs[1].second);
+}
+
+TEST(AssetStage, APilesCopiesShareTheirRocksAsset)
+{
+    // a periodic set: every cube holds the same rocks, so a pile repeats them
+    rockpile::RockTileParams tp;
+    tp.tiling = rockpile::Tiling::Periodic;
+    tp.n = 3;
+    tp.cubeSize = 0.5;
+    const rockpile::TileSet set = rockpile::generateTiles(tp);
+    const auto placed = rockpile::selectRocks(set, *sphere(Vec3d(0.0), 0.5), rockpile::PileParams());
+    ASSERT_GT(placed.size(), 20u);
+    std::vector<PilePoint> points;
+    for (const auto& in : placed) points.push_back({int64_t(in.rock), in.position});
+    Task task;
+    const PileInstances pile = pileInstances(set, points, 3.0, "test points", task);
+    EXPECT_EQ(pile.instances, placed.size());
+    size_t copies = 0;
+    for (size_t i = 0; i < pile.prototypes.size(); ++i) {
+        const Prototype& p = pile.prototypes[i];
+        if (i > 0) EXPECT_LT(pile.prototypes[i - 1].rock, p.rock);
+        EXPECT_TRUE(std::is_sorted(p.seeds.begin(), p.seeds.end(), [](const Vec3d& a, const Vec3d& b) {
+            return std::make_tuple(a[0], a[1], a[2]) < std::make_tuple(b[0], b[1], b[2]);
+        }));
+        // every copy is its rock shifted by whole voxels
+        for (const Vec3d& s : p.seeds) {
+            const Vec3d k = (s - p.pivot) / pile.voxelSize;
+            for (int c = 0; c < 3; ++c) EXPECT_NEAR(k[c], std::round(k[c]), 1e-6);
+        }
+        // the pivot (the seed) is inside the rock
+        EXPECT_LT(openvdb::tools::BoxSampler::sample(p.grid->tree(), p.grid->transform().worldToIndex(p.pivot)), 0.0f);
+        copies += p.seeds.size();
+    }
+    EXPECT_EQ(copies, placed.size());
+    EXPECT_LT(3 * pile.prototypes.size(), placed.size()) << "a periodic pile repeats its rocks";
+
+    AssetParams ap;
+    ap.lods = "200,60";
+    ap.textureSize = 32;
+    ap.padding = 1;
+    const AssetResult r = runAssetInstances(ap, pile, {{"input", "p.vdb"}}, task);
+    EXPECT_EQ(r.stats["unique_rocks"].get<size_t>(), pile.prototypes.size());
+    EXPECT_EQ(r.stats["instances"].get<size_t>(), placed.size());
+    EXPECT_EQ(r.provenance["input"], "p.vdb");
+
+    // a point off its rock's lattice, and a rock the set does not have
+    std::vector<PilePoint> off = points;
+    off[3].position[0] += 0.3 * pile.voxelSize;
+    EXPECT_THROW(pileInstances(set, off, 3.0, "test points", task), ValueError);
+    off = points;
+    off[0].rock = int64_t(set.rocks.size());
+    EXPECT_THROW(pileInstances(set, off, 3.0, "test points", task), ValueError);
+    EXPECT_THROW(pileInstances(set, {}, 3.0, "test points", task), ValueError);
+    ap.id = 3;
+    EXPECT_THROW(runAssetInstances(ap, pile, {}, task), ValueError);
 }
