@@ -28,6 +28,16 @@ def glb_json(path):
     return json.loads(data[20:20 + n])
 
 
+def blender_import(glb, tmp_path):
+    """What Blender's own glTF importer makes of a GLB, headless (blender_gltf.py's report)."""
+    report = tmp_path / "import.json"
+    p = subprocess.run(["blender", "-b", "--factory-startup", "--python",
+                        os.path.join(HERE, "blender_gltf.py"), "--", str(glb), str(report)],
+                       capture_output=True, text=True, timeout=600)
+    assert report.exists(), p.stdout[-3000:] + p.stderr[-3000:]
+    return json.loads(report.read_text())
+
+
 @pytest.fixture(scope="module")
 def rock(tmp_path_factory):
     d = tmp_path_factory.mktemp("asset")
@@ -41,12 +51,7 @@ def rock(tmp_path_factory):
 
 @pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
 def test_blender_imports_every_lod_with_uvs_normal_maps_and_z_up(rock, tmp_path):
-    report = tmp_path / "import.json"
-    p = subprocess.run(["blender", "-b", "--factory-startup", "--python",
-                        os.path.join(HERE, "blender_gltf.py"), "--", str(rock / "rock.glb"),
-                        str(report)], capture_output=True, text=True, timeout=600)
-    assert report.exists(), p.stdout[-3000:] + p.stderr[-3000:]
-    r = json.loads(report.read_text())
+    r = blender_import(rock / "rock.glb", tmp_path)
     stats = json.loads((rock / "stats.json").read_text())
     assert sorted(r) == ["UCX_boulder_00", "boulder_LOD0", "boulder_LOD1", "boulder_LOD2"]
     import pyopenvdb
@@ -309,12 +314,7 @@ def test_a_pile_as_instanced_unique_rocks_that_stand_on_the_piles_surface(pile):
 
 @pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
 def test_blender_without_the_instancing_extension_imports_each_rock_once(pile, tmp_path):
-    report = tmp_path / "import.json"
-    p = subprocess.run(["blender", "-b", "--factory-startup", "--python",
-                        os.path.join(HERE, "blender_gltf.py"), "--", str(pile / "pile.glb"),
-                        str(report)], capture_output=True, text=True, timeout=600)
-    assert report.exists(), p.stdout[-3000:] + p.stderr[-3000:]
-    r = json.loads(report.read_text())
+    r = blender_import(pile / "pile.glb", tmp_path)
     stats = json.loads((pile / "asset.json").read_text())
     rocks = [s["rock"] for s in stats["rocks"]]
     want = {f"pebble_{k}_LOD{l}" for k in rocks for l in (0, 1)} | {f"UCX_pebble_{k}_00" for k in rocks}

@@ -69,6 +69,20 @@ std::string glb(const Built& b, int bits = 8, bool collision = false)
     return writeGlb(a);
 }
 
+// GLB bytes read back by tinygltf, images decoded with their own channels (RGB as RGB, grey
+// as grey; tinygltf's default makes every image RGBA).
+::testing::AssertionResult load(const std::string& bytes, tinygltf::Model& m)
+{
+    tinygltf::TinyGLTF loader;
+    loader.SetPreserveImageChannels(true);
+    std::string err, warn;
+    if (loader.LoadBinaryFromMemory(&m, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
+                                    unsigned(bytes.size()))) {
+        return ::testing::AssertionSuccess();
+    }
+    return ::testing::AssertionFailure() << err;
+}
+
 } // namespace
 
 TEST(Gltf, GlbReadsBackWithLodsAttributesYUpAndProvenance)
@@ -76,13 +90,7 @@ TEST(Gltf, GlbReadsBackWithLodsAttributesYUpAndProvenance)
     const Built b = build();
     const std::string bytes = glb(b);
     tinygltf::Model m;
-    tinygltf::TinyGLTF loader;
-    loader.SetPreserveImageChannels(true); // decode RGB as RGB, grey as grey
-    std::string err, warn;
-    ASSERT_TRUE(loader.LoadBinaryFromMemory(&m, &err, &warn,
-                                            reinterpret_cast<const unsigned char*>(bytes.data()),
-                                            unsigned(bytes.size())))
-        << err;
+    ASSERT_TRUE(load(bytes, m));
     ASSERT_EQ(m.nodes.size(), 2u);
     EXPECT_EQ(m.nodes[0].name, "boulder_LOD0");
     EXPECT_EQ(m.nodes[1].name, "boulder_LOD1");
@@ -152,13 +160,7 @@ TEST(Gltf, SixteenBitMapsAndACollisionHull)
     const Built b = build();
     const std::string bytes = glb(b, 16, true);
     tinygltf::Model m;
-    tinygltf::TinyGLTF loader;
-    loader.SetPreserveImageChannels(true); // decode RGB as RGB, grey as grey
-    std::string err, warn;
-    ASSERT_TRUE(loader.LoadBinaryFromMemory(&m, &err, &warn,
-                                            reinterpret_cast<const unsigned char*>(bytes.data()),
-                                            unsigned(bytes.size())))
-        << err;
+    ASSERT_TRUE(load(bytes, m));
     for (const auto& im : m.images) EXPECT_EQ(im.bits, 16);
     const auto& normal = m.images[0];
     const auto* px = reinterpret_cast<const uint16_t*>(normal.image.data());
@@ -204,12 +206,7 @@ TEST(Gltf, AssetsShareAFileEachCentredOnItsPivotAndInstanced)
     two.extras = {{"rockvdb_rock", 7}};
     const std::string bytes = writeGlb({one, two}, "pile", {{"rockvdb", {{"generator", "vdb_asset"}}}});
     tinygltf::Model m;
-    tinygltf::TinyGLTF loader;
-    std::string err, warn;
-    ASSERT_TRUE(loader.LoadBinaryFromMemory(&m, &err, &warn,
-                                            reinterpret_cast<const unsigned char*>(bytes.data()),
-                                            unsigned(bytes.size())))
-        << err;
+    ASSERT_TRUE(load(bytes, m));
     ASSERT_EQ(m.scenes.size(), 1u);
     EXPECT_EQ(m.scenes[0].name, "pile");
     ASSERT_EQ(m.nodes.size(), 5u); // a_LOD0, a_LOD1, b_LOD0, b_LOD1, UCX_b_00

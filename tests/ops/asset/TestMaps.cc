@@ -67,12 +67,11 @@ struct Errors
     size_t texels = 0;
 };
 
-// Every texel centre strictly inside a triangle: the decoded map normal and the LOD's own
-// interpolated normal against the true one.
-Errors compare(const UvMesh& m, const VertexFrames& fr, const BakedMaps& map)
+// Every texel centre strictly inside a triangle of the atlas (size² texels): fn(triangle,
+// texel index, barycentric coordinates, the point on the triangle).
+template<typename Fn>
+void forEachTexel(const UvMesh& m, int size, Fn fn)
 {
-    Errors e;
-    const int size = map.size;
     for (size_t t = 0; t < m.triangles(); ++t) {
         openvdb::Vec2d uv[3];
         openvdb::Vec3d P[3];
@@ -92,24 +91,31 @@ Errors compare(const UvMesh& m, const VertexFrames& fr, const BakedMaps& map)
                     b[k] = (a.x() * d.y() - a.y() * d.x()) / area;
                     inside = inside && b[k] > 1e-6;
                 }
-                if (!inside) continue;
-                openvdb::Vec3d n(0);
-                openvdb::Vec4d tan(0);
-                for (int k = 0; k < 3; ++k) {
-                    const uint32_t v = m.indices[3 * t + k];
-                    n += b[k] * openvdb::Vec3d(fr.normals[v]);
-                    tan += b[k] * openvdb::Vec4d(fr.tangents[v]);
-                }
-                const openvdb::Vec3d p = b[0] * P[0] + b[1] * P[1] + b[2] * P[2];
-                const openvdb::Vec3d truth = trueNormal(p);
-                const size_t i = size_t(y) * size + x;
-                EXPECT_TRUE(map.covered[i]);
-                e.mapMean += degrees(decodeNormal(map.normal[i], n, tan), truth);
-                e.lodMean += degrees(n, truth);
-                ++e.texels;
+                if (inside) fn(t, size_t(y) * size + x, b, b[0] * P[0] + b[1] * P[1] + b[2] * P[2]);
             }
         }
     }
+}
+
+// The decoded map normal and the LOD's own interpolated normal against the true one, at
+// every texel centre inside a triangle.
+Errors compare(const UvMesh& m, const VertexFrames& fr, const BakedMaps& map)
+{
+    Errors e;
+    forEachTexel(m, map.size, [&](size_t t, size_t i, const openvdb::Vec3d& b, const openvdb::Vec3d& p) {
+        openvdb::Vec3d n(0);
+        openvdb::Vec4d tan(0);
+        for (int k = 0; k < 3; ++k) {
+            const uint32_t v = m.indices[3 * t + k];
+            n += b[k] * openvdb::Vec3d(fr.normals[v]);
+            tan += b[k] * openvdb::Vec4d(fr.tangents[v]);
+        }
+        const openvdb::Vec3d truth = trueNormal(p);
+        EXPECT_TRUE(map.covered[i]);
+        e.mapMean += degrees(decodeNormal(map.normal[i], n, tan), truth);
+        e.lodMean += degrees(n, truth);
+        ++e.texels;
+    });
     e.mapMean /= double(e.texels);
     e.lodMean /= double(e.texels);
     return e;
@@ -194,30 +200,11 @@ TEST(Maps, AnIdMaskTakesTheIdWhereEachTexelLies)
     const BakedMaps map = bakeMaps(m, fr, SurfaceField(*g, ids.get()), size, nullptr, task);
     ASSERT_EQ(map.mask.size(), size_t(size * size));
     size_t checked = 0;
-    for (size_t t = 0; t < m.triangles(); ++t) {
-        openvdb::Vec2d uv[3];
-        openvdb::Vec3d P[3];
-        for (int k = 0; k < 3; ++k) {
-            uv[k] = openvdb::Vec2d(m.uvs[m.indices[3 * t + k]]) * double(size);
-            P[k] = m.points[m.indices[3 * t + k]];
-        }
-        const double area = (uv[1] - uv[0]).x() * (uv[2] - uv[0]).y() - (uv[2] - uv[0]).x() * (uv[1] - uv[0]).y();
-        for (int y = 0; y < size; ++y)
-            for (int x = 0; x < size; ++x) {
-                const openvdb::Vec2d c(x + 0.5, y + 0.5);
-                openvdb::Vec3d b;
-                bool inside = true;
-                for (int k = 0; k < 3; ++k) {
-                    const openvdb::Vec2d a = uv[(k + 2) % 3] - uv[(k + 1) % 3], d = c - uv[(k + 1) % 3];
-                    b[k] = (a.x() * d.y() - a.y() * d.x()) / area;
-                    inside = inside && b[k] > 1e-6;
-                }
-                const double z = (b[0] * P[0] + b[1] * P[1] + b[2] * P[2]).z();
-                if (!inside || std::abs(z) < 3 * dx) continue;
-                EXPECT_EQ(map.mask[size_t(y) * size + x], z > 0 ? 3 : 7) << z;
-                ++checked;
-            }
-    }
+    forEachTexel(m, size, [&](size_t, size_t i, const openvdb::Vec3d&, const openvdb::Vec3d& p) {
+        if (std::abs(p.z()) < 3 * dx) return;
+        EXPECT_EQ(map.mask[i], p.z() > 0 ? 3 : 7) << p.z();
+        ++checked;
+    });
     EXPECT_GT(checked, 3000u);
     // dilation: every texel holds an id
     EXPECT_EQ(std::count(map.mask.begin(), map.mask.end(), -1), 0);
