@@ -107,10 +107,10 @@ void addTileRows(Schema<P>& s, Access at)
     member(param("fracture-width", ParamType::Real, "m", -1.0, Range::closed(-1, 1e3),
                "Gap between neighbouring blocks across a fracture (unused without fill)"),
            &T::fractureWidth);
-    member(param("smooth-radius", ParamType::Real, "m", 0.25, Range::closed(0, 2.5e3),
+    member(param("smooth-radius", ParamType::Real, "m", -1.0, Range::closed(-1, 2.5e3),
                "R of the smooth intersection of the hull planes"), &T::smoothRadius);
-    const auto warp = warpRows(0.05, 1.0,
-        "Warp: exponent p of the triplanar weights |g.u_i|^p (1 = the paper's)");
+    const auto warp = warpRows(-1.0, 1.0,
+        "Warp: exponent p of the triplanar weights |g.u_i|^p (1 = the paper's)", true);
     bind(warp[0], [](const T& t) { return t.relief.amplitude; },
          [](T& t, const json& j) { t.relief.amplitude = j.get<double>(); });
     bind(warp[1], [](const T& t) { return t.relief.image.empty() ? std::string("turbulence") : t.relief.image; },
@@ -156,6 +156,12 @@ void addTileRows(Schema<P>& s, Access at)
             [](T& t) { t.irregularFraction = typeDefaults(t.type).irregular; });
     derived("fracture-width", perSize(kFractureWidthPerSize),
             [](T& t) { t.fractureWidth = kFractureWidthPerSize * t.tileSize; });
+    // R and the warp scale with the tile, so a 5 m tile is as full as a 20 m one (issue 38:
+    // at 0.25 m and 0.05 m absolute, 5 m tiles were 63-76 % rock); given, they stay absolute.
+    derived("smooth-radius", perSize(kSmoothRadiusPerSize),
+            [](T& t) { t.smoothRadius = kSmoothRadiusPerSize * t.tileSize; });
+    derived("warp-amplitude", perSize(kWarpAmplitudePerSize),
+            [](T& t) { t.relief.amplitude = kWarpAmplitudePerSize * t.tileSize; });
     s.rule([at](const P& p) { checkTileRules(at(p)); });
 }
 
@@ -242,8 +248,10 @@ BlocksParams::BlocksParams() { blocksSchema().reset(*this); }
 
 namespace {
 
-std::shared_ptr<const BlockTile> makeTile(const BlockTileParams& params, Task& task)
+std::shared_ptr<const BlockTile> makeTile(const BlockTileParams& given, Task& task)
 {
+    BlockTileParams params = given;
+    params.resolveDefaults();
     if (!params.relief.image.empty() && params.relief.amplitude > 0) {
         // Fail before generating: unreadable or multi-channel reliefs are errors.
         readGrayImage(params.relief.image, "relief");
@@ -317,8 +325,10 @@ BlocksResult runBlocks(const BlocksParams& params, const BlocksInputs& inputs, T
                          "without chunk");
     }
     const double tileSize = inputs.tile ? inputs.tile->size() : params.tile.tileSize;
+    BlockTileParams resolved = params.tile; // derived defaults filled (the warp amplitude)
+    resolved.resolveDefaults();
     const double amplitude =
-        inputs.tile ? inputs.tile->params.relief.amplitude : params.tile.relief.amplitude;
+        inputs.tile ? inputs.tile->params.relief.amplitude : resolved.relief.amplitude;
     // The bake settings are checked before generating: a bad voxel size fails at once.
     if (inputs.bake) checkVoxel(tileSize, amplitude, params.bake.settings());
 

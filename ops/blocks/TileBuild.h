@@ -20,9 +20,12 @@ namespace blocks {
 namespace tilegen {
 
 /// The derived defaults of the tile's rows (BlockTileParams.cc says where each comes from):
-/// Poisson radius and fracture width per metre of tile size, and the per-type disc set.
+/// Poisson radius, fracture width, rounding radius R and warp amplitude per metre of tile
+/// size, and the per-type disc set.
 constexpr double kPointRadiusPerSize = 0.034;
 constexpr double kFractureWidthPerSize = 0.002;
+constexpr double kSmoothRadiusPerSize = 0.0125;   // 0.25 m at the paper's 20 m
+constexpr double kWarpAmplitudePerSize = 0.0025;  // 0.05 m at 20 m
 struct TypeDefaults
 {
     int count;

@@ -132,9 +132,12 @@ ParamInfo maxMemoryRow(std::string help)
     return row;
 }
 
-std::array<ParamInfo, 5> warpRows(double amplitude, double sharpness, std::string sharpnessHelp)
+std::array<ParamInfo, 5> warpRows(double amplitude, double sharpness, std::string sharpnessHelp,
+                                  bool derivedAmplitude)
 {
-    return {param("warp-amplitude", ParamType::Real, "m", amplitude, Range::closed(0, 1e3),
+    // A derived amplitude's default is -1 (the table's rule fills it).
+    return {param("warp-amplitude", ParamType::Real, "m", amplitude,
+                  Range::closed(derivedAmplitude ? -1 : 0, 1e3),
                   "Warp: largest displacement of the surface (0 = off)"),
             param("warp-relief", ParamType::Text, "", "turbulence", Range::any(),
                   "Warp relief: 'turbulence' or an EXR / 16-bit PNG image (tiled; bright = bump)"),

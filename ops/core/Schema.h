@@ -100,7 +100,8 @@ ParamInfo maxMemoryRow(std::string help = "Refuse work estimated above this (0 =
 /// The gradient warp's rows (implicit blocks §4.2), in order: warp-amplitude, warp-relief,
 /// warp-scale, warp-octaves, warp-sharpness. Stages differ in two defaults: the amplitude and
 /// the exponent p (whose help says why).
-std::array<ParamInfo, 5> warpRows(double amplitude, double sharpness, std::string sharpnessHelp);
+std::array<ParamInfo, 5> warpRows(double amplitude, double sharpness, std::string sharpnessHelp,
+                                  bool derivedAmplitude = false);
 
 /// @brief A Json row's value as JSON: a string is a file path, read; anything else is itself.
 nlohmann::json jsonOrFile(const nlohmann::json& value);

@@ -107,8 +107,11 @@ def test_topology_of_a_block_tile_is_unchanged(tmp_path):
     tile = tmp_path / "tile.vdb"
     run([tool("vdb_blocks"), "-q", "--type", "equidimensional", "--tile-size", "4",
          "--point-radius", "0.25", "--voxel-size", "0.03", "--warp-amplitude", "0",
-         # fractures 5 voxels wide, so that the detail's 2 cm cannot bridge them
-         "--fracture-width", "0.15", "--seed", "5", "-o", str(tile)], check=True)
+         # fractures 5 voxels wide, so that the detail's 2 cm cannot bridge them; edges
+         # rounded by 25 cm (8 voxels), so that it cannot pinch a corner off either (the
+         # 4 m tile's own default R is 5 cm)
+         "--fracture-width", "0.15", "--smooth-radius", "0.25", "--seed", "5", "-o", str(tile)],
+        check=True)
     before = mesh_topology(vdb.read(str(tile), "surface"))[:2]
     assert before[0] > 3
     for args in (["--warp-amplitude", "0.02", "--warp-scale", "0.5"],

@@ -464,7 +464,7 @@ TEST(Blocks, ZeroAmplitudeIsTheSmoothPolytope)
         if (b.kind != BlockKind::Polytope) continue;
         std::vector<Plane> planes;
         for (const auto& q : b.planes) planes.push_back({Vec3d(q[0], q[1], q[2]), double(q[3])});
-        auto ref = convexPolytope(planes, p.smoothRadius);
+        auto ref = convexPolytope(planes, tile->params.smoothRadius);
         auto f = blockField(tile, j);
         const Vec3d c = v3(b.anchors[0]);
         for (int k = 0; k < 200; ++k) {
@@ -717,7 +717,7 @@ TEST(Blocks, FracturesAreGapsOfTheRequestedWidth)
     p.fractureWidth = 0.05;
     p.relief.amplitude = 0;
     auto tile = make(p);
-    const double s = tile->size(), w = p.fractureWidth, R = p.smoothRadius;
+    const double s = tile->size(), w = p.fractureWidth, R = tile->params.smoothRadius; // (derived: 0.0125 x tile-size)
     std::vector<FieldPtr> fields;
     for (size_t j = 0; j < tile->blocks.size(); ++j) fields.push_back(blockField(tile, j));
     // The zero crossing of f along x0 + t·n, t in [0, 1] (f(x0) < 0 < f(x0 + n)).
@@ -780,4 +780,45 @@ TEST(Blocks, FracturesAreGapsOfTheRequestedWidth)
     }
     EXPECT_GT(measured, 30);
     EXPECT_EQ(off, 0) << "worst |gap - w| " << worst << " over " << measured << " faces";
+}
+
+// Issue 38 §2: R and the warp amplitude scale with the tile by default, so a tile of any size
+// is as full of rock as the paper's 20 m one (with 0.25 m and 0.05 m absolute, a 5 m
+// polyhedral tile was 63 % rock); values given stay absolute.
+TEST(Blocks, TilesAreFullAtEveryTileSize)
+{
+    initialize();
+    // every type at 5 m (the emptiest before), the two emptiest types at every size
+    for (const double s : {5.0, 10.0, 20.0, 40.0}) {
+        for (int t = 0; t < 6; ++t) {
+            const BlockType type = BlockType(t);
+            if (s > 5 && type != BlockType::Polyhedral && type != BlockType::Rhombohedral) continue;
+            BlockTileParams p;
+            p.type = BlockType(t);
+            p.tileSize = s;
+            p.seed = 3;
+            auto tile = make(p);
+            EXPECT_DOUBLE_EQ(tile->params.smoothRadius, 0.0125 * s);
+            EXPECT_DOUBLE_EQ(tile->params.relief.amplitude, 0.0025 * s);
+            TileFieldOptions o;
+            o.periodic = true;
+            auto f = tileField(tile, o);
+            const int n = 3000;
+            int inside = 0;
+            for (int k = 0; k < n; ++k) {
+                const Vec3d q(random::uniform(38, 1, k, 0, s), random::uniform(38, 2, k, 0, s),
+                              random::uniform(38, 3, k, 0, s));
+                inside += f->eval(q) < 0;
+            }
+            EXPECT_GE(double(inside) / n, 0.85) << blockTypeName(BlockType(t)) << " at " << s << " m";
+        }
+    }
+    // given, they stay absolute
+    BlockTileParams p;
+    p.tileSize = 5.0;
+    p.smoothRadius = 0.25;
+    p.relief.amplitude = 0.05;
+    p.resolveDefaults();
+    EXPECT_EQ(p.smoothRadius, 0.25);
+    EXPECT_EQ(p.relief.amplitude, 0.05);
 }
