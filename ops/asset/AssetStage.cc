@@ -131,6 +131,24 @@ void requireIdGrid(const openvdb::FloatGrid& ids)
 
 void requireIds(const AssetInputs& in) { requireIdGrid(*in.ids); }
 
+// A mask's ids must fit its PNG below the "none" value (Gltf.h): checked on the grid before
+// any work, not on the texels after the bake.
+void requireMaskFits(const openvdb::FloatGrid& mask, int bits)
+{
+    requireIdGrid(mask);
+    const int top = bits == 16 ? 65535 : 255;
+    int most = -1;
+    for (auto it = mask.cbeginValueOn(); it; ++it) {
+        int id;
+        if (asId(*it, id)) most = std::max(most, id);
+    }
+    if (most >= top) {
+        fail<ValueError>("asset: the mask grid '", mask.getName(), "' holds id ", most,
+                         bits == 8 ? std::string(", above 254: use --map-bits 16")
+                                   : std::string(", above 65534: too large for a 16-bit mask"));
+    }
+}
+
 // The largest extent of a mesh's bounding box (m).
 double extent(const TriMesh& m)
 {
@@ -282,8 +300,6 @@ Built build(const AssetParams& p, const openvdb::FloatGrid& grid, const openvdb:
     }
     if (b.fitted) b.stats["lods_fitted"] = b.used.lods;
     if (mask) {
-        // Every id must fit the PNG below its "none" value.
-        const int32_t top = p.mapBits == 16 ? 65535 : 255;
         std::set<int32_t> ids;
         size_t none = 0, texels = 0;
         for (const BakedMaps& m : b.maps) {
@@ -293,11 +309,6 @@ Built build(const AssetParams& p, const openvdb::FloatGrid& grid, const openvdb:
                 if (m.mask[t] < 0) ++none;
                 else ids.insert(m.mask[t]);
             }
-        }
-        if (!ids.empty() && *ids.rbegin() >= top) {
-            fail<ValueError>("asset: the mask grid '", mask->getName(), "' holds id ", *ids.rbegin(),
-                             p.mapBits == 8 ? std::string(", above 254: use --map-bits 16")
-                                            : std::string(", above 65534: too large for a 16-bit mask"));
         }
         b.stats["mask"] = {{"grid", mask->getName()}, {"ids", std::vector<int32_t>(ids.begin(), ids.end())},
                            {"texels_without_id", texels ? double(none) / double(texels) : 0.0}};
@@ -332,7 +343,7 @@ AssetResult runAsset(const AssetParams& p, const AssetInputs& in, Task& task)
         cutStats = {{"id", p.id}, {"id_grid", in.ids->getName()}, {"voxels_searched", c.voxels},
                     {"rebuilt", c.rebuilt}};
     }
-    if (in.mask) requireIdGrid(*in.mask);
+    if (in.mask && !in.idBoxes) requireMaskFits(*in.mask, p.mapBits); // (runAssetEach: once)
     Built b = build(p, *grid, in.mask.get(), in.fitLods, p.id >= 0 ? 0.9 : 1.0, task);
 
     nlohmann::json prov = stageProvenance(assetSchema().toJson(b.used), in.names);
@@ -418,6 +429,7 @@ AssetSetResult runAssetEach(const AssetParams& p, const AssetInputs& in, Task& t
     assetSchema().validate(p);
     if (!in.grid || !in.ids) fail<ValueError>("asset: every id needs a level set and an id grid");
     requireIds(in);
+    if (in.mask) requireMaskFits(*in.mask, p.mapBits);
     const std::map<int, openvdb::CoordBBox> boxes = surfaceIdBoxes(*in.grid, *in.ids);
     std::vector<int> ids;
     for (const auto& [id, box] : boxes) ids.push_back(id);

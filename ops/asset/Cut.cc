@@ -16,15 +16,14 @@ namespace {
 
 using Unregistered = openvdb::tree::ValueAccessor<const openvdb::FloatTree, false>;
 
-// An id value as an integer id (ids are floats holding integers, background -1).
+} // namespace
+
 bool asId(float v, int& id)
 {
     if (!(v >= 0.0f) || v >= 16777216.0f || v != std::floor(v)) return false;
     id = int(v);
     return true;
 }
-
-} // namespace
 
 std::map<int, openvdb::CoordBBox> surfaceIdBoxes(const openvdb::FloatGrid& surface,
                                                  const openvdb::FloatGrid& ids)

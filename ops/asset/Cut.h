@@ -22,6 +22,10 @@
 namespace rockvdb {
 namespace asset {
 
+/// @brief An id grid's value as an integer id (ids are floats holding integers below 2^24,
+/// background -1): false for anything else.
+bool asId(float value, int& id);
+
 /// @brief The distinct ids in @a ids's active voxels where @a surface is inside its band
 /// (integers ≥ 0), sorted.
 std::vector<int> surfaceIdList(const openvdb::FloatGrid& surface, const openvdb::FloatGrid& ids);

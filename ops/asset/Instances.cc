@@ -67,6 +67,7 @@ PileInstances readPileInstances(const std::string& pointsPath, const std::string
 PileInstances pileInstances(const rockpile::TileSet& set, const std::vector<PilePoint>& points,
                             double halfWidth, const std::string& source, Task& task)
 {
+    if (points.empty()) fail<ValueError>("asset: ", source, " holds no points");
     const double dx = set.params.voxelSize();
     // Every point's rock and its shift in whole voxels: P = seedWorld(rock, shift).
     std::map<size_t, std::vector<openvdb::Coord>> shifts;
@@ -89,7 +90,6 @@ PileInstances pileInstances(const rockpile::TileSet& set, const std::vector<Pile
         }
         shifts[size_t(r)].push_back(openvdb::Coord(int(whole.x()), int(whole.y()), int(whole.z())));
     }
-    if (points.empty()) fail<ValueError>("asset: ", source, " holds no points");
 
     PileInstances out;
     out.instances = points.size();

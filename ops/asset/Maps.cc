@@ -1,5 +1,6 @@
 #include "Maps.h"
 
+#include <rockvdb/asset/Cut.h>
 #include <rockvdb/core/Error.h>
 
 #include <openvdb/tools/GridOperators.h>
@@ -81,8 +82,8 @@ int32_t maskId(Acc& acc, const openvdb::Vec3d& u)
 {
     const openvdb::Coord c(int(std::floor(u.x() + 0.5)), int(std::floor(u.y() + 0.5)), int(std::floor(u.z() + 0.5)));
     auto id = [&](const openvdb::Coord& v) {
-        const float x = acc.getValue(v);
-        return x >= 0.0f && x < 16777216.0f && x == std::floor(x) ? int32_t(x) : int32_t(-1);
+        int i;
+        return asId(acc.getValue(v), i) ? int32_t(i) : int32_t(-1);
     };
     int32_t best = id(c);
     if (best >= 0) return best;

@@ -127,3 +127,30 @@ TEST(AssetStage, APilesCopiesShareTheirRocksAsset)
     ap.id = 3;
     EXPECT_THROW(runAssetInstances(ap, pile, {}, task), ValueError);
 }
+
+TEST(AssetStage, AMaskWhoseIdsDoNotFitItsBitsIsRefusedBeforeAnyWork)
+{
+    auto s = openvdb::tools::createLevelSetSphere<FloatGrid>(0.3f, openvdb::Vec3f(0), 0.03f, 3.0f);
+    auto mask = FloatGrid::create(-1.0f);
+    mask->setTransform(s->transform().copy());
+    mask->setName("material");
+    for (auto it = s->cbeginValueOn(); it; ++it) mask->tree().setValueOn(it.getCoord(), 300.0f);
+    AssetParams p;
+    p.lods = "200";
+    p.textureSize = 32;
+    p.padding = 1;
+    AssetInputs in;
+    in.grid = s;
+    in.mask = mask;
+    Task task;
+    try {
+        runAsset(p, in, task);
+        FAIL() << "id 300 in an 8-bit mask";
+    } catch (const ValueError& e) {
+        EXPECT_NE(std::string(e.what()).find("holds id 300, above 254"), std::string::npos) << e.what();
+    }
+    EXPECT_TRUE(task.phases().empty()) << "refused before any phase";
+    p.mapBits = 16;
+    const AssetResult r = runAsset(p, in, task);
+    EXPECT_EQ(r.stats["mask"]["ids"], nlohmann::json::array({300}));
+}
