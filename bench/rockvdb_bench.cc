@@ -417,6 +417,34 @@ void fillGroup(bool quick)
         std::printf("ratio fill %s vs hull-only: %.2fx\n", blockTypeName(BlockType(t)),
                     share[1] / share[0]);
     }
+    // Issue 38 §2: the share of rock at other tile sizes, beside the 20 m tile (R and the warp
+    // scale with the tile by default, so every size should match it).
+    std::printf("\n## blocks: share of rock by tile size (default rows, seed 3), reference: the 20 m tile\n\n");
+    std::printf("| type | 5 m | 10 m | 20 m (reference) | 40 m | worst ratio to 20 m |\n|---|---|---|---|---|---|\n");
+    for (int t = 0; t < 6; ++t) {
+        double share[4];
+        const double sizes[4] = {5, 10, 20, 40};
+        for (int k = 0; k < 4; ++k) {
+            BlockTileParams p;
+            p.type = BlockType(t);
+            p.tileSize = sizes[k];
+            p.seed = 3;
+            TileFieldOptions o;
+            o.periodic = true;
+            const FieldPtr f = tileField(std::make_shared<const BlockTile>(generateTile(p)), o);
+            int inside = 0;
+            for (int j = 0; j < samples; ++j) {
+                const Vec3d q(random::uniform(11, 1, uint64_t(j), 0, sizes[k]),
+                              random::uniform(11, 2, uint64_t(j), 0, sizes[k]),
+                              random::uniform(11, 3, uint64_t(j), 0, sizes[k]));
+                inside += f->eval(q) < 0;
+            }
+            share[k] = double(inside) / samples;
+        }
+        const double worst = std::min({share[0], share[1], share[3]}) / share[2];
+        std::printf("| %s | %.3f | %.3f | %.3f | %.3f | %.3f |\n", blockTypeName(BlockType(t)), share[0],
+                    share[1], share[2], share[3], worst);
+    }
 }
 
 // Fractal rocks (issue 16): the paper's performance table (2004 hardware, one rock) beside the
