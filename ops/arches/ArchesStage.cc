@@ -34,6 +34,14 @@ namespace {
 // σ of the convolution surfaces and the edits: the sigma row, unset half the cell size.
 double sigmaOf(const ArchesParams& p, const StackGeometry& g) { return p.sigma.value_or(0.5 * g.cell); }
 
+// The level sets' reconstruction (StackBake.h): the kernel row, and interpolate's reach R,
+// unset 4 cells (a 2 m reach at the samples' 0.5 m cells: planar walls up to ~70°).
+void kernelOf(const ArchesParams& p, const StackGeometry& g, SkeletonBake& b)
+{
+    b.kernel = p.kernel == "box" ? Kernel::Box : Kernel::Interpolate;
+    b.reach = b.kernel == Kernel::Box ? 0.0 : p.reach.value_or(4.0 * g.cell);
+}
+
 } // namespace
 
 namespace {
@@ -77,6 +85,18 @@ Schema<ArchesParams> makeArchesSchema()
     row(s, param("sigma", ParamType::Real, "m", json(), Range::above(0),
                  "Half size σ of the convolution's cubic kernel (§3.3; unset: half the cell size)"),
         &P::sigma);
+    ParamInfo kernel = param("kernel", ParamType::Text, "", "interpolate", Range::any(),
+                             "How the level sets are made from the stacks: interpolate = the stacks' "
+                             "vertical distances to their layer boundaries, clamped to reach and blended "
+                             "by the xy kernel (smooth walls at any angle to the stack grid, layers of any "
+                             "thickness kept); box = the convolution of §3.3 as written (walls steeper "
+                             "than σ per cell are stair-stepped, layers thinner than σ vanish)");
+    kernel.choices = {"interpolate", "box"};
+    row(s, kernel, &P::kernel);
+    row(s, param("reach", ParamType::Real, "m", json(), Range::above(0),
+                 "Vertical reach R of the interpolate kernel: walls stay planar where the stacks "
+                 "under the kernel differ by less than R in height (unset: 4 cells)"),
+        &P::reach);
     row(s, voxelSizeRow(json(), "Voxel edge of the level sets (unset: the cell size)"),
         &P::voxelSize);
     row(s, halfWidthRow(defaultHalfWidth()),
@@ -115,6 +135,7 @@ Schema<ArchesParams> makeArchesSchema()
     row(s, maxMemoryRow(), &P::maxMemoryGB);
     addChunkRows(s, [](auto& p) -> auto& { return p.chunking; });
     s.rule([](const P& p) {
+        if (p.reach && p.kernel == "box") fail<ValueError>("arches: reach is the interpolate kernel's; kernel box has none");
         if (p.terrain.is_null()) fail<ValueError>("arches: terrain is required (a heightfield, strata, level_set or solid node)");
         const json edits = jsonOrFile(p.edits);
         if (!edits.is_array()) fail<ValueError>("arches: edits must be a list of edits [{\"tool\": ...}, ...]");
@@ -343,6 +364,7 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
     }
     SkeletonBake b;
     b.sigma = sigmaOf(p, g);
+    kernelOf(p, g, b);
     b.voxelSize = p.voxelSize.value_or(tiles ? tiles->params.voxelSize() : g.cell);
     const MaterialMask groundMask = tiles ? MaterialMask(maskOf(Material::Sand) | maskOf(Material::Bedrock)) : kGroundMask;
     b.halfWidth = p.halfWidth;

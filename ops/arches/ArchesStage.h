@@ -47,6 +47,8 @@ struct ArchesParams
     double sandDepth;                           ///< sand on a heightfield terrain (m)
     std::string sandMap;                        ///< image scaling sandDepth per sample ("" = none)
     std::optional<double> sigma;                ///< σ (m); unset: half the cell size
+    std::string kernel;                         ///< "interpolate" (default) or "box" (§3.3)
+    std::optional<double> reach;                ///< interpolate's vertical reach R (m); unset: 4 cells
     std::optional<double> voxelSize;            ///< m; unset: the cell size
     double halfWidth;                           ///< voxels
     double reposeSand, reposeRocks;             ///< degrees

@@ -164,17 +164,6 @@ public:
 
     const StackGeometry& geometry() const { return mGeometry; }
 
-    /// @brief The stacks in [i0, i1] × [j0, j1] (clipped to the grid; at least one stack) as
-    /// stacks of their own, their origin moved to the window's corner: what a local edit reads.
-    Stacks window(int i0, int j0, int i1, int j1, Task& task) const;
-    /// @brief Rewrite stacks in place: @a change gets every stack of [i0, i1] × [j0, j1]
-    /// (clipped) as layers (runs merged, bottom first) and returns true when it changed them.
-    /// Only the 64-stack blocks holding a changed stack are re-encoded and spliced into the
-    /// stream, so the cost follows the window (plus one copy of the stream when anything
-    /// changed). Returns the number of stacks changed. @throw ValueError as build does (the
-    /// stacks are then unchanged).
-    size_t edit(int i0, int j0, int i1, int j1,
-                const std::function<bool(int i, int j, std::vector<Layer>& layers)>& change);
     MaterialMask mask() const { return mMask; }
 
     /// @brief Length of skeleton within [zlo, zhi] in stack s (zlo <= zhi).
@@ -188,6 +177,19 @@ public:
     /// @brief The convolution field f(p) = V_M / (4σ³) − 1 of §3.3: 1 deep inside, −1 far
     /// outside, 0 where the cube is half full.
     double field(const Vec3d& p, double sigma) const { return volume(p, sigma) / (4.0 * sigma * sigma * sigma) - 1.0; }
+
+    /// @brief Signed vertical distance from height @a z to the nearest end of stack s's
+    /// intervals (negative inside one; +∞ for an empty stack), and in @a scale the stack's
+    /// feature size there: over its pieces (intervals, and the gaps between them), the least
+    /// half length plus z's distance from the piece (+∞ where none is bounded).
+    double vertical(size_t s, double z, double& scale) const;
+    /// @brief rockvdb's interpolating reconstruction (a departure from §3.3, see StackBake.h):
+    /// the mean, weighted by the area each stack's cell shares with the square ‖q − p‖∞ < σ in
+    /// xy, of the stacks' vertical distances clamped to ±ρ (outside the grid: +ρ), where
+    /// ρ = min(@a reach, the stacks' feature sizes). A distance-like field, negative inside:
+    /// with σ = s/2 the bilinear interpolation between the four nearest stacks, exact for
+    /// planar walls whose heights differ by less than ρ under the square.
+    double interpolated(const Vec3d& p, double sigma, double reach) const;
 
     /// The highest interval end (m), z0 when the skeleton is empty.
     double top() const;

@@ -65,6 +65,9 @@ def test_a_file_replays_from_its_own_provenance_and_from_its_stacks(tmp_path):
     (lambda s: s["terrain"]["layers"][1].update(material="lava"), ["terrain.layers[1].material", "lava"]),
     (lambda s: s["terrain"]["layers"][2].update(thickness=-1), ["terrain.layers[2]", ">= 0"]),
     (lambda s: s.update(sigma=0), ["sigma"]),
+    (lambda s: s.update(kernel="gauss"), ["kernel", "gauss", "interpolate, box"]),
+    (lambda s: s.update(kernel="box", reach=2), ["reach", "box"]),
+    (lambda s: s.update(reach=-1), ["reach"]),
     (lambda s: s.update({"cell-sise": 1}), ["cell-size"]),
     (lambda s: s["terrain"].update(samples=[200000, 200000]), ["GB", "--max-memory"]),
 ])

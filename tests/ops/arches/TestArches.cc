@@ -248,22 +248,28 @@ TEST(StackBake, SolidToStacksToLevelSetStaysWithinAVoxel)
 
 TEST(StackBake, SameBitsAtAnyThreadCount)
 {
-    auto run = [](int threads) {
+    auto run = [](int threads, Kernel kernel) {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, size_t(threads));
         Task task;
         const Stacks st = randomStacks(7, 24);
         SkeletonBake b;
         b.sigma = 0.3;
         b.voxelSize = 0.1;
+        b.kernel = kernel;
+        b.reach = kernel == Kernel::Interpolate ? 2.0 : 0.0;
         auto grid = bakeSkeleton(Skeleton(st, kGroundMask), b, task);
         auto ids = materialGrid(st, kGroundMask, b.sigma, *grid, task);
         return std::make_tuple(st, grid, ids);
     };
-    auto [s1, g1, m1] = run(1);
-    auto [s2, g2, m2] = run(2);
+    auto [s1, g1, m1] = run(1, Kernel::Box);
+    auto [s2, g2, m2] = run(2, Kernel::Box);
     EXPECT_TRUE(s1 == s2);
     EXPECT_TRUE(test::bitwiseEqual(*g1, *g2));
     EXPECT_TRUE(test::bitwiseEqual(*m1, *m2));
+    auto [s3, g3, m3] = run(1, Kernel::Interpolate);
+    auto [s4, g4, m4] = run(2, Kernel::Interpolate);
+    EXPECT_TRUE(test::bitwiseEqual(*g3, *g4));
+    EXPECT_FALSE(test::bitwiseEqual(*g1, *g3)) << "the kernels differ";
     EXPECT_GT(g1->activeVoxelCount(), 1000);
     // material ids are ground materials only, on the surface's voxels.
     EXPECT_EQ(m1->activeVoxelCount(), g1->activeVoxelCount());
