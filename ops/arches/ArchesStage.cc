@@ -87,10 +87,10 @@ Schema<ArchesParams> makeArchesSchema()
         &P::sigma);
     ParamInfo kernel = param("kernel", ParamType::Text, "", "interpolate", Range::any(),
                              "How the level sets are made from the stacks: interpolate = the stacks' "
-                             "vertical distances to their layer boundaries, clamped to reach and blended "
-                             "by the xy kernel (smooth walls at any angle to the stack grid, layers of any "
-                             "thickness kept); box = the convolution of §3.3 as written (walls steeper "
-                             "than σ per cell are stair-stepped, layers thinner than σ vanish)");
+                             "vertical distances to their layer boundaries, clamped to reach (to σ near "
+                             "features thinner than reach) and blended by the xy kernel: planar walls at "
+                             "any angle to the stack grid; box = the convolution of §3.3 as written "
+                             "(walls steeper than σ per cell are stair-stepped)");
     kernel.choices = {"interpolate", "box"};
     row(s, kernel, &P::kernel);
     row(s, param("reach", ParamType::Real, "m", json(), Range::above(0),

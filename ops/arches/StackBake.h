@@ -16,16 +16,16 @@
 // much narrower than the height step between neighbours on any steep wall (a 56° wall rises
 // 0.7 m per 0.5 m cell against σ = 0.25 m): the field is then the bilinear blend of the stacks'
 // inside/outside alone, and every wall not aligned with the grid is a staircase of cell-wide
-// teeth. Interpolate keeps the xy weights and widens the clamp to ρ = min(R, the feature size
-// of the stacks under the square: half a layer's or a gap's thickness, growing with distance
-// from it); R is the reach (unset: 4 cells). Where the stacks under the square differ by less
-// than ρ in height, the surface is the bilinear interpolation of their heights: exact for
-// planar walls at any orientation. Near a thin feature ρ falls to its half thickness, so an
-// overhang lip's edge stays at its cells' edge as with the box (a wide clamp would pull it
-// back), a tunnel's roof is its stacks' roof, and each stack's nearest boundary (not the
-// covered length) keeps layers thinner than σ that the box erodes away. ρ jumps where a
-// thinner feature's stack enters the square (the field is not C0 there; the redistancing
-// starts from its zero crossing). Kernel::Box is §3.3 as written.
+// teeth. Interpolate keeps the xy weights and the per-stack value ρ − (skeleton within ρ of z),
+// with ρ = min(R, max(σ, the feature size of the stacks under the square: half a layer's or a
+// gap's thickness, growing with distance from it)); R is the reach (unset: 4 cells). Where
+// the stacks under the square differ by less than ρ in height, the surface is the bilinear
+// interpolation of their heights: exact for planar walls at any orientation. Near a thin
+// feature ρ falls to σ, i.e. to the box: an overhang lip's edge stays at its cells' edge (a
+// wide clamp would pull it back by up to half a cell), a tunnel's roof is its stacks' roof,
+// and what is thinner than σ is smoothed away as the paper does (pockets of a warped wall).
+// ρ jumps where a thinner feature's stack enters the square (the field is not C0 there; the
+// redistancing starts from its zero crossing). Kernel::Box is §3.3 as written.
 #pragma once
 
 #include <optional>

@@ -462,27 +462,19 @@ double Skeleton::volume(const Vec3d& p, double sigma) const
     return v;
 }
 
-double Skeleton::vertical(size_t s, double z, double& scale) const
+double Skeleton::featureSize(size_t s, double z) const
 {
     const uint32_t a = mFirst[s], b = mFirst[s + 1];
-    const double inf = std::numeric_limits<double>::infinity();
-    scale = inf;
-    if (a == b) return inf;
-    // The scale: over the stack's pieces (its intervals and the gaps between them; the open
-    // ends below and above are unbounded), min of half the piece's length plus z's distance
-    // from it.
+    double scale = std::numeric_limits<double>::infinity();
     auto piece = [&](double lo, double hi) {
         const double off = z < lo ? lo - z : z > hi ? z - hi : 0.0;
         scale = std::min(scale, 0.5 * (hi - lo) + off);
     };
-    double d = inf;
     for (uint32_t k = a; k < b; ++k) {
         piece(mStart[k], mEnd[k]);
         if (k > a) piece(mEnd[k - 1], mStart[k]);
-        if (z >= mStart[k] && z < mEnd[k]) d = -std::min(z - mStart[k], mEnd[k] - z);
-        else if (d > 0) d = std::min({d, std::abs(z - mStart[k]), std::abs(z - mEnd[k])});
     }
-    return d;
+    return scale;
 }
 
 double Skeleton::interpolated(const Vec3d& p, double sigma, double reach) const
@@ -493,12 +485,12 @@ double Skeleton::interpolated(const Vec3d& p, double sigma, double reach) const
     const int i1 = std::min(g.nx - 1, int(std::floor((xhi - g.x0) / g.cell)));
     const int j0 = std::max(0, int(std::floor((ylo - g.y0) / g.cell)));
     const int j1 = std::min(g.ny - 1, int(std::floor((yhi - g.y0) / g.cell)));
-    // At most 4 stacks at σ = s/2; more for a wider square.
-    struct Term { double w, d; };
+    // The stacks under the square and their weights (4 at σ = s/2; more for a wider square).
+    struct Term { double w; size_t s; };
     Term local[16];
     std::vector<Term> more;
     size_t n = 0;
-    double rho = reach, area = 0;
+    double scale = std::numeric_limits<double>::infinity(), area = 0;
     for (int j = j0; j <= j1; ++j) {
         const double cy0 = g.y0 + j * g.cell;
         const double wy = std::min(yhi, cy0 + g.cell) - std::max(ylo, cy0);
@@ -507,18 +499,20 @@ double Skeleton::interpolated(const Vec3d& p, double sigma, double reach) const
             const double cx0 = g.x0 + i * g.cell;
             const double wx = std::min(xhi, cx0 + g.cell) - std::max(xlo, cx0);
             if (wx <= 0) continue;
-            double scale;
-            const Term t{wx * wy, vertical(g.index(i, j), p[2], scale)};
-            rho = std::min(rho, scale);
+            const Term t{wx * wy, g.index(i, j)};
+            scale = std::min(scale, featureSize(t.s, p[2]));
             if (n < 16) local[n++] = t;
             else more.push_back(t);
             area += t.w;
         }
     }
+    // ρ − (length of skeleton within ρ of z): clamp(vertical distance, ±ρ) where one boundary
+    // is within ρ, the box's erosion of what is thinner.
+    const double rho = std::min(reach, std::max(sigma, scale)), z = p[2];
     const double full = 4.0 * sigma * sigma;
     double sum = std::max(0.0, full - area) * rho; // outside the grid: air
-    for (size_t k = 0; k < n; ++k) sum += local[k].w * std::clamp(local[k].d, -rho, rho);
-    for (const Term& t : more) sum += t.w * std::clamp(t.d, -rho, rho);
+    for (size_t k = 0; k < n; ++k) sum += local[k].w * (rho - covered(local[k].s, z - rho, z + rho));
+    for (const Term& t : more) sum += t.w * (rho - covered(t.s, z - rho, z + rho));
     return sum / full;
 }
 

@@ -178,17 +178,18 @@ public:
     /// outside, 0 where the cube is half full.
     double field(const Vec3d& p, double sigma) const { return volume(p, sigma) / (4.0 * sigma * sigma * sigma) - 1.0; }
 
-    /// @brief Signed vertical distance from height @a z to the nearest end of stack s's
-    /// intervals (negative inside one; +∞ for an empty stack), and in @a scale the stack's
-    /// feature size there: over its pieces (intervals, and the gaps between them), the least
-    /// half length plus z's distance from the piece (+∞ where none is bounded).
-    double vertical(size_t s, double z, double& scale) const;
+    /// @brief Stack s's feature size at height @a z: over its pieces (intervals, and the gaps
+    /// between them), the least half length plus z's distance from the piece (+∞ where none
+    /// is bounded).
+    double featureSize(size_t s, double z) const;
     /// @brief rockvdb's interpolating reconstruction (a departure from §3.3, see StackBake.h):
-    /// the mean, weighted by the area each stack's cell shares with the square ‖q − p‖∞ < σ in
-    /// xy, of the stacks' vertical distances clamped to ±ρ (outside the grid: +ρ), where
-    /// ρ = min(@a reach, the stacks' feature sizes). A distance-like field, negative inside:
-    /// with σ = s/2 the bilinear interpolation between the four nearest stacks, exact for
-    /// planar walls whose heights differ by less than ρ under the square.
+    /// with ρ = min(@a reach, max(σ, the least featureSize of the stacks under the square
+    /// ‖q − p‖∞ < σ in xy)), the mean over those stacks, weighted by the area each one's cell
+    /// shares with the square (outside the grid: empty), of ρ − (length of skeleton within ρ
+    /// of z). That is the vertical distance to the stack's boundary clamped to ±ρ where one
+    /// boundary is within ρ, and −σ·f (the box) where ρ = σ. Negative inside; with σ = s/2 the
+    /// bilinear interpolation between the four nearest stacks, exact for planar walls whose
+    /// heights differ by less than ρ under the square.
     double interpolated(const Vec3d& p, double sigma, double reach) const;
 
     /// The highest interval end (m), z0 when the skeleton is empty.
