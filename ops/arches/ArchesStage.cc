@@ -57,7 +57,8 @@ Schema<ArchesParams> makeArchesSchema()
     using P = ArchesParams;
     Schema<P> s("arches", "Material-stack terrain (arches §3): stacks of sand, bedrock, rocks, water "
                           "and air layers from a heightfield, procedural strata or any solid, "
-                          "stabilised at the repose angles and baked as convolution-surface level sets.");
+                          "stabilised at the repose angles and baked as level sets interpolated between the stacks "
+                          "(or the §3.3 convolution surface: kernel box).");
     row(s, param("terrain", ParamType::Json, "", json(), Range::any(),
                  "The initial terrain: a heightfield expression node (heightfield, noise_terrain, "
                  "sea_cliff), {\"type\": \"strata\", ...}, {\"type\": \"level_set\", \"file\": ...} or any "
@@ -744,7 +745,7 @@ ArchesResult runArches(const SceneInputs& inputs, Task& task)
 
 const std::vector<std::string>& bakeOnlyRows()
 {
-    static const std::vector<std::string> rows = {"voxel-size", "half-width", "max-memory", "weights",
+    static const std::vector<std::string> rows = {"kernel", "reach", "voxel-size", "half-width", "max-memory", "weights",
                                                   "material-ids", "chunks", "chunk"};
     return rows;
 }

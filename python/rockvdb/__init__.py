@@ -1135,7 +1135,7 @@ class Stacks:
     BAKE_ROWS = tuple(r.replace("-", "_") for r in _rockvdb.arches_bake_rows())
 
     def bake(self, material="all", *, path=None, points_path=None, **rows):
-        """Bake the convolution surfaces (§3.3, §6) as narrow-band level sets.
+        """Bake the ground and material surfaces (§3.3, §6; the kernel row) as narrow-band level sets.
 
         material: 'all' (default) -> {name: grid} of what vdb_arches writes, in its file order:
         'material' (ids), 'rock_id' (with rock_tiles), the 'weight_<material>' fog grids, one
@@ -1147,7 +1147,7 @@ class Stacks:
         share of each ground material's visible faces around it (§6, 0..1), for shaders to
         blend textures by. The same grid is the same bit for bit whichever call makes it.
 
-        Keywords: the bake's rows of the table, Stacks.BAKE_ROWS (voxel_size, half_width,
+        Keywords: the bake's rows of the table, Stacks.BAKE_ROWS (kernel, reach, voxel_size, half_width,
         max_memory, weights - False: 'all' without the weight grids - and material_ids), as
         vdb_arches --help gives them (left out: the stacks' scene; the other rows made the
         stacks); provenance records them, so the grids replay through vdb_arches --params.

@@ -186,6 +186,27 @@ def test_save_and_load_round_trip_and_continue_in_the_cli(tmp_path, cliff_scene)
     same_grids(tmp_path / "c.vdb", back.bake())
 
 
+def test_the_kernel_is_a_bake_row_and_cli_and_python_agree_on_it(tmp_path, cliff_scene):
+    """kernel and reach (issue 38) change only the bake: saved stacks bake with either, the
+    same bits from vdb_arches --from-stacks and Stacks.bake, recorded in provenance."""
+    s = rockvdb.Stacks.from_scene(cliff_scene)
+    s.save(tmp_path / "t.stacks")
+    assert {"kernel", "reach"} <= set(rockvdb.Stacks.BAKE_ROWS)
+    grids = {}
+    for kernel, extra in (("box", []), ("interpolate", ["--reach", "3"])):
+        out = tmp_path / f"{kernel}.vdb"
+        run([AR, "-q", "--from-stacks", str(tmp_path / "t.stacks"), "--kernel", kernel, *extra, "-o", str(out)],
+            check=True)
+        keywords = {"kernel": kernel, **({"reach": 3.0} if extra else {})}
+        grids[kernel] = s.bake("surface", **keywords)
+        assert_bitwise_equal(by_name(out)["surface"], grids[kernel])
+        prov = json.loads(grids[kernel].metadata["rockvdb:params"])
+        assert prov["kernel"] == kernel and prov.get("reach") == keywords.get("reach")
+    def voxels(g):
+        return sorted((v.min, v.value) for v in g.citerOnValues())
+    assert voxels(grids["box"]) != voxels(grids["interpolate"]), "the kernels differ"
+
+
 @pytest.mark.parametrize("call,error,needles", [
     (lambda d: rockvdb.Stacks({"type": "strata"}, cell_sise=1), TypeError, ["cell_sise", "cell_size"]),
     (lambda d: rockvdb.Stacks(42), TypeError, ["terrain", "int"]),
