@@ -333,7 +333,7 @@ def test_bad_edits_are_one_line_naming_the_edit_and_change_nothing(tmp_path):
     assert s.params["edits"] == []
     with pytest.raises(TypeError, match="radius"):
         s.sculpt([(1, 1, 5)])
-    with pytest.raises(ValueError, match="sigma made the stacks; a bake of them may change only voxel-size"):
+    with pytest.raises(ValueError, match="sigma made the stacks; a bake of them may change only kernel, reach, voxel-size"):
         s.bake("surface", sigma=1.0)
 
 
