@@ -13,6 +13,7 @@
 #include <openvdb/tree/LeafManager.h>
 
 #include <algorithm>
+#include <map>
 #include <atomic>
 #include <limits>
 #include <cmath>
@@ -38,6 +39,58 @@ float smoothstep(float a, float b, float x)
 }
 
 // World-space trilinear samples of a blend mask, clamped to [0, 1].
+// q minus the point of @a pr nearest q, and that point's barycentric coordinates (weights of
+// the primitive's vertices; Ericson, Real-Time Collision Detection §5.1.5 for triangles).
+Vec3d nearest(const Primitive& pr, const Vec3d& q, double bary[3])
+{
+    bary[0] = 1.0;
+    bary[1] = bary[2] = 0.0;
+    if (pr.count == 1) return q - pr.v[0];
+    const Vec3d& a = pr.v[0];
+    const Vec3d& b = pr.v[1];
+    if (pr.count == 2) {
+        const Vec3d ab = b - a;
+        const double t = std::clamp((q - a).dot(ab) / ab.lengthSqr(), 0.0, 1.0);
+        bary[0] = 1.0 - t;
+        bary[1] = t;
+        return q - (a + ab * t);
+    }
+    const Vec3d& c = pr.v[2];
+    const Vec3d ab = b - a, ac = c - a, ap = q - a;
+    auto set = [&](double u, double v, double w) {
+        bary[0] = u;
+        bary[1] = v;
+        bary[2] = w;
+        return q - (a * u + b * v + c * w);
+    };
+    const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+    if (d1 <= 0 && d2 <= 0) return set(1, 0, 0);
+    const Vec3d bp = q - b;
+    const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+    if (d3 >= 0 && d4 <= d3) return set(0, 1, 0);
+    const double vc = d1 * d4 - d3 * d2;
+    if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+        const double v = d1 / (d1 - d3);
+        return set(1 - v, v, 0);
+    }
+    const Vec3d cp = q - c;
+    const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+    if (d6 >= 0 && d5 <= d6) return set(0, 0, 1);
+    const double vb = d5 * d2 - d1 * d6;
+    if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+        const double w = d2 / (d2 - d6);
+        return set(1 - w, 0, w);
+    }
+    const double va = d3 * d6 - d5 * d4;
+    if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+        const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return set(0, 1 - w, w);
+    }
+    const double denom = 1.0 / (va + vb + vc);
+    const double v = vb * denom, w = vc * denom;
+    return set(1 - v - w, v, w);
+}
+
 class MaskSampler
 {
 public:
@@ -200,7 +253,15 @@ public:
         mSinW = float(std::sin(w));
         mSingular = g.singular;
         if (mSingular == Singular::Auto) {
-            mSingular = dir.kind == DirectionKind::Curvature ? Singular::Isotropic : Singular::Cancel;
+            mSingular = dir.kind == DirectionKind::Axis ? Singular::Cancel : Singular::Isotropic;
+        }
+        // Parameters along the skeleton: their largest amplitude bounds the band.
+        mSkeletonParams = dir.kind == DirectionKind::Skeleton && dir.hasParameters();
+        if (mSkeletonParams && dir.maxAmplitude() > 0) {
+            const float a = float(dir.maxAmplitude()), r = falloff(g.falloff, a);
+            mRmax = std::max(mRmax, r);
+            mDmax = std::max(mDmax, intensity(a, r));
+            mAmax = std::max(mAmax, a);
         }
         mInvSigma = float(1.0 / mNoise.sigma());
         Vec3d ax = dir.axis;
@@ -221,9 +282,9 @@ public:
     double lipschitz() const override
     {
         const double a = mG.bandwidth > 0 ? mG.bandwidth : mG.frequency / 2;
-        const double f = std::max(mG.frequency, mBlend.frequency);
+        const double f = std::max({mG.frequency, mBlend.frequency, mSkeletonParams ? mDir.maxFrequency() : 0.0});
         return mInput->lipschitz() +
-               double(mDmax) * (6.0 / double(std::min(mR, mRmax)) + 2.0 * kPi * (f + a));
+               double(mDmax) * (6.0 / double(mR > 0 ? std::min(mR, mRmax) : mRmax) + 2.0 * kPi * (f + a));
     }
 
     static float falloff(double R, double A) { return float(R > 0 ? R : 12.0 * A); }
@@ -292,14 +353,27 @@ private:
                 bn = bb / bl;
                 t = bn.cross(n);
             }
-            // Shape parameters at p (blended by the mask's weight there).
+            // Shape parameters at p: the skeleton's there (or the stage's), blended by the
+            // mask's weight there.
             float A = mA, R = mR, D = mD, cosA = mCosA, sinA = mSinA, cosT = mCosT, sinT = mSinT;
+            float baseTilt = float(mG.tiltDeg);
+            if (mSkeletonParams) {
+                const SkeletonValues sv = skeletonValues(Vec3d(p.x[j], p.y[j], p.z[j]));
+                A = float(sv.amplitude);
+                R = falloff(mG.falloff, A);
+                D = intensity(A, R);
+                baseTilt = float(sv.tilt);
+                const float al = float(sv.tilt * kPi / 180);
+                cosA = std::cos(al);
+                sinA = std::sin(al);
+            }
             const float wp = mMask ? (*mMask)(p.x[j], p.y[j], p.z[j]) : 0.0f;
             if (mMask) {
-                A = lerp(mA, float(mBlend.gaborAmplitude), wp);
-                R = lerp(mR, falloff(mBlend.falloff, mBlend.gaborAmplitude), wp);
+                const float A0 = A, R0 = R;
+                A = lerp(A0, float(mBlend.gaborAmplitude), wp);
+                R = lerp(R0, falloff(mBlend.falloff, mBlend.gaborAmplitude), wp);
                 D = intensity(A, R);
-                const float al = float(lerp(float(mG.tiltDeg), float(mBlend.tiltDeg), wp) * kPi / 180);
+                const float al = float(lerp(baseTilt, float(mBlend.tiltDeg), wp) * kPi / 180);
                 const float th = float(lerp(float(mG.tiltAzimuthDeg), float(mBlend.tiltAzimuthDeg), wp) * kPi / 180);
                 cosA = std::cos(al);
                 sinA = std::sin(al);
@@ -334,6 +408,9 @@ private:
             // Noise parameters at p_S: orientation (doubled angles: ω and ω + 180° are the
             // same noise) and frequency (the direction's length scales the base frequency).
             float cw = mCosW, sw = mSinW, fscale = 1.0f;
+            if (mSkeletonParams) {
+                fscale = float(skeletonValues(Vec3d(s.x[j], s.y[j], s.z[j])).frequency / mG.frequency);
+            }
             if (mMask) {
                 const float ws = (*mMask)(s.x[j], s.y[j], s.z[j]);
                 const double w0 = mG.orientationDeg * kPi / 90.0, w1 = mBlend.orientationDeg * kPi / 90.0;
@@ -342,7 +419,7 @@ private:
                 const float half = 0.5f * std::atan2(s2, c2);
                 cw = std::cos(half);
                 sw = std::sin(half);
-                if (mBlend.frequency > 0) fscale = lerp(1.0f, float(mBlend.frequency / mG.frequency), ws);
+                if (mBlend.frequency > 0) fscale = lerp(fscale, float(mBlend.frequency / mG.frequency), ws);
             }
             const Vec3f o = (t * cw + bn * sw) * fscale;
             w->ox[j] = o[0];
@@ -377,14 +454,12 @@ private:
         case DirectionKind::Skeleton: {
             const Vec3d q(b.x[j], b.y[j], b.z[j]);
             Vec3d W(0.0);
-            for (const Segment& sg : mDir.segments) {
-                const Vec3d ab = sg.b - sg.a;
-                const double l2 = ab.lengthSqr();
-                const double t = l2 > 0 ? std::min(std::max((q - sg.a).dot(ab) / l2, 0.0), 1.0) : 0.0;
-                const double d2 = (q - (sg.a + ab * t)).lengthSqr() / (sg.radius * sg.radius);
-                if (d2 >= 1.0 || l2 <= 0) continue;
+            for (const Primitive& pr : mDir.primitives) {
+                double bary[3];
+                const double d2 = nearest(pr, q, bary).lengthSqr() / (pr.radius * pr.radius);
+                if (d2 >= 1.0) continue;
                 const double k = 1.0 - d2;
-                W += ab * (sg.weight * k * k * k / std::sqrt(l2));
+                W += pr.direction * (pr.weight * k * k * k);
             }
             return Vec3f(float(W[0]), float(W[1]), float(W[2]));
         }
@@ -464,8 +539,40 @@ private:
         }
     }
 
+    // The skeleton's parameters at q: (Σ f_i v_i + (1 − Σ f_i)⁺ v) / (Σ f_i + (1 − Σ f_i)⁺),
+    // v_i the primitive's value at its point nearest q (or the stage's own v).
+    struct SkeletonValues
+    {
+        double amplitude, frequency, tilt;
+    };
+    SkeletonValues skeletonValues(const Vec3d& q) const
+    {
+        double sw = 0, sa = 0, sf = 0, st = 0;
+        for (const Primitive& pr : mDir.primitives) {
+            double bary[3];
+            const double d2 = nearest(pr, q, bary).lengthSqr() / (pr.radius * pr.radius);
+            if (d2 >= 1.0) continue;
+            const double k = 1.0 - d2, f = pr.weight * k * k * k;
+            auto at = [&](const std::array<double, 3>& v, double own) {
+                if (std::isnan(v[0])) return own;
+                double x = 0;
+                for (int c = 0; c < pr.count; ++c) x += bary[c] * v[size_t(c)];
+                return x;
+            };
+            sw += f;
+            sa += f * at(pr.amplitude, mG.amplitude);
+            sf += f * at(pr.frequency, mG.frequency);
+            st += f * at(pr.tilt, mG.tiltDeg);
+        }
+        // The stage's values weigh 1 − Σ f_i where that is positive: continuous at the edge of
+        // the skeleton's reach (a ratio alone would jump there from a primitive's to the stage's).
+        const double own = std::max(0.0, 1.0 - sw), all = sw + own;
+        return {(sa + own * mG.amplitude) / all, (sf + own * mG.frequency) / all, (st + own * mG.tiltDeg) / all};
+    }
+
     FieldPtr mInput, mFrame;
     GaborParams mG;
+    bool mSkeletonParams = false;
     DirectionField mDir;
     GaborNoise mNoise;
     float mH;
@@ -480,41 +587,185 @@ private:
 
 } // namespace
 
+namespace {
+
+Vec3d vec3(const nlohmann::json& v, const std::string& what)
+{
+    if (!v.is_array() || v.size() != 3) fail<ValueError>("skeleton: ", what, " must be [x, y, z]");
+    Vec3d r;
+    for (int k = 0; k < 3; ++k) {
+        if (!v[size_t(k)].is_number()) fail<ValueError>("skeleton: ", what, " must be [x, y, z]");
+        r[k] = v[size_t(k)].get<double>();
+        if (!std::isfinite(r[k])) fail<ValueError>("skeleton: ", what, " must be finite");
+    }
+    return r;
+}
+
+double number(const nlohmann::json& v, const std::string& what)
+{
+    if (!v.is_number() || !std::isfinite(v.get<double>())) fail<ValueError>("skeleton: ", what, " must be a number");
+    return v.get<double>();
+}
+
+// A parameter given once or per vertex (n of them): its n values.
+std::vector<double> perVertex(const nlohmann::json& v, size_t n, const std::string& what)
+{
+    if (v.is_number()) return std::vector<double>(n, number(v, what));
+    if (!v.is_array() || v.size() != n) {
+        fail<ValueError>("skeleton: ", what, " must be a number or ", n, " numbers (one per vertex)");
+    }
+    std::vector<double> r;
+    for (size_t k = 0; k < n; ++k) r.push_back(number(v[k], what + "[" + std::to_string(k) + "]"));
+    return r;
+}
+
+} // namespace
+
 DirectionField DirectionField::fromSkeletonJson(const nlohmann::json& j)
 {
     DirectionField d;
     d.kind = DirectionKind::Skeleton;
-    try {
-        if (!j.is_object() || !j.contains("segments") || !j.at("segments").is_array()) {
-            fail<ValueError>("skeleton: expected {\"segments\": [{\"a\": [x,y,z], \"b\": [x,y,z], "
-                             "\"radius\": r}, ...]}");
-        }
-        for (const auto& s : j.at("segments")) {
-            Segment g;
-            const auto a = s.at("a").get<std::array<double, 3>>();
-            const auto b = s.at("b").get<std::array<double, 3>>();
-            g.a = Vec3d(a[0], a[1], a[2]);
-            g.b = Vec3d(b[0], b[1], b[2]);
-            g.radius = s.at("radius").get<double>();
-            g.weight = s.value("weight", 1.0);
-            require(std::isfinite(g.radius) && g.radius > 0, "skeleton", "segment radius", "> 0",
-                    g.radius);
-            require(std::isfinite(g.weight) && g.weight > 0, "skeleton", "segment weight", "> 0",
-                    g.weight);
-            require((g.b - g.a).length() > 0, "skeleton", "segment length", "> 0 (a != b)",
-                    (g.b - g.a).length());
-            d.segments.push_back(g);
-        }
-    } catch (const nlohmann::json::exception& e) {
-        fail<ValueError>("skeleton: malformed (", e.what(), ")");
+    static const std::map<std::string, std::vector<std::string>> keys = {
+        {"segments", {"a", "b", "radius", "weight", "amplitude", "frequency", "tilt"}},
+        {"polylines", {"points", "closed", "radius", "weight", "amplitude", "frequency", "tilt"}},
+        {"points", {"p", "radius", "weight", "direction", "amplitude", "frequency", "tilt"}},
+        {"triangles", {"a", "b", "c", "radius", "weight", "direction", "amplitude", "frequency", "tilt"}}};
+    const std::string expected = "expected {\"segments\" | \"polylines\" | \"points\" | \"triangles\": [...]}";
+    if (!j.is_object()) fail<ValueError>("skeleton: ", expected);
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        if (!keys.count(it.key())) fail<ValueError>("skeleton: unknown key \"", it.key(), "\" (", expected, ")");
+        if (!it.value().is_array()) fail<ValueError>("skeleton: ", it.key(), " must be a list");
     }
-    if (d.segments.empty()) fail<ValueError>("skeleton: no segments");
+    for (const auto& [kind, allowed] : keys) {
+        if (!j.contains(kind)) continue;
+        const auto& list = j.at(kind);
+        for (size_t n = 0; n < list.size(); ++n) {
+            const auto& e = list[n];
+            const std::string at = kind + "[" + std::to_string(n) + "]";
+            if (!e.is_object()) fail<ValueError>("skeleton: ", at, " must be an object");
+            for (auto it = e.begin(); it != e.end(); ++it) {
+                if (std::find(allowed.begin(), allowed.end(), it.key()) == allowed.end()) {
+                    std::string list;
+                    for (const auto& k : allowed) list += (list.empty() ? "" : ", ") + k;
+                    fail<ValueError>("skeleton: ", at, ": unknown key \"", it.key(), "\" (", kind, " take ", list, ")");
+                }
+            }
+            auto need = [&](const char* key) -> const nlohmann::json& {
+                if (!e.contains(key)) fail<ValueError>("skeleton: ", at, ".", key, " is required");
+                return e.at(key);
+            };
+            Primitive proto;
+            proto.radius = number(need("radius"), at + ".radius");
+            proto.weight = e.contains("weight") ? number(e.at("weight"), at + ".weight") : 1.0;
+            require(proto.radius > 0, "skeleton", (at + ".radius").c_str(), "> 0", proto.radius);
+            require(proto.weight > 0, "skeleton", (at + ".weight").c_str(), "> 0", proto.weight);
+            std::vector<Vec3d> vs;
+            if (kind == "segments") vs = {vec3(need("a"), at + ".a"), vec3(need("b"), at + ".b")};
+            if (kind == "triangles") vs = {vec3(need("a"), at + ".a"), vec3(need("b"), at + ".b"), vec3(need("c"), at + ".c")};
+            if (kind == "points") vs = {vec3(need("p"), at + ".p")};
+            bool closed = false;
+            if (kind == "polylines") {
+                const auto& pts = need("points");
+                if (!pts.is_array() || pts.size() < 2) fail<ValueError>("skeleton: ", at, ".points must hold at least 2 points");
+                for (size_t k = 0; k < pts.size(); ++k) vs.push_back(vec3(pts[k], at + ".points[" + std::to_string(k) + "]"));
+                if (e.contains("closed")) {
+                    if (!e.at("closed").is_boolean()) fail<ValueError>("skeleton: ", at, ".closed must be true or false");
+                    closed = e.at("closed").get<bool>();
+                }
+            }
+            // Parameters per vertex of the whole primitive (a polyline: per point).
+            std::vector<double> amp, freq, tilt;
+            if (e.contains("amplitude")) amp = perVertex(e.at("amplitude"), vs.size(), at + ".amplitude");
+            if (e.contains("frequency")) freq = perVertex(e.at("frequency"), vs.size(), at + ".frequency");
+            if (e.contains("tilt")) tilt = perVertex(e.at("tilt"), vs.size(), at + ".tilt");
+            for (double a : amp) require(a >= 0, "skeleton", (at + ".amplitude").c_str(), ">= 0 m", a);
+            for (double f : freq) require(f > 0, "skeleton", (at + ".frequency").c_str(), "> 0 cycles/m", f);
+            for (double t : tilt) require(t >= 0 && t <= 75, "skeleton", (at + ".tilt").c_str(), "in [0, 75] degrees", t);
+            auto setParams = [&](Primitive& pr, const std::vector<size_t>& idx) {
+                for (size_t c = 0; c < idx.size(); ++c) {
+                    if (!amp.empty()) pr.amplitude[c] = amp[idx[c]];
+                    if (!freq.empty()) pr.frequency[c] = freq[idx[c]];
+                    if (!tilt.empty()) pr.tilt[c] = tilt[idx[c]];
+                }
+            };
+            Vec3d given(0, 0, 1);
+            if (e.contains("direction")) {
+                given = vec3(e.at("direction"), at + ".direction");
+                require(given.length() > 0, "skeleton", (at + ".direction").c_str(), "non-zero", given.length());
+                given.normalize();
+            }
+            if (kind == "points") {
+                Primitive pr = proto;
+                pr.count = 1;
+                pr.v[0] = vs[0];
+                pr.direction = given;
+                setParams(pr, {0});
+                d.primitives.push_back(pr);
+            } else if (kind == "triangles") {
+                Primitive pr = proto;
+                pr.count = 3;
+                for (int c = 0; c < 3; ++c) pr.v[c] = vs[size_t(c)];
+                Vec3d nrm = (vs[1] - vs[0]).cross(vs[2] - vs[0]);
+                require(nrm.length() > 0, "skeleton", (at + " area").c_str(), "> 0 (a, b, c not collinear)", nrm.length());
+                nrm.normalize();
+                // A vector of its plane: the direction given, projected; by default a → b.
+                Vec3d s = e.contains("direction") ? given - nrm * given.dot(nrm) : vs[1] - vs[0];
+                require(s.length() > 1e-9, "skeleton", (at + ".direction").c_str(), "not normal to the triangle", s.length());
+                s.normalize();
+                pr.direction = s;
+                setParams(pr, {0, 1, 2});
+                d.primitives.push_back(pr);
+            } else {
+                // A segment, or a polyline's segments (closed: back to the first point).
+                const size_t count = vs.size() - 1 + (closed ? 1 : 0);
+                for (size_t k = 0; k < count; ++k) {
+                    const size_t k1 = (k + 1) % vs.size();
+                    Primitive pr = proto;
+                    pr.count = 2;
+                    pr.v[0] = vs[k];
+                    pr.v[1] = vs[k1];
+                    const Vec3d ab = vs[k1] - vs[k];
+                    require(ab.length() > 0, "skeleton", (at + " segment length").c_str(), "> 0 (repeated point)", ab.length());
+                    pr.direction = ab / ab.length();
+                    setParams(pr, {k, k1});
+                    d.primitives.push_back(pr);
+                }
+            }
+        }
+    }
+    if (d.primitives.empty()) fail<ValueError>("skeleton: no primitives (", expected, ")");
     return d;
+}
+
+bool DirectionField::hasParameters() const
+{
+    for (const Primitive& p : primitives) {
+        if (!std::isnan(p.amplitude[0]) || !std::isnan(p.frequency[0]) || !std::isnan(p.tilt[0])) return true;
+    }
+    return false;
+}
+
+double DirectionField::maxAmplitude() const
+{
+    double m = 0;
+    for (const Primitive& p : primitives)
+        for (int c = 0; c < p.count; ++c)
+            if (!std::isnan(p.amplitude[size_t(c)])) m = std::max(m, p.amplitude[size_t(c)]);
+    return m;
+}
+
+double DirectionField::maxFrequency() const
+{
+    double m = 0;
+    for (const Primitive& p : primitives)
+        for (int c = 0; c < p.count; ++c)
+            if (!std::isnan(p.frequency[size_t(c)])) m = std::max(m, p.frequency[size_t(c)]);
+    return m;
 }
 
 void DetailParams::validate(double voxelSize) const
 {
-    if (gabor.frequency == 0 && gabor.amplitude > 0) return resolved().validate(voxelSize);
+    if (gabor.frequency == 0 && resolved().gabor.frequency > 0) return resolved().validate(voxelSize);
     const char* op = "detail";
     require(std::isfinite(warp.amplitude) && warp.amplitude >= 0, op, "warp amplitude", ">= 0 m",
             warp.amplitude);
@@ -556,7 +807,7 @@ void DetailParams::validate(double voxelSize) const
                     warp.scale);
         }
     }
-    if (g.amplitude > 0 || (blend && blend->gaborAmplitude > 0)) {
+    if (maxGabor() > 0) {
         const double a = g.bandwidth > 0 ? g.bandwidth : g.frequency / 2;
         const double nyquist = 1.0 / (2.0 * voxelSize);
         require(std::isfinite(g.frequency) && g.frequency > 0, op, "gabor frequency",
@@ -585,8 +836,22 @@ void DetailParams::validate(double voxelSize) const
         require(direction.axis.length() > 0 && std::isfinite(direction.axis.length()), op,
                 "direction axis", "non-zero", direction.axis.length());
     }
-    if (direction.kind == DirectionKind::Skeleton && direction.segments.empty()) {
-        fail<ValueError>("detail: the skeleton direction field needs segments");
+    if (direction.kind == DirectionKind::Skeleton && direction.primitives.empty()) {
+        fail<ValueError>("detail: the skeleton direction field needs primitives");
+    }
+    if (direction.kind == DirectionKind::Skeleton && direction.hasParameters()) {
+        // Parameters along the skeleton vary the amplitude and frequency the stage's set.
+        const double a = g.bandwidth > 0 ? g.bandwidth : g.frequency / 2;
+        const double nyquist = 1.0 / (2.0 * voxelSize);
+        if (direction.maxFrequency() + a > nyquist) {
+            fail<ValueError>("detail: skeleton frequency ", direction.maxFrequency(), " + bandwidth ", a,
+                             " cycles/m exceeds the voxel Nyquist limit 1/(2·voxel) = ", nyquist,
+                             " cycles/m (voxel ", voxelSize, " m)");
+        }
+        if (g.falloff > 0) {
+            require(g.falloff >= 1.5 * direction.maxAmplitude(), op, "gabor falloff R",
+                    ">= 1.5 x the skeleton's largest amplitude", g.falloff);
+        }
     }
 }
 
@@ -597,7 +862,8 @@ double DetailParams::maxWarp() const
 
 double DetailParams::maxGabor() const
 {
-    return std::max(gabor.amplitude, blend ? blend->gaborAmplitude : 0.0);
+    return std::max({gabor.amplitude, blend ? blend->gaborAmplitude : 0.0,
+                     direction.kind == DirectionKind::Skeleton ? direction.maxAmplitude() : 0.0});
 }
 
 double DetailParams::reach(double halfWidthMetres) const
@@ -611,8 +877,11 @@ double DetailParams::reach(double halfWidthMetres) const
 DetailParams DetailParams::resolved() const
 {
     DetailParams r = *this;
-    if (r.gabor.frequency == 0 && r.gabor.amplitude > 0) {
-        r.gabor.frequency = 1.0 / (kDefaultWavelengthPerAmplitude * r.gabor.amplitude);
+    // (With no amplitude of its own, the skeleton's largest sets the default frequency.)
+    const double a = r.gabor.amplitude > 0 ? r.gabor.amplitude
+                   : r.direction.kind == DirectionKind::Skeleton ? r.direction.maxAmplitude() : 0.0;
+    if (r.gabor.frequency == 0 && a > 0) {
+        r.gabor.frequency = 1.0 / (kDefaultWavelengthPerAmplitude * a);
     }
     return r;
 }
@@ -636,7 +905,8 @@ FieldPtr detailField(FieldPtr input, const DetailParams& params, double gradient
                                            float(blend ? blend->warpAmplitude : p.warp.amplitude),
                                            blend ? p.blendMask : nullptr);
     }
-    const bool gabor = p.gabor.amplitude > 0 || (blend && blend->gaborAmplitude > 0);
+    const bool gabor = p.gabor.amplitude > 0 || (blend && blend->gaborAmplitude > 0) ||
+                       (p.direction.kind == DirectionKind::Skeleton && p.direction.maxAmplitude() > 0);
     if (gabor) {
         f = std::make_shared<GaborDetail>(f, input, p.gabor, p.direction, float(gradientStep),
                                           blend, blend ? p.blendMask : nullptr);

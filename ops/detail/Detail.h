@@ -17,7 +17,9 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include <array>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -29,27 +31,53 @@ using relief::ReliefParams;
 /// Where the noise's tangent direction W comes from (gabor §3): b = n ∧ W, t = b ∧ n.
 enum class DirectionKind { Axis, Skeleton, Curvature };
 
-/// A skeleton segment [a, b] with its radius of influence: W(P) = Σ_i f_i(P) S_i with
-/// S_i = (b - a)/|b - a| and f_i = (1 - d²/radius²)³ (the weighted skeleton direction WdS).
-struct Segment
+/// One skeleton primitive (gabor §3): a point, a segment or a triangle (@c count 1, 2, 3
+/// vertices), its radius of influence and weight: f_i(P) = weight·(1 − d²/radius²)³ with d the
+/// distance from P to the primitive, W(P) = Σ_i f_i(P) S_i (the weighted skeleton direction
+/// WdS). S_i: a segment's (b − a)/|b − a|; for a triangle "any vector included in its defining
+/// plane" — the given direction projected into it, by default a → b; a point has no direction
+/// of its own: the given one, by default +z. Polylines are runs of segments.
+/// The paper's future work, "detail parameters stored along the skeleton": each primitive may
+/// carry a Gabor amplitude, frequency and tilt per vertex (NaN: the stage's own), interpolated
+/// at the primitive's point nearest P (linearly along a segment, barycentrically on a
+/// triangle); the value at P is (Σ f_i v_i + (1 − Σ f_i)⁺ v) / (Σ f_i + (1 − Σ f_i)⁺) with v
+/// the stage's own: the skeleton's where the primitives weigh 1 or more, fading to the stage's
+/// at the edge of their reach.
+struct Primitive
 {
-    Vec3d a, b;
+    int count = 2;
+    Vec3d v[3];
     double radius = 1.0;
     double weight = 1.0;
+    Vec3d direction = Vec3d(0, 0, 1); ///< S_i (unit), set by the JSON reader
+    /// Per vertex (NaN = unset): Gabor amplitude (m), frequency (cycles/m), tilt α (degrees).
+    std::array<double, 3> amplitude{kUnset, kUnset, kUnset}, frequency{kUnset, kUnset, kUnset},
+        tilt{kUnset, kUnset, kUnset};
+    static constexpr double kUnset = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct DirectionField
 {
     DirectionKind kind = DirectionKind::Axis;
     Vec3d axis = Vec3d(0, 0, 1);
-    std::vector<Segment> segments;
-    /// @brief {"segments": [{"a": [x,y,z], "b": [x,y,z], "radius": r, "weight": w}, ...]}.
+    std::vector<Primitive> primitives;
+    /// @brief {"segments": [{"a", "b", "radius", "weight"?, <params>}], "polylines": [{"points":
+    /// [[x,y,z], ...], "closed"?, "radius", "weight"?, <params>}], "points": [{"p", "radius",
+    /// "weight"?, "direction"?, <params>}], "triangles": [{"a", "b", "c", "radius", "weight"?,
+    /// "direction"?, <params>}]}, at least one primitive; <params>: "amplitude", "frequency",
+    /// "tilt", each a number or one per vertex. Unknown keys are errors naming them.
     static DirectionField fromSkeletonJson(const nlohmann::json& j);
+    /// True when a primitive carries a parameter.
+    bool hasParameters() const;
+    /// Largest amplitude / frequency a primitive carries (0 when none).
+    double maxAmplitude() const;
+    double maxFrequency() const;
 };
 
 /// Near frame singularities (W ∥ n, umbilics): cancel the anisotropic noise (the paper's
 /// choice), or fade into isotropic noise (its suggested fix). Auto: isotropic for curvature
-/// frames (a sphere is umbilic everywhere), cancel otherwise.
+/// frames (a sphere is umbilic everywhere) and skeleton frames (the paper's fix for where W and
+/// ∇f are collinear, §5), cancel for an axis.
 enum class Singular { Auto, Cancel, Isotropic };
 
 struct GaborParams

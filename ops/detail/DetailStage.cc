@@ -58,8 +58,12 @@ Schema<DetailStageParams> makeSchema()
                  "W = this axis (default 0,0,1 when no direction is given)", 3),
              &P::directionAxis);
     s.add(param("direction-skeleton", ParamType::Json, "", nullptr, Range::any(),
-                 "W = weighted skeleton direction: a JSON file (or object) {\"segments\": "
-                 "[{\"a\": [x,y,z], \"b\": [x,y,z], \"radius\": r}]}"),
+                 "W = weighted skeleton direction (gabor §3): a JSON file (or object) of "
+                 "primitives with a radius of influence each, {\"segments\": [{\"a\", \"b\", "
+                 "\"radius\"}], \"polylines\": [{\"points\": [[x,y,z], ...], \"closed\", \"radius\"}], "
+                 "\"points\": [{\"p\", \"radius\", \"direction\"}], \"triangles\": [{\"a\", \"b\", \"c\", "
+                 "\"radius\", \"direction\"}]}; any primitive may carry \"amplitude\", \"frequency\", "
+                 "\"tilt\" (one value or one per vertex), interpolated along the skeleton"),
           [](const P& p) { return p.directionSkeleton; },
           [](P& p, const json& j) { p.directionSkeleton = j.is_null() ? j : jsonOrFile(j); });
     s.member(param("direction-curvature", ParamType::Bool, "", false, Range::any(),
@@ -67,7 +71,8 @@ Schema<DetailStageParams> makeSchema()
              &P::directionCurvature);
     ParamInfo singular = param("singular", ParamType::Text, "", "auto", Range::any(),
                              "Near frame singularities: cancel the noise, or fade to isotropic "
-                             "noise; auto = isotropic for curvature frames, cancel otherwise");
+                             "noise; auto = isotropic for curvature and skeleton frames, cancel "
+                             "for an axis");
     singular.choices = {"auto", "cancel", "isotropic"};
     s.member(singular, &P::singular);
     s.member(seedRow(), &P::seed);

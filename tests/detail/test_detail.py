@@ -211,10 +211,11 @@ def test_python_matches_the_cli_and_skeleton_frames(sphere, tmp_path):
                "--direction-axis", "0,0,1", "--seed", "3")
     assert np.array_equal(dense(g)[1], dense(c)[1])
     assert json.loads(g.metadata["rockvdb:params"])["gabor-frequency"] == 6.0
-    # A skeleton along z gives the same frames as the z axis near it (W = f·S, same direction).
+    # A skeleton along z gives the same frames as the z axis near it (W = f·S, same direction),
+    # with the axis's treatment of the poles (skeleton frames fade to isotropic by default).
     skel = {"segments": [{"a": [0, 0, -2], "b": [0, 0, 2], "radius": 10}]}
     gs = rockvdb.detail(vdb.read(str(sphere), "surface"), gabor_amplitude=0.03,
-                        gabor_frequency=6.0, direction_skeleton=skel, seed=3)
+                        gabor_frequency=6.0, direction_skeleton=skel, singular="cancel", seed=3)
     (la, a), (lb, b) = dense(gs), dense(g)
     assert la == lb and np.max(np.abs(a - b)) < 0.02 * 0.02
     with pytest.raises(ValueError, match="Nyquist"):
@@ -255,8 +256,43 @@ def test_bad_inputs(tmp_path, sphere):
                         "0.02", "--gabor-frequency", "5", "--direction-skeleton", str(skel)]),
                    2, "segment length")
     assert not out.exists()
+    # Unknown keys of a skeleton name themselves (issue 39: they were ignored).
+    skel.write_text('{"segments": [{"a": [0, 0, -1], "b": [0, 0, 1], "radius": 2}], "point": []}')
+    one_line_error(run([tool("vdb_detail"), str(sphere), "-o", str(out), "--gabor-amplitude",
+                        "0.02", "--gabor-frequency", "5", "--direction-skeleton", str(skel)]),
+                   2, '"point"')
+    assert not out.exists()
     with pytest.raises(ValueError, match="level set"):
         rockvdb.detail(g, warp_amplitude=0.02)
+
+
+def test_detail_only_along_a_skeleton_that_carries_it(sphere, tmp_path):
+    """gabor-amplitude 0 and a point skeleton at the north pole carrying an amplitude: the
+    sphere is detailed there and nowhere out of the point's reach, the same from the CLI and
+    Python."""
+    skel = {"points": [{"p": [0, 0, 1], "radius": 0.6, "amplitude": 0.02, "frequency": 6}]}
+    (tmp_path / "s.json").write_text(json.dumps(skel))
+    c = detail(sphere, tmp_path / "c.vdb", "--gabor-amplitude", "0", "--direction-skeleton",
+               str(tmp_path / "s.json"), "--seed", "4")
+    g = rockvdb.detail(vdb.read(str(sphere), "surface"), gabor_amplitude=0.0, direction_skeleton=skel,
+                       seed=4)
+    assert np.array_equal(dense(g)[1], dense(c)[1])
+    src = vdb.read(str(sphere), "surface")
+    lo, hi = src.evalActiveVoxelBoundingBox()
+    lo, hi = [v - 4 for v in lo], [v + 4 for v in hi]
+
+    def box(grid):
+        a = np.zeros(tuple(hi[k] - lo[k] + 1 for k in range(3)), np.float32)
+        grid.copyToArray(a, ijk=lo)
+        return a
+    a, a0 = box(c), box(src)
+    z = (np.arange(a.shape[2]) + lo[2]) * 0.02
+    near = np.abs(a0) < 0.02
+    diff = np.abs(a - a0)
+    north = near & (z > 0.9)[None, None, :]
+    south = near & (z < 0.3)[None, None, :]
+    assert diff[north].max() > 0.01, "detailed near the point"
+    assert diff[south].max() < 0.002, "untouched out of its reach"
 
 
 def test_streams_through_a_pipeline(tmp_path):
