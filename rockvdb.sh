@@ -16,7 +16,7 @@ PACKAGES=(
     cmake g++ make ccache pkg-config
     libopenvdb-dev libboost-iostreams-dev libtbb-dev libopenexr-dev libblosc-dev libglm-dev
     libcgal-dev libgmp-dev libmpfr-dev libpng-dev libcli11-dev nlohmann-json3-dev
-    pybind11-dev libboost-python-dev python3-dev python3-openvdb python3-numpy python3-pytest
+    pybind11-dev libboost-python-dev python3-dev python3-openvdb python3-numpy python3-pytest python3-pil
     libgtest-dev libbenchmark-dev libjemalloc-dev libmeshoptimizer-dev libtinygltf-dev
     libopenvdb-tools blender xvfb
     clang libclang-rt-14-dev dpkg-dev

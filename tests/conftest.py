@@ -22,6 +22,23 @@ def run(args, stdin=None, check=False):
     return p
 
 
+def run_sample(script, out, *args):
+    """Run samples/<script> as its usage line says (BUILD_DIR OUT_DIR [...]) from the
+    repository root; assert it succeeded."""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    p = subprocess.run(["bash", os.path.join(root, "samples", script), os.path.abspath(BUILD), str(out),
+                        *[str(a) for a in args]], cwd=root, capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+
+
+def around(grid, lo, hi):
+    """The dense values of @a grid over the index box [lo, hi] (background outside its band)."""
+    import numpy as np
+    a = np.zeros(tuple(hi[k] - lo[k] + 1 for k in range(3)), np.float32)
+    grid.copyToArray(a, ijk=tuple(lo))
+    return a
+
+
 def arches_small_scene(tmp_path, **extra):
     """samples/data/arches_strata.json cut to 40 x 30 stacks (extra keys on top), as
     tmp_path/scene.json: the material-stack tests' quick scene."""

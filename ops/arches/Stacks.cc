@@ -438,16 +438,18 @@ double Skeleton::below(size_t s, double z) const
     return mBefore[k] + (std::min(z, mEnd[k]) - mStart[k]);
 }
 
-double Skeleton::volume(const Vec3d& p, double sigma) const
+namespace {
+
+// Every stack whose cell meets the square ‖q − p‖∞ < σ in xy, with the area they share:
+// f(area, stack index).
+template<typename F>
+void forEachUnder(const StackGeometry& g, const Vec3d& p, double sigma, F&& f)
 {
-    const auto& g = mGeometry;
     const double xlo = p[0] - sigma, xhi = p[0] + sigma, ylo = p[1] - sigma, yhi = p[1] + sigma;
-    // Stacks whose cells meet the cube's footprint.
     const int i0 = std::max(0, int(std::floor((xlo - g.x0) / g.cell)));
     const int i1 = std::min(g.nx - 1, int(std::floor((xhi - g.x0) / g.cell)));
     const int j0 = std::max(0, int(std::floor((ylo - g.y0) / g.cell)));
     const int j1 = std::min(g.ny - 1, int(std::floor((yhi - g.y0) / g.cell)));
-    double v = 0;
     for (int j = j0; j <= j1; ++j) {
         const double cy0 = g.y0 + j * g.cell;
         const double wy = std::min(yhi, cy0 + g.cell) - std::max(ylo, cy0);
@@ -455,10 +457,17 @@ double Skeleton::volume(const Vec3d& p, double sigma) const
         for (int i = i0; i <= i1; ++i) {
             const double cx0 = g.x0 + i * g.cell;
             const double wx = std::min(xhi, cx0 + g.cell) - std::max(xlo, cx0);
-            if (wx <= 0) continue;
-            v += wx * wy * covered(g.index(i, j), p[2] - sigma, p[2] + sigma);
+            if (wx > 0) f(wx * wy, g.index(i, j));
         }
     }
+}
+
+} // namespace
+
+double Skeleton::volume(const Vec3d& p, double sigma) const
+{
+    double v = 0;
+    forEachUnder(mGeometry, p, sigma, [&](double area, size_t s) { v += area * covered(s, p[2] - sigma, p[2] + sigma); });
     return v;
 }
 
@@ -479,33 +488,18 @@ double Skeleton::featureSize(size_t s, double z) const
 
 double Skeleton::interpolated(const Vec3d& p, double sigma, double reach) const
 {
-    const auto& g = mGeometry;
-    const double xlo = p[0] - sigma, xhi = p[0] + sigma, ylo = p[1] - sigma, yhi = p[1] + sigma;
-    const int i0 = std::max(0, int(std::floor((xlo - g.x0) / g.cell)));
-    const int i1 = std::min(g.nx - 1, int(std::floor((xhi - g.x0) / g.cell)));
-    const int j0 = std::max(0, int(std::floor((ylo - g.y0) / g.cell)));
-    const int j1 = std::min(g.ny - 1, int(std::floor((yhi - g.y0) / g.cell)));
     // The stacks under the square and their weights (4 at σ = s/2; more for a wider square).
     struct Term { double w; size_t s; };
     Term local[16];
     std::vector<Term> more;
     size_t n = 0;
     double scale = std::numeric_limits<double>::infinity(), area = 0;
-    for (int j = j0; j <= j1; ++j) {
-        const double cy0 = g.y0 + j * g.cell;
-        const double wy = std::min(yhi, cy0 + g.cell) - std::max(ylo, cy0);
-        if (wy <= 0) continue;
-        for (int i = i0; i <= i1; ++i) {
-            const double cx0 = g.x0 + i * g.cell;
-            const double wx = std::min(xhi, cx0 + g.cell) - std::max(xlo, cx0);
-            if (wx <= 0) continue;
-            const Term t{wx * wy, g.index(i, j)};
-            scale = std::min(scale, featureSize(t.s, p[2]));
-            if (n < 16) local[n++] = t;
-            else more.push_back(t);
-            area += t.w;
-        }
-    }
+    forEachUnder(mGeometry, p, sigma, [&](double w, size_t s) {
+        scale = std::min(scale, featureSize(s, p[2]));
+        if (n < 16) local[n++] = Term{w, s};
+        else more.push_back(Term{w, s});
+        area += w;
+    });
     // ρ − (length of skeleton within ρ of z): clamp(vertical distance, ±ρ) where one boundary
     // is within ρ, the box's erosion of what is thinner.
     const double rho = std::min(reach, std::max(sigma, scale)), z = p[2];

@@ -745,23 +745,23 @@ bool DirectionField::hasParameters() const
     return false;
 }
 
-double DirectionField::maxAmplitude() const
+namespace {
+
+// The largest value a primitive carries at a vertex (0 when none carries one).
+double largest(const std::vector<Primitive>& primitives, std::array<double, 3> Primitive::*member)
 {
     double m = 0;
     for (const Primitive& p : primitives)
         for (int c = 0; c < p.count; ++c)
-            if (!std::isnan(p.amplitude[size_t(c)])) m = std::max(m, p.amplitude[size_t(c)]);
+            if (!std::isnan((p.*member)[size_t(c)])) m = std::max(m, (p.*member)[size_t(c)]);
     return m;
 }
 
-double DirectionField::maxFrequency() const
-{
-    double m = 0;
-    for (const Primitive& p : primitives)
-        for (int c = 0; c < p.count; ++c)
-            if (!std::isnan(p.frequency[size_t(c)])) m = std::max(m, p.frequency[size_t(c)]);
-    return m;
-}
+} // namespace
+
+double DirectionField::maxAmplitude() const { return largest(primitives, &Primitive::amplitude); }
+
+double DirectionField::maxFrequency() const { return largest(primitives, &Primitive::frequency); }
 
 void DetailParams::validate(double voxelSize) const
 {

@@ -6,17 +6,13 @@ anisotropy follows the requested orientation (power spectrum of a flat patch), t
 profile asymmetric, bitwise determinism across thread counts, bad input."""
 import json
 import math
-import os
-import subprocess
 
 import numpy as np
 import pyopenvdb as vdb
 import pytest
 
 import rockvdb
-from conftest import dense, one_line_error, run, tool
-
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from conftest import around, dense, one_line_error, run, run_sample, tool
 
 
 @pytest.fixture(scope="module")
@@ -284,12 +280,7 @@ def test_detail_only_along_a_skeleton_that_carries_it(sphere, tmp_path):
     src = vdb.read(str(sphere), "surface")
     lo, hi = src.evalActiveVoxelBoundingBox()
     lo, hi = [v - 4 for v in lo], [v + 4 for v in hi]
-
-    def box(grid):
-        a = np.zeros(tuple(hi[k] - lo[k] + 1 for k in range(3)), np.float32)
-        grid.copyToArray(a, ijk=lo)
-        return a
-    a, a0 = box(c), box(src)
+    a, a0 = around(c, lo, hi), around(src, lo, hi)
     z = (np.arange(a.shape[2]) + lo[2]) * 0.02
     near = np.abs(a0) < 0.02
     diff = np.abs(a - a0)
@@ -398,22 +389,14 @@ def test_sample_12_ridges_along_the_ring_vary_with_its_skeleton(tmp_path):
     """samples/12_detail_skeleton.sh at 4 cm: the detail is there all round the ring (no
     stage amplitude: only the skeleton's) and 7x higher on its +x side than on its -x side, as
     the polyline's amplitudes say."""
-    sample = os.path.join(ROOT, "samples", "12_detail_skeleton.sh")
-    p = subprocess.run(["bash", sample, os.environ.get("ROCKVDB_BUILD", os.path.join(ROOT, "build")),
-                        str(tmp_path), "0.04"], cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert p.returncode == 0, p.stderr
+    run_sample("12_detail_skeleton.sh", tmp_path, "0.04")
     assert (tmp_path / "detail_ring.png").stat().st_size > 10000
     plain = vdb.read(str(tmp_path / "detail_ring_plain.vdb"), "surface")
     ring = vdb.read(str(tmp_path / "detail_ring.vdb"), "surface")
     assert ring.gridClass == vdb.GridClass.LEVEL_SET
     lo, hi = plain.evalActiveVoxelBoundingBox()
     lo, hi = [v - 3 for v in lo], [v + 3 for v in hi]
-
-    def box(grid):
-        a = np.zeros(tuple(hi[k] - lo[k] + 1 for k in range(3)), np.float32)
-        grid.copyToArray(a, ijk=lo)
-        return a
-    a0, a = box(plain), box(ring)
+    a0, a = around(plain, lo, hi), around(ring, lo, hi)
     x = (np.arange(a.shape[0]) + lo[0]) * 0.04
     near = np.abs(a0) < 0.04
     diff = np.abs(a - a0)

@@ -18,7 +18,7 @@ FENCE = re.compile(r"^```(\w+)([^\n]*)\n(.*?)^```", re.M | re.S)
 # ones wrote in out/).
 PAGES = ["README.md"] + [f"docs/{p}.md" for p in (
     "tools", "blocks", "amplify", "detail", "rockpile", "fractal", "arches", "asset", "blender",
-    "distributed", "conventions", "benchmarks")]
+    "distributed", "conventions", "benchmarks", "gallery")]
 
 
 def blocks():
@@ -62,7 +62,7 @@ def test_the_readme_has_runnable_blocks_for_every_tool():
               "vdb_info", "vdb_blocks", "vdb_amplify", "vdb_merge", "vdb_detail",
               "vdb_rockpile", "vdb_fractal_rock", "vdb_arches", "rockvdb.fractal_rock", "rockvdb.amplify", "rockvdb.detail", "rockvdb.rock_pile",
               "rockvdb.block_tile", "samples/02_blocks.sh", "samples/03_amplify.sh",
-              "samples/04_detail.sh", "samples/05_rockpile.sh", "samples/06_riverbed.sh", "samples/07_fractal_boulders.sh", "samples/08_arches.sh", "samples/09_arches_coast.sh", "samples/10_arches_ravine.sh", "samples/11_arches_canyon_collapse.sh", "rockvdb.Stacks",
+              "samples/04_detail.sh", "samples/05_rockpile.sh", "samples/06_riverbed.sh", "samples/07_fractal_boulders.sh", "samples/08_arches.sh", "samples/09_arches_coast.sh", "samples/10_arches_ravine.sh", "samples/11_arches_canyon_collapse.sh", "samples/12_detail_skeleton.sh", "rockvdb.Stacks",
               "rockvdb.fractal_scatter", "rockvdb.fractal_carve", "vdb_asset", "rockvdb.asset",
               "rockvdb.asset_each"):
         assert t in text, t

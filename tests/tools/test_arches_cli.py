@@ -1,7 +1,6 @@
 """vdb_arches: material-stack terrain from a scene file (arches §3, §6)."""
 import json
 import os
-import subprocess
 
 import numpy as np
 import pyopenvdb as vdb
@@ -9,7 +8,7 @@ import pytest
 
 import rockvdb
 
-from conftest import arches_small_scene as small_scene, assert_bitwise_equal, one_line_error, run, tool
+from conftest import arches_small_scene as small_scene, assert_bitwise_equal, one_line_error, run, run_sample, tool
 
 AR = tool("vdb_arches")
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -96,10 +95,7 @@ def test_sample_08_overhangs_and_sand_that_slid_off_the_canyon_walls(tmp_path):
     """samples/08_arches.sh: the strata scene has columns crossing the ground 4 times; the
     canyon's sand is all still there (exactly) but no longer on the walls."""
     import rockvdb
-    sample = os.path.join(ROOT, "samples", "08_arches.sh")
-    p = subprocess.run(["bash", sample, os.environ.get("ROCKVDB_BUILD", os.path.join(ROOT, "build")),
-                        str(tmp_path)], cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert p.returncode == 0, p.stderr
+    run_sample("08_arches.sh", tmp_path)
     for stem in ("arches_strata", "arches_canyon"):
         assert (tmp_path / f"{stem}.png").stat().st_size > 10000
         assert [g.name for g in vdb.readAll(str(tmp_path / f"{stem}.vdb"))[0]][-1] == "surface"
@@ -152,10 +148,7 @@ def column_crossings(grid, x, y):
 def test_sample_09_sea_arches_and_a_cave_network(tmp_path):
     """samples/09_arches_coast.sh at 0.5 m: the coastal tunnel leaves arches (4 crossings at
     some points of its axis, 2 where a bay opened it), the junction cave holds rubble."""
-    sample = os.path.join(ROOT, "samples", "09_arches_coast.sh")
-    p = subprocess.run(["bash", sample, os.environ.get("ROCKVDB_BUILD", os.path.join(ROOT, "build")),
-                        str(tmp_path), "0.5"], cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert p.returncode == 0, p.stderr
+    run_sample("09_arches_coast.sh", tmp_path, "0.5")
     assert (tmp_path / "arches_coast.png").stat().st_size > 10000
     g = vdb.read(str(tmp_path / "arches_coast.vdb"), "surface")
     along = [column_crossings(g, 39.0, y) for y in range(6, 75, 2)]
@@ -166,13 +159,6 @@ def test_sample_09_sea_arches_and_a_cave_network(tmp_path):
     assert [e["tool"] for e in params["edits"]] == ["tunnel", "tunnel", "erode", "deposit"]
     rocks = vdb.read(str(tmp_path / "arches_coast.vdb"), "material")
     assert any(v.value == 4.0 for v in rocks.citerOnValues())  # the collapse's rubble shows
-
-
-def run_sample(name, out, voxel):
-    sample = os.path.join(ROOT, "samples", name)
-    p = subprocess.run(["bash", sample, os.environ.get("ROCKVDB_BUILD", os.path.join(ROOT, "build")),
-                        str(out), voxel], cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert p.returncode == 0, p.stderr
 
 
 def test_sample_10_ravine_with_undercut_walls_and_rocks_at_its_bottom(tmp_path):
