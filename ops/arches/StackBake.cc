@@ -205,9 +205,10 @@ openvdb::FloatGrid::Ptr sweepTiled(const openvdb::FloatGrid& in, double w, Task&
 // voxel) and Godunov's scheme spreads their error, so on a 53° wall the grid's normals are off
 // by more than 5° at 8.6 % of the voxels (0 % with this; TestWalls). The interpolated field is
 // itself the vertical distance to the bilinear surface: over a planar wall φ/|∇φ| (central
-// differences of the baked values) is the exact distance. So where that agrees with the swept value within
-// half a voxel it is kept, and the swept value elsewhere (at kinks, where ρ clamps the field
-// flat, where the field jumps). Depends on each voxel's neighbours only: deterministic.
+// differences of the baked values) is the exact distance. So where that agrees with the swept
+// value within half a voxel it is kept, and the swept value elsewhere (at kinks, where ρ
+// clamps the field flat, where the field jumps). Depends on each voxel's neighbours only:
+// deterministic.
 void keepFirstOrderDistance(openvdb::FloatGrid& swept, const openvdb::FloatGrid& raw, Task& task)
 {
     const float dx = float(swept.voxelSize()[0]), inv2dx = 0.5f / dx, tol = 0.5f * dx;

@@ -13,10 +13,10 @@
 #include <openvdb/tree/LeafManager.h>
 
 #include <algorithm>
-#include <map>
 #include <atomic>
-#include <limits>
 #include <cmath>
+#include <limits>
+#include <map>
 #include <memory>
 
 namespace rockvdb {
@@ -38,7 +38,6 @@ float smoothstep(float a, float b, float x)
     return t * t * (3.0f - 2.0f * t);
 }
 
-// World-space trilinear samples of a blend mask, clamped to [0, 1].
 // q minus the point of @a pr nearest q, and that point's barycentric coordinates (weights of
 // the primitive's vertices; Ericson, Real-Time Collision Detection §5.1.5 for triangles).
 Vec3d nearest(const Primitive& pr, const Vec3d& q, double bary[3])
@@ -91,6 +90,7 @@ Vec3d nearest(const Primitive& pr, const Vec3d& q, double bary[3])
     return set(1 - v - w, v, w);
 }
 
+// World-space trilinear samples of a blend mask, clamped to [0, 1].
 class MaskSampler
 {
 public:

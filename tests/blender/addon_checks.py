@@ -308,7 +308,12 @@ try:
     p.voxel_size = 0.02
     cache = os.path.join(OUT, "cancelled.vdb")
     run = Run(op, op.keywords(p), {"cache": cache}).start()
-    time.sleep(1.0)
+    # Mid-run: once it reports progress (a loaded machine may take longer than a second to
+    # start), and a little after.
+    started = time.time()
+    while run.job.progress <= 0 and run.grids is None and time.time() - started < 30:
+        time.sleep(0.05)
+    time.sleep(0.3)
     progress = run.job.progress
     t0 = time.time()
     run.cancel()

@@ -266,6 +266,15 @@ def test_bad_inputs(tmp_path, sphere):
         rockvdb.detail(g, warp_amplitude=0.02)
 
 
+def displacement(src, out, voxel, pad=4):
+    """|out − src| over src's active box grown by pad voxels, the mask of src's near-surface
+    voxels (|φ| < a voxel), and the box's lower corner."""
+    lo, hi = src.evalActiveVoxelBoundingBox()
+    lo, hi = [v - pad for v in lo], [v + pad for v in hi]
+    a0 = around(src, lo, hi)
+    return np.abs(around(out, lo, hi) - a0), np.abs(a0) < voxel, lo
+
+
 def test_detail_only_along_a_skeleton_that_carries_it(sphere, tmp_path):
     """gabor-amplitude 0 and a point skeleton at the north pole carrying an amplitude: the
     sphere is detailed there and nowhere out of the point's reach, the same from the CLI and
@@ -277,13 +286,8 @@ def test_detail_only_along_a_skeleton_that_carries_it(sphere, tmp_path):
     g = rockvdb.detail(vdb.read(str(sphere), "surface"), gabor_amplitude=0.0, direction_skeleton=skel,
                        seed=4)
     assert np.array_equal(dense(g)[1], dense(c)[1])
-    src = vdb.read(str(sphere), "surface")
-    lo, hi = src.evalActiveVoxelBoundingBox()
-    lo, hi = [v - 4 for v in lo], [v + 4 for v in hi]
-    a, a0 = around(c, lo, hi), around(src, lo, hi)
-    z = (np.arange(a.shape[2]) + lo[2]) * 0.02
-    near = np.abs(a0) < 0.02
-    diff = np.abs(a - a0)
+    diff, near, lo = displacement(vdb.read(str(sphere), "surface"), c, 0.02)
+    z = (np.arange(diff.shape[2]) + lo[2]) * 0.02
     north = near & (z > 0.9)[None, None, :]
     south = near & (z < 0.3)[None, None, :]
     assert diff[north].max() > 0.01, "detailed near the point"
@@ -394,12 +398,8 @@ def test_sample_12_ridges_along_the_ring_vary_with_its_skeleton(tmp_path):
     plain = vdb.read(str(tmp_path / "detail_ring_plain.vdb"), "surface")
     ring = vdb.read(str(tmp_path / "detail_ring.vdb"), "surface")
     assert ring.gridClass == vdb.GridClass.LEVEL_SET
-    lo, hi = plain.evalActiveVoxelBoundingBox()
-    lo, hi = [v - 3 for v in lo], [v + 3 for v in hi]
-    a0, a = around(plain, lo, hi), around(ring, lo, hi)
-    x = (np.arange(a.shape[0]) + lo[0]) * 0.04
-    near = np.abs(a0) < 0.04
-    diff = np.abs(a - a0)
+    diff, near, lo = displacement(plain, ring, 0.04)
+    x = (np.arange(diff.shape[0]) + lo[0]) * 0.04
     east = diff[near & (x > 1.2)[:, None, None]]
     west = diff[near & (x < -1.2)[:, None, None]]
     assert west.mean() > 0.001, "detailed all round"
