@@ -82,13 +82,13 @@ struct VCrack
     }
 };
 
-// Stacks of 0.5 m over 20 x 10 m: bedrock up to 5 m everywhere; where x < 10 m a slab of
+// Stacks of 0.5 m over 20 x 10 m (nx x ny stacks): bedrock up to 5 m everywhere; where x < 10 m a slab of
 // bedrock @a slab thick over an air gap from 5 to 7 m (an overhang whose lip is at x = 10);
 // where 4 <= y < 6 m (and x >= 10) a tunnel from 2 to 4 m high, 2 m wide.
-Stacks overhangAndTunnel(double slab)
+Stacks overhangAndTunnel(double slab, int nx = 40, int ny = 20)
 {
     Task task;
-    return Stacks::build(test::stackGeometry(40, 20, 0.5), [&](int i, int j, std::vector<Layer>& layers) {
+    return Stacks::build(test::stackGeometry(nx, ny, 0.5), [&](int i, int j, std::vector<Layer>& layers) {
         auto q = [](double m) { return uint32_t(std::lround(m / 0.01)); };
         if (i < 20) {
             layers = {{Material::Bedrock, q(5)}, {Material::Air, q(2)}, {Material::Bedrock, q(slab)}};
@@ -151,9 +151,10 @@ TEST(Walls, OverhangLipsAndTunnelRoofsStayWhereTheBoxPutsThem)
     // (a third of a cell back from its cells' edge: inside σ − 0.3, outside σ).
     double lip[2];
     for (const auto kernel : {Kernel::Box, Kernel::Interpolate}) {
-        const auto thin = bakeWith(overhangAndTunnel(0.2), kernel, 0.05);
+        // (13 x 6 m of the scene: the lip and what is around it, at 5 cm.)
+        const auto thin = bakeWith(overhangAndTunnel(0.2, 26, 12), kernel, 0.05);
         EXPECT_GT(phiAt(*thin, {5.0, 2, 7.1}), 0.0) << int(kernel) << ": the 0.2 m slab is gone";
-        const auto kept = bakeWith(overhangAndTunnel(0.3), kernel, 0.05);
+        const auto kept = bakeWith(overhangAndTunnel(0.3, 26, 12), kernel, 0.05);
         EXPECT_LT(phiAt(*kept, {5.0, 2, 7.15}), -0.02) << int(kernel) << ": the 0.3 m slab stays";
         lip[int(kernel)] = crossing(*kept, {8, 2, 7.15}, {12, 2, 7.15})[0];
     }
