@@ -35,11 +35,11 @@ namespace {
 double sigmaOf(const ArchesParams& p, const StackGeometry& g) { return p.sigma.value_or(0.5 * g.cell); }
 
 // The level sets' reconstruction (StackBake.h): the kernel row, and interpolate's reach R,
-// unset 4 cells (a 2 m reach at the samples' 0.5 m cells: planar walls up to ~70°).
+// unset kDefaultReachCells (a 2 m reach at the samples' 0.5 m cells: planar walls up to ~70°).
 void kernelOf(const ArchesParams& p, const StackGeometry& g, SkeletonBake& b)
 {
     b.kernel = p.kernel == "box" ? Kernel::Box : Kernel::Interpolate;
-    b.reach = b.kernel == Kernel::Box ? 0.0 : p.reach.value_or(4.0 * g.cell);
+    b.reach = b.kernel == Kernel::Box ? 0.0 : p.reach.value_or(kDefaultReachCells * g.cell);
 }
 
 } // namespace

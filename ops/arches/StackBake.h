@@ -45,6 +45,8 @@ namespace arches {
 
 /// How the level set is reconstructed from the stacks (see above).
 enum class Kernel { Box, Interpolate };
+/// Interpolate's reach R when the arches table's reach row is unset, in stack cells.
+constexpr double kDefaultReachCells = 4.0;
 
 struct SkeletonBake
 {

@@ -340,8 +340,11 @@ private:
             const float len = std::sqrt(w->gx[j] * w->gx[j] + w->gy[j] * w->gy[j] + w->gz[j] * w->gz[j]);
             const float inv = 1.0f / std::max(len, 1e-6f);
             const Vec3f n(w->gx[j] * inv, w->gy[j] * inv, w->gz[j] * inv);
-            // Frame (n, t, b) from W (gabor §3): b = n ∧ W, t = b ∧ n.
-            Vec3f W = direction(j, pv, *w);
+            // Frame (n, t, b) from W (gabor §3): b = n ∧ W, t = b ∧ n. With parameters along the
+            // skeleton, W and their values at p come from one pass over the primitives.
+            SkeletonSample at;
+            if (mSkeletonParams) at = skeletonAt(Vec3d(p.x[j], p.y[j], p.z[j]), true);
+            Vec3f W = mSkeletonParams ? at.W : direction(j, pv, *w);
             Vec3f bb = n.cross(W);
             const float wl = W.length(), bl = bb.length();
             // Singularities: W ∥ n (or W = 0); curvature frames at umbilics (set in hessian).
@@ -358,12 +361,11 @@ private:
             float A = mA, R = mR, D = mD, cosA = mCosA, sinA = mSinA, cosT = mCosT, sinT = mSinT;
             float baseTilt = float(mG.tiltDeg);
             if (mSkeletonParams) {
-                const SkeletonValues sv = skeletonValues(Vec3d(p.x[j], p.y[j], p.z[j]));
-                A = float(sv.amplitude);
+                A = float(at.amplitude);
                 R = falloff(mG.falloff, A);
                 D = intensity(A, R);
-                baseTilt = float(sv.tilt);
-                const float al = float(sv.tilt * kPi / 180);
+                baseTilt = float(at.tilt);
+                const float al = float(at.tilt * kPi / 180);
                 cosA = std::cos(al);
                 sinA = std::sin(al);
             }
@@ -409,7 +411,7 @@ private:
             // same noise) and frequency (the direction's length scales the base frequency).
             float cw = mCosW, sw = mSinW, fscale = 1.0f;
             if (mSkeletonParams) {
-                fscale = float(skeletonValues(Vec3d(s.x[j], s.y[j], s.z[j])).frequency / mG.frequency);
+                fscale = float(skeletonAt(Vec3d(s.x[j], s.y[j], s.z[j]), true).frequency / mG.frequency);
             }
             if (mMask) {
                 const float ws = (*mMask)(s.x[j], s.y[j], s.z[j]);
@@ -451,18 +453,7 @@ private:
     {
         switch (mDir.kind) {
         case DirectionKind::Axis: return mAxis;
-        case DirectionKind::Skeleton: {
-            const Vec3d q(b.x[j], b.y[j], b.z[j]);
-            Vec3d W(0.0);
-            for (const Primitive& pr : mDir.primitives) {
-                double bary[3];
-                const double d2 = nearest(pr, q, bary).lengthSqr() / (pr.radius * pr.radius);
-                if (d2 >= 1.0) continue;
-                const double k = 1.0 - d2;
-                W += pr.direction * (pr.weight * k * k * k);
-            }
-            return Vec3f(float(W[0]), float(W[1]), float(W[2]));
-        }
+        case DirectionKind::Skeleton: return skeletonAt(Vec3d(b.x[j], b.y[j], b.z[j]), false).W;
         case DirectionKind::Curvature:
             return Vec3f(w.ox[j], w.oy[j], w.oz[j]);
         }
@@ -539,20 +530,26 @@ private:
         }
     }
 
-    // The skeleton's parameters at q: (Σ f_i v_i + (1 − Σ f_i)⁺ v) / (Σ f_i + (1 − Σ f_i)⁺),
-    // v_i the primitive's value at its point nearest q (or the stage's own v).
-    struct SkeletonValues
+    // The skeleton at q: W = Σ f_i S_i (gabor §3), and with @a values its parameters
+    // (Σ f_i v_i + (1 − Σ f_i)⁺ v) / (Σ f_i + (1 − Σ f_i)⁺), v_i the primitive's value at its
+    // point nearest q (or the stage's own v). The stage's values weigh 1 − Σ f_i where that is
+    // positive: continuous at the edge of the skeleton's reach (a ratio alone would jump there).
+    struct SkeletonSample
     {
-        double amplitude, frequency, tilt;
+        Vec3f W{0.0f};
+        double amplitude = 0, frequency = 0, tilt = 0;
     };
-    SkeletonValues skeletonValues(const Vec3d& q) const
+    SkeletonSample skeletonAt(const Vec3d& q, bool values) const
     {
+        Vec3d W(0.0);
         double sw = 0, sa = 0, sf = 0, st = 0;
         for (const Primitive& pr : mDir.primitives) {
             double bary[3];
             const double d2 = nearest(pr, q, bary).lengthSqr() / (pr.radius * pr.radius);
             if (d2 >= 1.0) continue;
             const double k = 1.0 - d2, f = pr.weight * k * k * k;
+            W += pr.direction * f;
+            if (!values) continue;
             auto at = [&](const std::array<double, 3>& v, double own) {
                 if (std::isnan(v[0])) return own;
                 double x = 0;
@@ -564,10 +561,15 @@ private:
             sf += f * at(pr.frequency, mG.frequency);
             st += f * at(pr.tilt, mG.tiltDeg);
         }
-        // The stage's values weigh 1 − Σ f_i where that is positive: continuous at the edge of
-        // the skeleton's reach (a ratio alone would jump there from a primitive's to the stage's).
-        const double own = std::max(0.0, 1.0 - sw), all = sw + own;
-        return {(sa + own * mG.amplitude) / all, (sf + own * mG.frequency) / all, (st + own * mG.tiltDeg) / all};
+        SkeletonSample r;
+        r.W = Vec3f(float(W[0]), float(W[1]), float(W[2]));
+        if (values) {
+            const double own = std::max(0.0, 1.0 - sw), all = sw + own;
+            r.amplitude = (sa + own * mG.amplitude) / all;
+            r.frequency = (sf + own * mG.frequency) / all;
+            r.tilt = (st + own * mG.tiltDeg) / all;
+        }
+        return r;
     }
 
     FieldPtr mInput, mFrame;

@@ -45,8 +45,16 @@ def tool(name, *args):
     run(os.path.join(B, name), "-q", *args)
 
 
+_sampled = set()
+
+
 def sample(script, *args):
+    """Run a numbered sample into the scenes folder, once per run (entries share its scenes;
+    a scene left by an earlier run, perhaps at the other size, is never reused)."""
+    if (script, args) in _sampled:
+        return
     run("bash", os.path.join(ROOT, "samples", script), BUILD, SCENES, *args, stdout=subprocess.DEVNULL)
+    _sampled.add((script, args))
 
 
 def scene(name):
@@ -92,8 +100,7 @@ def tabular(warp):
 def arches_with_blocks(kind):
     def make():
         coast = scene("arches_coast.vdb")
-        if not os.path.exists(coast):
-            sample("09_arches_coast.sh", v(0.25, 0.5))
+        sample("09_arches_coast.sh", v(0.25, 0.5))
         tile = scene(f"coast_{kind}.tile")
         tool("vdb_blocks", "--type", kind, "--tile-size", 8, "--seed", 5, "--voxel-size", 0.25,
              "--tile", tile, "-o", scene(f"coast_{kind}_tile.vdb"))
@@ -105,19 +112,18 @@ def arches_with_blocks(kind):
 
 def arches(script, stem):
     def make():
-        if not os.path.exists(scene(f"{stem}.vdb")):
-            sample(script, *([] if script == "08_arches.sh" else [v(0.25, 0.5)]))
+        sample(script, *([] if script == "08_arches.sh" else [v(0.25, 0.5)]))
         return scene(f"{stem}.vdb")
     return make
 
 
-def rockpile(name, tiles_args, support, pile_args=()):
+def rockpile(name, tiles_args, support):
     def make():
         tiles = scene(f"{name}.tiles")
         tool("vdb_rockpile", "tiles", *tiles_args, "-o", tiles)
         sup = support() if callable(support) else support
         out = scene(f"{name}.vdb")
-        tool("vdb_rockpile", "pile", "--tiles", tiles, "--support", sup, "--seed", 3, *pile_args, "-o", out)
+        tool("vdb_rockpile", "pile", "--tiles", tiles, "--support", sup, "--seed", 3, "-o", out)
         return out
     return make
 
@@ -284,12 +290,18 @@ ENTRIES = [
 
 
 def main():
+    if not shutil.which("blender"):
+        sys.exit("gallery: blender is not installed (./rockvdb.sh build installs it)")
     entries, listed = [], []
     for name, paper, fig, title, make, (az, el, zoom), palette in ENTRIES:
         if ONLY and name not in ONLY:
             continue
         t0 = time.time()
-        vdb = make()
+        try:
+            vdb = make()
+        except subprocess.CalledProcessError as e:  # the tool has printed its own error line
+            what = e.cmd[1] if os.path.basename(e.cmd[0]) == "bash" else e.cmd[0]
+            sys.exit(f"gallery: {name}: {os.path.basename(what)} failed (exit {e.returncode})")
         entries.append({"name": name, "paper": paper, "figure": fig, "title": title, "vdb": vdb,
                         "png": os.path.join(OUT, f"gallery_{name}.png"), "seconds": round(time.time() - t0, 1)})
         listed.append({"name": name, "vdb": vdb, "azimuth": az, "elevation": el, "zoom": zoom,
@@ -300,8 +312,7 @@ def main():
     w, h, spp = v((640, 360, 16), (96, 54, 2))
     env = dict(os.environ, BLENDER_USER_SCRIPTS=os.path.join(BUILD, "blender"),
                PYTHONPATH=os.path.join(BUILD, "python"))
-    blender = shutil.which("blender") or "blender"
-    p = subprocess.run([blender, "-b", "--factory-startup", "--python",
+    p = subprocess.run([shutil.which("blender"), "-b", "--factory-startup", "--python",
                         os.path.join(ROOT, "samples", "gallery", "render.py"), "--",
                         os.path.join(OUT, "render_list.json"), OUT, str(w), str(h), str(spp)],
                        cwd=ROOT, env=env, capture_output=True, text=True)

@@ -205,6 +205,8 @@ def test_the_kernel_is_a_bake_row_and_cli_and_python_agree_on_it(tmp_path, cliff
     def voxels(g):
         return sorted((v.min, v.value) for v in g.citerOnValues())
     assert voxels(grids["box"]) != voxels(grids["interpolate"]), "the kernels differ"
+    # The default is interpolate with a reach of 4 cells (here 0.5 m cells: 2 m).
+    assert_bitwise_equal(s.bake("surface"), s.bake("surface", kernel="interpolate", reach=2.0))
 
 
 @pytest.mark.parametrize("call,error,needles", [

@@ -107,7 +107,7 @@ openvdb::FloatGrid::Ptr bakeWith(const Stacks& stacks, Kernel kernel, double vox
     b.sigma = 0.25;
     b.voxelSize = voxel;
     b.kernel = kernel;
-    b.reach = kernel == Kernel::Interpolate ? 2.0 : 0.0;
+    b.reach = kernel == Kernel::Interpolate ? kDefaultReachCells * stacks.geometry().cell : 0.0;
     return bakeSkeleton(Skeleton(stacks, kGroundMask), b, task);
 }
 
@@ -175,9 +175,9 @@ TEST(Walls, AVCrackAt30DegreesToTheGridHasPlanarWalls)
         // that the test cannot pass for a wall that is not at an angle to the grid.
         b.kernel = Kernel::Box;
         const auto [boxShare, boxWall] = crack.wallShare(*bakeSkeleton(Skeleton(crack.stacks, kGroundMask), b, task));
-        // The default (kernel interpolate, reach 4 cells).
+        // The stage's default (kernel interpolate, its default reach).
         b.kernel = Kernel::Interpolate;
-        b.reach = 4 * VCrack::kCell;
+        b.reach = kDefaultReachCells * VCrack::kCell;
         const auto [share, wall] = crack.wallShare(*bakeSkeleton(Skeleton(crack.stacks, kGroundMask), b, task));
         std::printf("V crack at 30 deg to the grid, %.0f deg walls: normals within 5 deg on %.1f %% of %zu wall "
                     "voxels (box: %.1f %% of %zu)\n", crack.slope(), 100 * share, wall, 100 * boxShare, boxWall);
