@@ -435,12 +435,16 @@ size_t addressSpace()
 // past its buffers (SIGSEGV) or allocate gigabytes from a garbled size. So the bytes are
 // parsed first in a child process, under a cap on its address space; only when that parse
 // succeeds does this process parse them (the same bytes, the same result). The child only
-// parses and reports: on success nothing, else the one-line message through a pipe.
-void probeVdb(const std::string& bytes, const std::string& name)
+// parses and reports through a pipe: one byte once it is ready to parse, then on success
+// nothing, else the one-line message.
+
+/// How one forked child ended. NotReady: it never became ready to parse (see probeVdb).
+enum class Probe { Done, NotReady };
+
+Probe probeOnce(const std::string& bytes, const std::string& name, std::chrono::milliseconds readyWithin)
 {
-    if (std::getenv("ROCKVDB_TRUST_VDB")) return; // (for measuring the probe's cost only)
     int pipeFd[2];
-    if (::pipe(pipeFd) != 0) return; // no probe possible: read in-process, as before
+    if (::pipe(pipeFd) != 0) return Probe::Done; // no probe possible: read in-process, as before
     const size_t cap = addressSpace() + readBudget(bytes.size());
     const rlim_t seconds = readSeconds(bytes.size());
     const pid_t parent = ::getpid();
@@ -449,7 +453,7 @@ void probeVdb(const std::string& bytes, const std::string& name)
     if (pid < 0) {
         ::close(pipeFd[0]);
         ::close(pipeFd[1]);
-        return;
+        return Probe::Done;
     }
     if (pid == 0) {
         ::close(pipeFd[0]);
@@ -477,9 +481,15 @@ void probeVdb(const std::string& bytes, const std::string& name)
         try {
             // TBB after fork: this child has only the forking thread, but TBB's state says the
             // parent's workers exist, and a parallel loop here (OpenVDB frees a tree with
-            // one) waited for them for ever. A fresh one-slot arena asks for no worker; the
-            // grids parsed are never freed either (_exit below).
+            // one, also a partly read one when the file is corrupt) waited for them for ever.
+            // A fresh one-slot arena asks for no worker; the grids parsed are never freed
+            // either (_exit below). Making the arena takes TBB's global lock, which a worker
+            // of the parent may have held at the fork: then it waits for ever, before the
+            // ready byte (the parent forks again).
             tbb::task_arena alone(1);
+            alone.initialize();
+            const char ready = 'R';
+            if (::write(pipeFd[1], &ready, 1) != 1) ::_exit(4);
             alone.execute([&] { new openvdb::GridPtrVecPtr(parseVdb(bytes, name)); });
         } catch (const std::bad_alloc&) {
             code = 3;
@@ -503,34 +513,43 @@ void probeVdb(const std::string& bytes, const std::string& name)
     // Ctrl-C; the tools' watchdog needs no asking). The CPU limit ends a child that loops; one
     // that waits for ever (a lock that another thread held when this process forked) is ended
     // by a wall-clock limit of three times its CPU budget, plus 10 s for a loaded machine.
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(3 * seconds + 10);
-    bool interrupted = false, stalled = false;
+    const auto start = std::chrono::steady_clock::now();
+    const auto deadline = start + std::chrono::seconds(3 * seconds + 10);
+    bool ready = false, interrupted = false, stalled = false, notReady = false;
     for (;;) {
         pollfd pfd{pipeFd[0], POLLIN, 0};
-        const int ready = ::poll(&pfd, 1, 50);
-        if (ready == 0 || (ready < 0 && errno == EINTR)) {
+        const int got = ::poll(&pfd, 1, 50);
+        if (got == 0 || (got < 0 && errno == EINTR)) {
             bool (*check)() = gReadInterrupt.load();
+            const auto now = std::chrono::steady_clock::now();
             interrupted = check && check();
-            stalled = std::chrono::steady_clock::now() > deadline;
-            if (interrupted || stalled) {
+            stalled = now > deadline;
+            notReady = !ready && now > start + readyWithin;
+            if (interrupted || stalled || notReady) {
                 ::kill(pid, SIGKILL);
                 break;
             }
             continue;
         }
-        if (ready < 0) break;
+        if (got < 0) break;
         const ssize_t r = ::read(pipeFd[0], buf, sizeof buf);
-        if (r > 0) message.append(buf, size_t(r));
-        else if (r == 0 || errno != EINTR) break;
+        if (r > 0) {
+            const size_t skip = ready ? 0 : 1;  // the ready byte
+            ready = true;
+            message.append(buf + skip, size_t(r) - skip);
+        } else if (r == 0 || errno != EINTR) {
+            break;
+        }
     }
     ::close(pipeFd[0]);
     int status = 0;
     struct rusage usage{};
     while (::wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {}
     if (interrupted) throw Interrupted();
+    if (notReady) return Probe::NotReady;
     const double cpu = double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
                        1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return Probe::Done;
     if (WIFEXITED(status) && WEXITSTATUS(status) == 1 && !message.empty()) throw IoError(message);
     if (WIFEXITED(status) && WEXITSTATUS(status) == 3) {
         fail<IoError>("cannot read '", name, "': corrupt VDB file (reading its ", bytes.size(),
@@ -551,6 +570,20 @@ void probeVdb(const std::string& bytes, const std::string& name)
                       printable(::strsignal(WTERMSIG(status))), ")");
     }
     fail<IoError>("cannot read '", name, "': corrupt VDB file");
+}
+
+/// Probes @a bytes in a forked child (probeOnce). A fork copies TBB's global lock as it was at
+/// that instant: held by a worker of this process (about one fork in 500 while workers run,
+/// measured), the child can never make its arena. Such a child never becomes ready; it is
+/// killed and the bytes probed in a new fork, waiting longer for each (a loaded machine can
+/// be slow to run a child at all): 0.5 s, 1 s, 2 s, ... up to 16 s.
+void probeVdb(const std::string& bytes, const std::string& name)
+{
+    if (std::getenv("ROCKVDB_TRUST_VDB")) return; // (for measuring the probe's cost only)
+    for (int ms = 500; ms <= 16000; ms *= 2) {
+        if (probeOnce(bytes, name, std::chrono::milliseconds(ms)) == Probe::Done) return;
+    }
+    fail<IoError>("cannot read '", name, "': the process that checks it never started (forked 6 times)");
 }
 
 } // namespace
