@@ -31,17 +31,30 @@ BlockTile generateTile(const BlockTileParams& in, Task& task)
     p.resolveDefaults();
     p.validate();
     p.axis = p.axis.unit();
+    // 1. Poisson-sphere points in the periodic tile.
+    const auto t0 = Clock::now();
+    std::vector<Vec3d> pts = poissonPeriodic(p.tileSize, p.pointRadius, p.seed, kPoints);
+    const double sampling = since(t0);
+    task.check();
+    std::vector<Disc> discs = makeDiscs(p);
+    BlockTile tile = buildTile(p, pts, std::move(discs), task);
+    tile.stats.sampling = sampling;
+    tile.stats.generation += sampling;
+    return tile;
+}
+
+namespace tilegen {
+
+BlockTile buildTile(const BlockTileParams& p, const std::vector<Vec3d>& pts, std::vector<Disc> discs,
+                    Task& task)
+{
     const double s = p.tileSize;
     BlockTile tile;
     tile.params = p;
     BlockTileStats& st = tile.stats;
     const auto tStart = Clock::now();
-
-    // 1. Poisson-sphere points in the periodic tile.
-    auto t0 = Clock::now();
-    const std::vector<Vec3d> pts = poissonPeriodic(s, p.pointRadius, p.seed, kPoints);
     st.points = pts.size();
-    st.sampling = since(t0);
+    auto t0 = Clock::now();
 
     // Authored blocks claim the points inside them (their own image nearest each point).
     std::vector<int> owner(pts.size(), -1);
@@ -67,7 +80,7 @@ BlockTile generateTile(const BlockTileParams& in, Task& task)
     task.check();
     // 3. Fractures cut the edges; authored blocks are cut out of the graph.
     t0 = Clock::now();
-    tile.discs = makeDiscs(p);
+    tile.discs = std::move(discs);
     st.discs = tile.discs.size();
     const DiscGrid discGrid(tile.discs, s, p.neighbourRadius);
     std::vector<std::vector<Adjacent>> adj(pts.size());
@@ -388,6 +401,8 @@ BlockTile generateTile(const BlockTileParams& in, Task& task)
     st.meanPoints = tile.blocks.empty() ? 0.0 : double(sum) / double(tile.blocks.size());
     return tile;
 }
+
+} // namespace tilegen
 
 } // namespace blocks
 } // namespace rockvdb

@@ -14,14 +14,14 @@ namespace tilegen {
 
 // ---- fracture discs per block type (§4.1) ----------------------------------------------
 
-std::vector<Disc> makeDiscs(const BlockTileParams& p)
+std::vector<Disc> makeDiscs(const BlockTileParams& p, int64_t frameSeed)
 {
     const double s = p.tileSize;
     const Vec3d u = p.axis.unit();
     Vec3d e1, e2;
     frame(u, e1, e2);
     // A random rotation of the set directions about the axis, fixed per seed.
-    const double spin = 2 * M_PI * random::uniform(p.seed, kFrame, 0);
+    const double spin = 2 * M_PI * random::uniform(frameSeed < 0 ? p.seed : uint64_t(frameSeed), kFrame, 0);
     const Vec3d f1 = e1 * std::cos(spin) + e2 * std::sin(spin);
     const Vec3d f2 = u.cross(f1);
 

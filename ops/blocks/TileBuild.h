@@ -177,7 +177,17 @@ private:
 
 // ---- fractures (Fractures.cc) ----
 
-std::vector<Disc> makeDiscs(const BlockTileParams& p);
+/// The type's fracture discs over one periodic tile [0, s)³ from p.seed; the set directions
+/// from @a frameSeed (p.seed when negative), so tiles of one rock mass can share them.
+std::vector<Disc> makeDiscs(const BlockTileParams& p, int64_t frameSeed = -1);
+
+// ---- the phases after sampling (BlockTile.cc) ----
+
+/// Steps 2–5 of generateTile on given points and discs in the periodic cube of side
+/// p.tileSize (p resolved): graph, fractures, clusters, blocks. Blocks keep their cluster's
+/// points (Block::cluster).
+BlockTile buildTile(const BlockTileParams& p, const std::vector<Vec3d>& points, std::vector<Disc> discs,
+                    Task& task);
 
 // ---- clusters and their blocks (Clusters.cc) ----
 

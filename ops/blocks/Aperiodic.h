@@ -1,0 +1,100 @@
+// rockvdb — aperiodic block tiles on corner-coloured cubes (implicit-blocks-rocky-scenery.txt
+// §6.4: "Aperiodic tiling using Wang cubes or Corner Cubes would reduce visible artifacts";
+// the corner cubes of aperiodic-rock-piles.txt §2–§3, as ops/rockpile/RockTiles.h builds them).
+//
+// Lattice vertices take one of 2 colours (a hash of their position and the seed); a cube is
+// one of the 2⁸ = 256 corner colourings. Space splits into the cores of lattice features,
+// in the units of the tile size s and by priority: a vertex core (the box of half-size a =
+// 0.25 around it), an edge core (within b = 0.12 of the edge across it), a face core (within
+// c = 0.03 of the face) and the cube's core (the rest of the cube). Every feature's blocks
+// are a pure function of its vertices' colours (2 vertex, 12 edge, 48 face and 256 cube
+// regions, as Table 1 of the rock piles counts them):
+//   1. its own Poisson points in its zone — its core grown by a reach μ (vertex 0.15, edge
+//      0.10, face 0.065, cube 0) into the cores of the features that contain it — away from
+//      the blocks of its sub-features (all known to it: their colours are among its own);
+//   2. its own fracture discs (the type's density; the set directions are the tile set's);
+//   3. the tile's phases on them (graph, cuts, clusters, visibility, fill: buildTile);
+//   4. it keeps the blocks whose clusters have a point in its core — those are complete
+//      blocks that reach into the zones of the features containing it, which fill around
+//      them (the boundary between regions is made of blocks, not a plane) — separated from
+//      its sub-features' blocks by a plane a fracture width off one of their faces, and
+//      inside its zone's box grown by g = 0.01: two features neither of which contains the
+//      other have zone boxes that far apart, so their blocks never meet.
+// A block straddling a tile face is the block of a vertex, edge or face region, the same in
+// both cubes (it is one block of the world, owned by the cube at its feature's lower vertex).
+//
+// Departures: fractures do not continue from one region into another (each has its own
+// discs); a cluster that reaches its zone's limit ends there with a hull face, usually cut
+// short by a neighbour (see docs/blocks.md for the measured look).
+#pragma once
+
+#include <rockvdb/blocks/BlockTile.h>
+
+#include <array>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+namespace rockvdb {
+namespace blocks {
+
+class AperiodicTiles
+{
+public:
+    /// @brief The tile set of @a params (resolved and checked here). User fractures and
+    /// authored blocks are tile coordinates of one periodic tile: refused (ValueError).
+    explicit AperiodicTiles(const BlockTileParams& params);
+
+    const BlockTileParams& params() const { return mParams; }
+    double size() const { return mParams.tileSize; }
+
+    /// Colour (0 or 1) of lattice vertex (i, j, k).
+    int colour(int i, int j, int k) const;
+    /// The cube at (i, j, k) (its lower corner, in tiles): bit dx + 2dy + 4dz is the colour of
+    /// its corner (i + dx, j + dy, k + dz).
+    int cubeKey(int i, int j, int k) const;
+
+    /// @brief The blocks owned by a cube of colouring @a key — its lower vertex's, its three
+    /// lower edges', its three lower faces' and its own — in the cube's frame (lower corner at
+    /// the origin), lower vertex first. Made on first use with the regions it needs.
+    std::shared_ptr<const BlockTile> cubeTile(int key, Task& task) const;
+    std::shared_ptr<const BlockTile> cubeTile(int key) const;
+
+    /// @brief Make the cube tiles of @a keys: each level of regions (vertices, edges, faces,
+    /// cubes) in parallel, so the result does not depend on the order of requests.
+    void prepare(const std::vector<int>& keys, Task& task) const;
+
+    /// Regions made so far (vertex, edge, face, cube), and their blocks.
+    std::array<size_t, 4> regionsMade() const;
+
+    /// A region: the blocks of one feature (spanning-axes mask: 0 vertex, 1/2/4 edge along
+    /// x/y/z, 6/5/3 face normal to x/y/z, 7 cube) with the colours of its vertices (bit n =
+    /// colour of its n-th vertex, vertices in the order of their offsets' bits), in its
+    /// frame (its lower vertex at the origin).
+    struct Region
+    {
+        std::vector<Block> blocks;
+        size_t points = 0;  ///< Poisson points in its zone
+        size_t dropped = 0; ///< clusters left to the features that contain it
+    };
+    const Region& region(int mask, int colours, Task& task) const;
+
+private:
+    using Key = std::pair<int, int>; // (mask, colours)
+    void make(const Key& key, Task& task) const;
+
+    BlockTileParams mParams;
+    mutable std::mutex mMutex;
+    mutable std::map<Key, std::shared_ptr<const Region>> mRegions;
+    mutable std::map<int, std::shared_ptr<const BlockTile>> mCubes;
+};
+
+/// @brief The aperiodic tiling over cubes [lo, hi] (inclusive, in tiles) as a Field: each cube
+/// holds the cube tile of its colouring; ids are indices into the cube's tile (so a block's id
+/// names the same content wherever it recurs). Other cubes are empty.
+FieldPtr aperiodicField(std::shared_ptr<const AperiodicTiles> tiles, const std::array<int, 3>& lo,
+                        const std::array<int, 3>& hi, Task& task);
+
+} // namespace blocks
+} // namespace rockvdb
