@@ -44,6 +44,8 @@ public:
     int lo[3] = {0, 0, 0}, dim[3] = {0, 0, 0};
     size_t blocks = 0;
     std::vector<uint8_t> flags; // [((ix - lo) · dim[1] + (iy - lo)) · dim[2] + (iz - lo)] · blocks + b
+    bool sparse = false;        // then the cells with flags are these slots (increasing), a row each
+    std::vector<size_t> slots;
     BBoxd box;
     bool any = false;
 
@@ -59,7 +61,13 @@ public:
         if (outside(ix, lo[0], dim[0]) || outside(iy, lo[1], dim[1]) || outside(iz, lo[2], dim[2])) {
             return false;
         }
-        return flags[slot(ix, iy, iz) * blocks + size_t(block)] != 0;
+        size_t r = slot(ix, iy, iz);
+        if (sparse) {
+            const auto it = std::lower_bound(slots.begin(), slots.end(), r);
+            if (it == slots.end() || *it != r) return false;
+            r = size_t(it - slots.begin());
+        }
+        return flags[r * blocks + size_t(block)] != 0;
     }
     BBoxd bounds() const override { return any ? box : BBoxd(Vec3d(0), Vec3d(-1)); }
 };
@@ -256,7 +264,8 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
                                                         const PlacementRules& rules,
                                                         AmplifyStats& stats,
                                                         const Strata* strata, int tileIndex,
-                                                        Task* task)
+                                                        Task* task,
+                                                        const std::function<bool(int, int, int)>& only)
 {
     rules.validate();
     const auto t0 = std::chrono::steady_clock::now();
@@ -299,18 +308,25 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
                          tile.blocks.size(), " blocks each, over the presence table's 5e7; "
                          "amplify a region of it (--roi) or use a larger tile");
     }
-    for (int i = lo[0]; i <= hi[0]; ++i)
-        for (int j = lo[1]; j <= hi[1]; ++j)
-            for (int k = lo[2]; k <= hi[2]; ++k) cells.push_back({i, j, k});
-
-    const size_t nb = tile.blocks.size();
     auto grid = std::make_shared<PresenceGrid>();
     for (int a = 0; a < 3; ++a) {
         grid->lo[a] = lo[a];
         grid->dim[a] = std::max(0, hi[a] - lo[a] + 1);
     }
+    grid->sparse = bool(only);
+    for (int i = lo[0]; i <= hi[0]; ++i)
+        for (int j = lo[1]; j <= hi[1]; ++j)
+            for (int k = lo[2]; k <= hi[2]; ++k) {
+                if (only) {
+                    if (!only(i, j, k)) continue;
+                    grid->slots.push_back(grid->slot(i, j, k));
+                }
+                cells.push_back({i, j, k});
+            }
+
+    const size_t nb = tile.blocks.size();
     grid->blocks = nb;
-    grid->flags.assign(cells.size() * nb, 0); // cells run x, y, z like slot()
+    grid->flags.assign(cells.size() * nb, 0); // cells run x, y, z like slot() (or row)
     uint8_t* flags = grid->flags.data();
     const double h = 0.05; // central-difference step for the terrain gradient (m)
     Task quiet;
@@ -409,16 +425,68 @@ FieldPtr amplifiedTerrain(FieldPtr terrain,
     return amplifiedParts(std::move(terrain), tiles, rules, stats, strata, carveGap, task).united();
 }
 
+// The aperiodic tiling's copies that qualify: the cubes whose blocks' anchors (within
+// [-s/2, 3s/2) of the cube's corner, origin + s·(i, j, k)) can lie within the distance range
+// of the surface, each with the presence of its colouring's tile over its own cubes.
+FieldPtr aperiodicBlocks(const Field& terrain, std::shared_ptr<const blocks::AperiodicTiles> tiles,
+                         const PlacementRules& rules, AmplifyStats& stats, Task* task)
+{
+    const double s = tiles->size();
+    const BBoxd tb = terrain.bounds();
+    if (!isBounded(tb)) fail<ValueError>("amplify: the terrain must be bounded");
+    const Field& ground = rules.surface ? *rules.surface : terrain;
+    const double widen = std::max(std::abs(rules.distanceMin), std::abs(rules.distanceMax));
+    std::array<int, 3> lo, hi;
+    double count = 1;
+    for (int a = 0; a < 3; ++a) {
+        const double bmin = std::max(tb.min()[a] - widen, rules.region.min()[a]);
+        const double bmax = std::min(tb.max()[a] + widen, rules.region.max()[a]);
+        const double u = tiles->origin()[a];
+        const double l = std::floor((bmin - u - 1.5 * s) / s), h = std::floor((bmax - u + 0.5 * s) / s);
+        count *= std::max(0.0, h - l + 1.0);
+        lo[size_t(a)] = int(std::max(l, -2e9));
+        hi[size_t(a)] = int(std::min(h, 2e9));
+    }
+    if (count > 5e6) {
+        fail<ValueError>("amplify: the terrain (", tb.extents()[0], " x ", tb.extents()[1], " x ",
+                         tb.extents()[2], " m) spans ", count, " cubes of the ", s,
+                         " m aperiodic tiling, over 5e6; amplify a region of it (--roi) or use a larger tile");
+    }
+    if (count <= 0) return nullptr;
+    // A cube whose anchors all stay farther from the surface than the distance range holds no
+    // copy: |f| / L bounds the distance from below (L: the ground's Lipschitz constant).
+    const double reach = std::sqrt(3.0) * s + widen;
+    const double lip = std::max(1.0, ground.lipschitz());
+    auto near = [&, s](int i, int j, int k) {
+        const Vec3d c = (Vec3d(i, j, k) + Vec3d(0.5)) * s + tiles->origin();
+        return std::abs(ground.eval(c)) / lip <= reach;
+    };
+    Task quiet;
+    Task& t = task ? *task : quiet;
+    return blocks::aperiodicField(tiles, lo, hi, t, near, [&](int key, const BlockTile& tile) {
+        return computePresence(terrain, tile, rules, stats, nullptr, 0, task, [&, key](int i, int j, int k) {
+            return tiles->cubeKey(i, j, k) == key && near(i, j, k);
+        });
+    });
+}
+
 AmplifiedParts amplifiedParts(FieldPtr terrain,
                               const std::vector<std::shared_ptr<const BlockTile>>& tiles,
                               const PlacementRules& rules, AmplifyStats& stats,
-                              const Strata* strata, double carveGap, Task* task)
+                              const Strata* strata, double carveGap, Task* task,
+                              std::shared_ptr<const blocks::AperiodicTiles> aperiodic)
 {
     if (!terrain) fail<ValueError>("amplify: the terrain is required");
     if (tiles.empty()) fail<ValueError>("amplify: at least one tile is required");
     if (tiles.size() > 255) fail<ValueError>("amplify: at most 255 tiles");
     std::vector<FieldPtr> parts{terrain};
-    for (size_t i = 0; i < tiles.size(); ++i) {
+    if (aperiodic) {
+        if (strata || tiles.size() > 1) fail<ValueError>("amplify: aperiodic tiles take one tile and no strata");
+        const size_t before = stats.replicated;
+        FieldPtr blocks = aperiodicBlocks(*terrain, aperiodic, rules, stats, task);
+        if (blocks && stats.replicated > before) parts.push_back(std::move(blocks));
+    }
+    for (size_t i = 0; i < tiles.size() && !aperiodic; ++i) {
         if (!tiles[i]) fail<ValueError>("amplify: tile ", i, " is null");
         if (!strata && i > 0) break; // without strata only the first tile is used
         const size_t before = stats.replicated;

@@ -7,6 +7,7 @@
 // Presence is decided once per (cell, block), in parallel, before baking.
 #pragma once
 
+#include <rockvdb/blocks/Aperiodic.h>
 #include <rockvdb/blocks/BlockTile.h>
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Field.h>
@@ -18,6 +19,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -148,13 +150,15 @@ std::vector<std::string> describe(const AmplifyStats& stats);
 
 /// @brief The set of present copies for one tile over a terrain (computed on construction).
 /// With @a strata, an anchor also needs the strata's tile at its position to be @a tileIndex.
-/// @a task (optional) is stepped per batch of cells and its cancel throws Interrupted.
+/// @a task (optional) is stepped per batch of cells and its cancel throws Interrupted. With
+/// @a only, the cells it leaves out hold no copy (and cost nothing).
 std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
                                                         const blocks::BlockTile& tile,
                                                         const PlacementRules& rules,
                                                         AmplifyStats& stats,
                                                         const Strata* strata = nullptr,
-                                                        int tileIndex = 0, Task* task = nullptr);
+                                                        int tileIndex = 0, Task* task = nullptr,
+                                                        const std::function<bool(int, int, int)>& only = {});
 
 /// Attribute ids of the amplified terrain: tile·kMaterialStride + block (terrain: kNoId).
 constexpr float kMaterialStride = 65536.0f;
@@ -179,12 +183,15 @@ FieldPtr amplifiedTerrain(FieldPtr terrain,
                           const Strata* strata = nullptr, double carveGap = 0.0,
                           Task* task = nullptr);
 
-/// @brief As amplifiedTerrain, its parts apart (what bakeAmplified bakes).
+/// @brief As amplifiedTerrain, its parts apart (what bakeAmplified bakes). With @a aperiodic,
+/// the blocks are those of its corner-coloured cube tiles (the tile's own parameters; one
+/// tile, no strata) instead of the periodic tile's.
 AmplifiedParts amplifiedParts(FieldPtr terrain,
                               const std::vector<std::shared_ptr<const blocks::BlockTile>>& tiles,
                               const PlacementRules& rules, AmplifyStats& stats,
                               const Strata* strata = nullptr, double carveGap = 0.0,
-                              Task* task = nullptr);
+                              Task* task = nullptr,
+                              std::shared_ptr<const blocks::AperiodicTiles> aperiodic = nullptr);
 
 } // namespace amplify
 } // namespace rockvdb

@@ -46,6 +46,16 @@ Schema<AmplifyParams> makeSchema()
     s.member(param("carve", ParamType::Real, "m", 0.0, Range::halfOpen(0, 10),
                  "Carving variant: blocks replace the terrain's skin where present, the terrain "
                  "cut back to the blocks dilated by this gap (0 = plain union)"), &P::carve);
+    s.member(param("aperiodic", ParamType::Bool, "", false, Range::any(),
+                 "Replicate the tile aperiodically (§6.4's future work): lattice vertices take "
+                 "one of 2 colours and each cube the blocks of its 8 corners' colouring, made "
+                 "from the tile's parameters (blocks cross cube faces whole; no strata)"),
+             &P::aperiodic);
+    s.member(param("colours", ParamType::Int, "", 3, Range::closed(2, 4),
+                 "Aperiodic: colours of the lattice vertices (K: a vertex region recurs with "
+                 "odds 1/K, an edge's 1/K^2, a face's 1/K^4; the K^8 cube tiles are made as "
+                 "cubes need them)"),
+             &P::colours);
     s.add(param("max-slope", ParamType::Real, "", rules.maxSlope, Range::closed(0, 1),
               "epsilon: replicate where |g.u_z| < this"),
           [](const P& p) { return json(p.rules.maxSlope); },
@@ -104,6 +114,13 @@ AmplifyRun runAmplify(const AmplifyParams& params, const AmplifyInputs& in, Task
                          "to say where each one goes");
     }
     checkTileSizes(in.tiles, params.mixedTileSizes);
+    std::shared_ptr<const blocks::AperiodicTiles> aperiodic;
+    if (params.aperiodic) {
+        if (in.tiles.size() > 1 || !params.strata.is_null()) {
+            fail<ValueError>("amplify: --aperiodic takes one tile and no strata");
+        }
+        aperiodic = std::make_shared<blocks::AperiodicTiles>(in.tiles[0]->params, params.colours);
+    }
     std::unique_ptr<Strata> strata;
     if (!params.strata.is_null()) {
         std::vector<std::string> names = in.tileNames;
@@ -152,7 +169,7 @@ AmplifyRun runAmplify(const AmplifyParams& params, const AmplifyInputs& in, Task
     AmplifyRun r;
     task.phase("presence", 0.3);
     const AmplifiedParts parts = amplifiedParts(ground, in.tiles, rules, r.counts, strata.get(),
-                                                params.carve, &task);
+                                                params.carve, &task, aperiodic);
     task.phase("bake", 0.7);
     r.amplified = bakeAmplified(parts, settings, r.counts, task.interrupter());
     task.check();

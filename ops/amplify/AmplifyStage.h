@@ -36,6 +36,8 @@ struct AmplifyParams
     std::optional<std::array<double, 6>> roi;
     double maskCellSize;            ///< 0 = the heightfield's cell size
     double carve;
+    bool aperiodic;                 ///< corner-coloured cube tiles made from the tile's parameters
+    int colours;                    ///< of the aperiodic tiling's lattice vertices
     PlacementRules rules;           ///< max slope, distance range, anchors, fraction
     BakeParams bake;
 };

@@ -25,6 +25,9 @@ constexpr double kA = 0.04, kB = 0.03, kC = 0.02;
 constexpr double kReach[4] = {0.35, 0.35, 0.35, 0.0}; // by dimension
 constexpr uint64_t kStreamColour = 0x41504552494f44ULL; // vertex colours
 constexpr uint64_t kStreamRegion = 0x524547494f4eULL;   // region seeds
+constexpr uint64_t kStreamIds = 0x494453ULL;            // id offsets
+constexpr uint64_t kStreamOrigin = 0x4f524947ULL;       // the lattice's origin
+constexpr size_t kIdSlot = 8192;                         // ids per region of a cube tile
 
 int dimOf(int mask) { return (mask & 1) + ((mask >> 1) & 1) + ((mask >> 2) & 1); }
 
@@ -176,14 +179,23 @@ std::vector<int> verticesOf(int mask)
 
 Vec3d offsetOf(int o) { return Vec3d(o & 1, (o >> 1) & 1, (o >> 2) & 1); }
 
-// Colour bits of the sub-feature (mask m, offset o) of a feature of mask M and colours C.
-int subColours(int M, int C, int m, int o)
+int power(int k, int n)
+{
+    int p = 1;
+    while (n-- > 0) p *= k;
+    return p;
+}
+
+// The colours of the sub-feature (mask m, offset o) of a feature of mask M and colours C:
+// digit n (base K) is the colour of the feature's n-th vertex.
+int subColours(int M, int C, int m, int o, int K)
 {
     const std::vector<int> mine = verticesOf(M);
-    int out = 0, bit = 0;
+    int out = 0, digit = 1;
     for (int v : verticesOf(m)) {
         const int at = int(std::find(mine.begin(), mine.end(), v | o) - mine.begin());
-        out |= ((C >> at) & 1) << bit++;
+        out += (C / power(K, at)) % K * digit;
+        digit *= K;
     }
     return out;
 }
@@ -253,8 +265,10 @@ bool boxesMeet(const Block& a, const Block& b, double pad)
 
 } // namespace
 
-AperiodicTiles::AperiodicTiles(const BlockTileParams& params) : mParams(params)
+AperiodicTiles::AperiodicTiles(const BlockTileParams& params, int colours)
+    : mParams(params), mColours(colours)
 {
+    require(colours >= 2 && colours <= 4, "blocks", "aperiodic colours", "in [2, 4]", colours);
     if (!mParams.extraDiscs.empty()) {
         fail<ValueError>("blocks: aperiodic tiles take no user fractures (their coordinates are "
                          "those of one periodic tile)");
@@ -271,15 +285,22 @@ AperiodicTiles::AperiodicTiles(const BlockTileParams& params) : mParams(params)
     mParams.axis = mParams.axis.unit();
 }
 
+Vec3d AperiodicTiles::origin() const
+{
+    Vec3d u;
+    for (int a = 0; a < 3; ++a) u[a] = mParams.tileSize * random::uniform(mParams.seed, kStreamOrigin, uint64_t(a));
+    return u;
+}
+
 int AperiodicTiles::colour(int i, int j, int k) const
 {
-    return int(random::hashCoord(mParams.seed, kStreamColour, i, j, k) & 1);
+    return int(random::hashCoord(mParams.seed, kStreamColour, i, j, k) % uint64_t(mColours));
 }
 
 int AperiodicTiles::cubeKey(int i, int j, int k) const
 {
     int key = 0;
-    for (int o = 0; o < 8; ++o) key |= colour(i + (o & 1), j + ((o >> 1) & 1), k + ((o >> 2) & 1)) << o;
+    for (int o = 7; o >= 0; --o) key = key * mColours + colour(i + (o & 1), j + ((o >> 1) & 1), k + ((o >> 2) & 1));
     return key;
 }
 
@@ -291,7 +312,7 @@ const AperiodicTiles::Region& AperiodicTiles::region(int mask, int colours, Task
         if (it != mRegions.end()) return *it->second;
     }
     // Its sub-features first (each level may run in parallel inside), then itself.
-    for (const auto& [m, o] : subFeatures(mask)) region(m, subColours(mask, colours, m, o), task);
+    for (const auto& [m, o] : subFeatures(mask)) region(m, subColours(mask, colours, m, o, mColours), task);
     make({mask, colours}, task);
     std::lock_guard<std::mutex> lock(mMutex);
     return *mRegions.at({mask, colours});
@@ -314,7 +335,7 @@ void AperiodicTiles::make(const Key& key, Task& task) const
     {
         std::lock_guard<std::mutex> lock(mMutex);
         for (const auto& [m, o] : subFeatures(M)) {
-            const Region& sub = *mRegions.at({m, subColours(M, C, m, o)});
+            const Region& sub = *mRegions.at({m, subColours(M, C, m, o, mColours)});
             for (Block b : sub.blocks) {
                 translate(b, offsetOf(o) * s);
                 obstacles.push_back(std::move(b));
@@ -389,26 +410,39 @@ void AperiodicTiles::make(const Key& key, Task& task) const
             if (!boxesMeet(b, o, w)) continue;
             if (o.kind == BlockKind::Polytope) {
                 if (!meets(b, edges, o, edgesOf(o), Vec3d(0), -w)) continue;
-                // The obstacle's face that leaves the most of the cluster's points outside,
-                // then the farthest out: this block keeps w beyond it.
+                // A plane with the cluster's points on this side and the obstacle on the other,
+                // w beyond the obstacle: one of its faces, else the search of separatingPlane.
+                std::vector<std::array<double, 4>> candidates;
+                for (const auto& q : o.planes) {
+                    candidates.push_back({-double(q[0]), -double(q[1]), -double(q[2]), -(double(q[3]) + w)});
+                }
+                std::vector<Vec3d> V;
+                for (const auto& v : o.vertices) V.emplace_back(v[0], v[1], v[2]);
+                Vec3d n;
+                double m;
+                if (!V.empty() && separatingPlane(P, V, n, m)) {
+                    double lowest = 1e300;
+                    for (const Vec3d& y : V) lowest = std::min(lowest, n.dot(y));
+                    candidates.push_back({n[0], n[1], n[2], lowest - w});
+                }
                 std::pair<size_t, double> best{0, -1e300};
                 std::array<double, 4> plane{};
-                for (const auto& q : o.planes) {
-                    double m = 1e300;
-                    size_t out = 0;
+                for (const auto& q : candidates) {
+                    double slack = 1e300;
+                    size_t kept = 0;
                     for (const Vec3d& x : P) {
-                        const double h = q[0] * x[0] + q[1] * x[1] + q[2] * x[2] - double(q[3]);
-                        m = std::min(m, h);
-                        out += h > w;
+                        const double h = q[3] - (q[0] * x[0] + q[1] * x[1] + q[2] * x[2]);
+                        slack = std::min(slack, h);
+                        kept += h > 0;
                     }
-                    if (std::make_pair(out, m) > best) {
-                        best = {out, m};
-                        plane = {-double(q[0]), -double(q[1]), -double(q[2]), -(double(q[3]) + w)};
+                    if (std::make_pair(kept, slack) > best) {
+                        best = {kept, slack};
+                        plane = q;
                     }
                 }
-                // A cluster that reaches round the obstacle (no face leaves all its points
-                // outside) keeps its shape: cutting it would leave a void; the two blocks
-                // then merge there (one rock, no fracture), which the union shows as such.
+                // A cluster that reaches round the obstacle (no plane keeps all its points)
+                // keeps its shape: cutting it would leave a void; the two blocks then merge
+                // there (one rock, no fracture).
                 if (best.first < P.size()) continue;
                 all.push_back(plane);
                 changed = true;
@@ -441,15 +475,15 @@ void AperiodicTiles::prepare(const std::vector<int>& keys, Task& task) const
     // The regions the keys need, by level; each level in parallel.
     std::set<Key> levels[4];
     for (int key : keys) {
-        require(key >= 0 && key < 256, "blocks", "cube key", "in [0, 255]", key);
+        require(key >= 0 && key < cubeKeys(), "blocks", "cube key", "in [0, colours^8)", key);
         for (int M : {0, 1, 2, 4, 6, 5, 3, 7}) {
-            levels[dimOf(M)].insert({M, subColours(7, key, M, 0)});
+            levels[dimOf(M)].insert({M, subColours(7, key, M, 0, mColours)});
         }
     }
     for (int d = 3; d >= 1; --d) {
         for (const Key& k : levels[d]) {
             for (const auto& [m, o] : subFeatures(k.first)) {
-                levels[dimOf(m)].insert({m, subColours(k.first, k.second, m, o)});
+                levels[dimOf(m)].insert({m, subColours(k.first, k.second, m, o, mColours)});
             }
         }
     }
@@ -475,18 +509,40 @@ std::shared_ptr<const BlockTile> AperiodicTiles::cubeTile(int key, Task& task) c
     }
     prepare({key}, task);
     auto tile = std::make_shared<BlockTile>();
+    auto ids = std::make_shared<std::vector<float>>();
     tile->params = mParams;
     {
         std::lock_guard<std::mutex> lock(mMutex);
+        int slot = 0;
         for (int M : {0, 1, 2, 4, 6, 5, 3, 7}) {
-            const Region& r = *mRegions.at({M, subColours(7, key, M, 0)});
-            tile->blocks.insert(tile->blocks.end(), r.blocks.begin(), r.blocks.end());
+            const int C = subColours(7, key, M, 0, mColours);
+            const Region& r = *mRegions.at({M, C});
+            for (Block b : r.blocks) {
+                translate(b, origin());
+                tile->blocks.push_back(std::move(b));
+            }
             tile->stats.points += r.points;
+            const size_t n = std::min<size_t>(r.blocks.size(), kIdSlot);
+            const uint64_t offset = random::hash(mParams.seed, kStreamIds, uint64_t(M) << 32 | uint64_t(C)) %
+                                    uint64_t(kIdSlot - n + 1);
+            for (size_t i = 0; i < r.blocks.size(); ++i) {
+                // (a region of over 8192 blocks wraps round its slot)
+                ids->push_back(float(size_t(slot) * kIdSlot + (offset + i) % kIdSlot));
+            }
+            ++slot;
         }
         tile->stats.blocks = tile->blocks.size();
+        mCubeIds.emplace(key, std::move(ids));
         auto [it, fresh] = mCubes.emplace(key, std::move(tile));
         return it->second;
     }
+}
+
+std::shared_ptr<const std::vector<float>> AperiodicTiles::cubeIds(int key, Task& task) const
+{
+    cubeTile(key, task);
+    std::lock_guard<std::mutex> lock(mMutex);
+    return mCubeIds.at(key);
 }
 
 std::array<size_t, 4> AperiodicTiles::regionsMade() const
@@ -505,7 +561,7 @@ namespace {
 class KeyPresence final : public Presence
 {
 public:
-    KeyPresence(std::shared_ptr<const std::vector<uint8_t>> keys, std::array<int, 3> lo,
+    KeyPresence(std::shared_ptr<const std::vector<int32_t>> keys, std::array<int, 3> lo,
                 std::array<int, 3> dim, int key, BBoxd bounds)
         : mKeys(std::move(keys)), mLo(lo), mDim(dim), mKey(key), mBounds(bounds) {}
     bool present(int, int ix, int iy, int iz) const override
@@ -517,7 +573,7 @@ public:
     BBoxd bounds() const override { return mBounds; }
 
 private:
-    std::shared_ptr<const std::vector<uint8_t>> mKeys;
+    std::shared_ptr<const std::vector<int32_t>> mKeys;
     std::array<int, 3> mLo, mDim;
     int mKey;
     BBoxd mBounds;
@@ -528,9 +584,9 @@ class AperiodicField final : public Field
 public:
     std::shared_ptr<const AperiodicTiles> tiles;
     std::array<int, 3> lo{}, dim{};
-    std::shared_ptr<const std::vector<uint8_t>> keys;
-    std::array<FieldPtr, 256> parts{};
-    std::array<BBoxd, 256> cubeBounds{}; ///< a cube tile's blocks, cube frame, warp included
+    std::shared_ptr<const std::vector<int32_t>> keys; ///< per cube: its colouring, -1 left out
+    std::vector<FieldPtr> parts;      ///< per colouring (null: absent)
+    std::vector<BBoxd> cubeBounds;    ///< a cube tile's blocks, cube frame, warp included
     BBoxd reach;                         ///< all cube tiles' blocks, cube frame
     BBoxd box;
     double cap = 0, lip = 1, amp = 0;
@@ -560,23 +616,28 @@ private:
             i0[a] = std::max(lo[size_t(a)], int(std::floor((blo[a] - cap - reach.max()[a]) / s)));
             i1[a] = std::min(lo[size_t(a)] + dim[size_t(a)] - 1, int(std::floor((bhi[a] + cap - reach.min()[a]) / s)));
         }
-        bool used[256] = {};
+        int used[64];
+        int nUsed = 0;
         for (int x = i0[0]; x <= i1[0]; ++x)
             for (int y = i0[1]; y <= i1[1]; ++y)
                 for (int z = i0[2]; z <= i1[2]; ++z) {
                     const int k = (*keys)[size_t(((x - lo[0]) * dim[1] + (y - lo[1])) * dim[2] + (z - lo[2]))];
-                    if (used[k]) continue;
+                    if (k < 0 || !parts[size_t(k)] || std::find(used, used + nUsed, k) != used + nUsed) continue;
                     const BBoxd& cb = cubeBounds[size_t(k)];
                     const Vec3d o = Vec3d(x, y, z) * s;
                     bool near = true;
                     for (int a = 0; a < 3 && near; ++a) {
                         near = cb.min()[a] + o[a] < bhi[a] + cap && cb.max()[a] + o[a] > blo[a] - cap;
                     }
-                    if (near) used[k] = true;
+                    if (!near) continue;
+                    if (nUsed == 64) fail<ValueError>("blocks: a batch meets over 64 cube colourings");
+                    used[nUsed++] = k;
                 }
         alignas(64) float v[kMaxBatch], vid[kMaxBatch];
-        for (int k = 0; k < 256; ++k) {
-            if (!used[k] || !parts[size_t(k)]) continue;
+        // In colouring order: the same minimum and id whichever cubes the batch met first.
+        std::sort(used, used + nUsed);
+        for (int u = 0; u < nUsed; ++u) {
+            const int k = used[u];
             if (id) {
                 parts[size_t(k)]->evalIdBatch(b, v, vid);
                 for (int i = 0; i < b.n; ++i) {
@@ -593,26 +654,31 @@ private:
 } // namespace
 
 FieldPtr aperiodicField(std::shared_ptr<const AperiodicTiles> tiles, const std::array<int, 3>& lo,
-                        const std::array<int, 3>& hi, Task& task)
+                        const std::array<int, 3>& hi, Task& task,
+                        const std::function<bool(int, int, int)>& cubes, const KeyPresenceFn& presence)
 {
     if (!tiles) fail<ValueError>("blocks: aperiodic tiles are null");
     auto f = std::make_shared<AperiodicField>();
     f->tiles = tiles;
     f->lo = lo;
-    double cells = 1;
+    double count = 1;
     for (int a = 0; a < 3; ++a) {
         require(hi[size_t(a)] >= lo[size_t(a)], "blocks", "cube range", "non-empty", hi[size_t(a)] - lo[size_t(a)]);
         f->dim[size_t(a)] = hi[size_t(a)] - lo[size_t(a)] + 1;
-        cells *= f->dim[size_t(a)];
+        count *= f->dim[size_t(a)];
     }
-    require(cells <= 1e7, "blocks", "cubes of the aperiodic tiling", "at most 1e7", cells);
-    auto keys = std::make_shared<std::vector<uint8_t>>(size_t(cells));
+    require(count <= 5e7, "blocks", "cubes of the aperiodic tiling", "at most 5e7", count);
+    auto keys = std::make_shared<std::vector<int32_t>>(size_t(count), -1);
+    f->parts.resize(size_t(tiles->cubeKeys()));
+    f->cubeBounds.resize(size_t(tiles->cubeKeys()));
     std::set<int> present;
     for (int ix = 0; ix < f->dim[0]; ++ix)
         for (int iy = 0; iy < f->dim[1]; ++iy)
             for (int iz = 0; iz < f->dim[2]; ++iz) {
-                const int k = tiles->cubeKey(lo[0] + ix, lo[1] + iy, lo[2] + iz);
-                (*keys)[size_t((ix * f->dim[1] + iy) * f->dim[2] + iz)] = uint8_t(k);
+                const int x = lo[0] + ix, y = lo[1] + iy, z = lo[2] + iz;
+                if (cubes && !cubes(x, y, z)) continue;
+                const int k = tiles->cubeKey(x, y, z);
+                (*keys)[size_t((ix * f->dim[1] + iy) * f->dim[2] + iz)] = k;
                 present.insert(k);
             }
     f->keys = keys;
@@ -623,28 +689,36 @@ FieldPtr aperiodicField(std::shared_ptr<const AperiodicTiles> tiles, const std::
     f->cap = s / 4.0;
     bool first = true;
     for (int k : present) {
+        task.check();
         auto tile = tiles->cubeTile(k, task);
+        if (tile->blocks.empty()) continue;
         BBoxd cb(Vec3d(1e300), Vec3d(-1e300));
         for (const Block& b : tile->blocks) {
             cb.expand(BBoxd(Vec3d(b.boundsMin[0], b.boundsMin[1], b.boundsMin[2]) - Vec3d(amp),
                             Vec3d(b.boundsMax[0], b.boundsMax[1], b.boundsMax[2]) + Vec3d(amp)));
         }
-        f->cubeBounds[size_t(k)] = cb;
-        if (tile->blocks.empty()) continue;
-        if (first) f->reach = cb; else f->reach.expand(cb);
-        // The bounds of this colouring's copies.
-        BBoxd kb;
-        bool any = false;
-        for (int ix = 0; ix < f->dim[0]; ++ix)
-            for (int iy = 0; iy < f->dim[1]; ++iy)
-                for (int iz = 0; iz < f->dim[2]; ++iz) {
-                    if ((*keys)[size_t((ix * f->dim[1] + iy) * f->dim[2] + iz)] != k) continue;
-                    const Vec3d o = Vec3d(lo[0] + ix, lo[1] + iy, lo[2] + iz) * s;
-                    const BBoxd bb(cb.min() + o, cb.max() + o);
-                    if (!any) { kb = bb; any = true; } else kb.expand(bb);
-                }
         TileFieldOptions o;
-        o.presence = std::make_shared<KeyPresence>(keys, lo, f->dim, k, kb);
+        o.blockIds = tiles->cubeIds(k, task);
+        if (presence) {
+            o.presence = presence(k, *tile);
+        } else {
+            // The bounds of this colouring's copies.
+            BBoxd kb;
+            bool any = false;
+            for (int ix = 0; ix < f->dim[0]; ++ix)
+                for (int iy = 0; iy < f->dim[1]; ++iy)
+                    for (int iz = 0; iz < f->dim[2]; ++iz) {
+                        if ((*keys)[size_t((ix * f->dim[1] + iy) * f->dim[2] + iz)] != k) continue;
+                        const Vec3d off = Vec3d(lo[0] + ix, lo[1] + iy, lo[2] + iz) * s;
+                        const BBoxd bb(cb.min() + off, cb.max() + off);
+                        if (!any) { kb = bb; any = true; } else kb.expand(bb);
+                    }
+            o.presence = std::make_shared<KeyPresence>(keys, lo, f->dim, k, kb);
+        }
+        const BBoxd kb = o.presence->bounds();
+        if (kb.min()[0] > kb.max()[0]) continue; // no copy present
+        f->cubeBounds[size_t(k)] = cb;
+        if (first) f->reach = cb; else f->reach.expand(cb);
         f->parts[size_t(k)] = tileField(tile, o);
         f->lip = f->parts[size_t(k)]->lipschitz();
         if (first) { f->box = kb; first = false; } else f->box.expand(kb);

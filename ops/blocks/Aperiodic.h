@@ -31,6 +31,7 @@
 #include <rockvdb/blocks/BlockTile.h>
 
 #include <array>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -44,22 +45,36 @@ class AperiodicTiles
 public:
     /// @brief The tile set of @a params (resolved and checked here). User fractures and
     /// authored blocks are tile coordinates of one periodic tile: refused (ValueError).
-    explicit AperiodicTiles(const BlockTileParams& params);
+    explicit AperiodicTiles(const BlockTileParams& params, int colours = 2);
 
     const BlockTileParams& params() const { return mParams; }
     double size() const { return mParams.tileSize; }
 
-    /// Colour (0 or 1) of lattice vertex (i, j, k).
+    /// The lattice's origin, a random point of [0, s)³ from the seed: cube (i, j, k) spans
+    /// origin + s·[i, i + 1) × … (a wall or a floor at a round coordinate would otherwise lie
+    /// on lattice planes, where only vertex, edge and face regions show, which recur most).
+    Vec3d origin() const;
+    /// Colours of the lattice vertices (2 to 4; K^8 cube colourings).
+    int colours() const { return mColours; }
+    int cubeKeys() const { int n = 1; for (int i = 0; i < 8; ++i) n *= mColours; return n; }
+    /// Colour (0 to K - 1) of lattice vertex (i, j, k).
     int colour(int i, int j, int k) const;
-    /// The cube at (i, j, k) (its lower corner, in tiles): bit dx + 2dy + 4dz is the colour of
-    /// its corner (i + dx, j + dy, k + dz).
+    /// The cube at (i, j, k) (its lower corner, in tiles): digit dx + 2dy + 4dz (base K) is the
+    /// colour of its corner (i + dx, j + dy, k + dz).
     int cubeKey(int i, int j, int k) const;
 
     /// @brief The blocks owned by a cube of colouring @a key — its lower vertex's, its three
-    /// lower edges', its three lower faces' and its own — in the cube's frame (lower corner at
-    /// the origin), lower vertex first. Made on first use with the regions it needs.
+    /// lower edges', its three lower faces' and its own — as for cube (0, 0, 0) (its lower
+    /// corner at origin()), lower vertex first. Made on first use with the regions it needs.
     std::shared_ptr<const BlockTile> cubeTile(int key, Task& task) const;
     std::shared_ptr<const BlockTile> cubeTile(int key) const;
+
+    /// @brief The ids of a cube tile's blocks (made with it): the cube's 8 regions take slots
+    /// of 8192 ids (lower vertex, edges x, y, z, faces normal to x, y, z, the cube's own),
+    /// each region its blocks' run at an offset hashed from its colours. Ids name content: a
+    /// region's blocks have the same ids wherever it recurs, and different regions of a slot
+    /// rarely share one (what a repetition measure needs; under kMaterialStride).
+    std::shared_ptr<const std::vector<float>> cubeIds(int key, Task& task) const;
 
     /// @brief Make the cube tiles of @a keys: each level of regions (vertices, edges, faces,
     /// cubes) in parallel, so the result does not depend on the order of requests.
@@ -85,16 +100,26 @@ private:
     void make(const Key& key, Task& task) const;
 
     BlockTileParams mParams;
+    int mColours = 2;
     mutable std::mutex mMutex;
     mutable std::map<Key, std::shared_ptr<const Region>> mRegions;
     mutable std::map<int, std::shared_ptr<const BlockTile>> mCubes;
+    mutable std::map<int, std::shared_ptr<const std::vector<float>>> mCubeIds;
 };
+
+/// Which copies of a cube tile exist: a Presence over the cubes of that colouring (its copies
+/// elsewhere must be absent), for the colouring @a key and its tile.
+using KeyPresenceFn = std::function<std::shared_ptr<const Presence>(int key, const BlockTile& tile)>;
 
 /// @brief The aperiodic tiling over cubes [lo, hi] (inclusive, in tiles) as a Field: each cube
 /// holds the cube tile of its colouring; ids are indices into the cube's tile (so a block's id
-/// names the same content wherever it recurs). Other cubes are empty.
+/// names the same content wherever it recurs). Other cubes are empty, and so are those
+/// @a cubes (optional) leaves out; with @a presence (optional), only the copies it keeps.
+/// Only the colourings of the cubes kept are made.
 FieldPtr aperiodicField(std::shared_ptr<const AperiodicTiles> tiles, const std::array<int, 3>& lo,
-                        const std::array<int, 3>& hi, Task& task);
+                        const std::array<int, 3>& hi, Task& task,
+                        const std::function<bool(int, int, int)>& cubes = {},
+                        const KeyPresenceFn& presence = {});
 
 } // namespace blocks
 } // namespace rockvdb

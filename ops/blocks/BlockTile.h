@@ -173,6 +173,8 @@ struct TileFieldOptions
     std::array<int, 3> periods = {1, 1, 1};  ///< else: blocks whose home tile index < periods
     std::shared_ptr<const Presence> presence; ///< when set: the present copies only (§5)
     float idOffset = 0.0f;                    ///< attribute id = block index + idOffset
+    /// When set: attribute id = blockIds[block index] + idOffset (one per block).
+    std::shared_ptr<const std::vector<float>> blockIds;
     /// Cull blocks and planes per octant of a large batch (a baker's padded leaf) instead of
     /// per batch: ~20% faster, the same values within the band; values beyond it (bounds)
     /// differ, so a renormalised bake's band-edge voxels may too. Amplify sets it; a tile's

@@ -77,6 +77,8 @@ Vec3d meanOf(const std::vector<Vec3d>& P)
     return c / double(P.size());
 }
 
+} // namespace
+
 // A unit n and m with n·x < m < n·y for every x in X, y in Y (m mid-gap); false if the
 // search does not find one. Deterministic for given X, Y.
 bool separatingPlane(const std::vector<Vec3d>& X, const std::vector<Vec3d>& Y, Vec3d& n,
@@ -108,7 +110,6 @@ bool separatingPlane(const std::vector<Vec3d>& X, const std::vector<Vec3d>& Y, V
     return false;
 }
 
-} // namespace
 
 // The plane separating clusters a and b (b's points moved by offset into a's frame), as
 // (outward normal from a, position) in a's frame; computed from the lower index so both

@@ -271,6 +271,10 @@ bool pairPlane(const ClusterSet& cs, int a, int b, const Vec3d& offset,
                const std::vector<std::pair<int, Vec3d>>& cutDiscs,
                const std::vector<Disc>& discs, bool discOnly, Vec3d& n, double& m);
 
+// A unit n and m with n·x < m < n·y for every x in X, y in Y (m mid-gap); false if the
+// search does not find one. Deterministic for given X, Y.
+bool separatingPlane(const std::vector<Vec3d>& X, const std::vector<Vec3d>& Y, Vec3d& n, double& m);
+
 // b becomes the polytope of @a all, its vertices, facet areas and bounds from it; unchanged
 // when the polytope is unbounded or holds neither the centroid of the cluster's points P nor
 // any of them (a plane of a non-separable pair may leave the centroid outside: then the

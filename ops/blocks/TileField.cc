@@ -565,7 +565,8 @@ private:
             }
             mBlocks.eval(size_t(c.block), b.n, w.lx, w.ly, w.lz, lc, rho, w, v);
             if (id) {
-                const float bid = float(c.block) + mOpt.idOffset;
+                const float bid = (mOpt.blockIds ? (*mOpt.blockIds)[size_t(c.block)] : float(c.block)) +
+                                  mOpt.idOffset;
                 for (int i = 0; i < b.n; ++i) {
                     if (v[i] < out[i]) { out[i] = v[i]; id[i] = bid; }
                 }
@@ -630,6 +631,9 @@ FieldPtr tileField(std::shared_ptr<const BlockTile> tile, const TileFieldOptions
     for (int a = 0; a < 3; ++a) {
         require(options.periods[size_t(a)] >= 1 && options.periods[size_t(a)] <= 64, "blocks",
                 "periods", "in [1, 64] per axis", options.periods[size_t(a)]);
+    }
+    if (options.blockIds && options.blockIds->size() != tile->blocks.size()) {
+        fail<ValueError>("blocks: ", options.blockIds->size(), " block ids for ", tile->blocks.size(), " blocks");
     }
     return std::make_shared<TileField>(std::move(tile), options);
 }

@@ -1,5 +1,6 @@
 """vdb_amplify (heightfield terrains, one tile or several by strata; slope / distance /
 anchor rules): grids, the slope rule on a plateau-and-cliff, flat terrain, bad input."""
+import json
 import os
 
 import pyopenvdb as vdb
@@ -290,3 +291,54 @@ def test_cliffs_read_as_walls_of_blocks(inputs, tmp_path):
                                 height_scale=10, voxel_size=0.2)
     assert_bitwise_equal(s, g["surface"])
     assert_bitwise_equal(ids, g["block_id"])
+
+
+def test_aperiodic_tiles_cli_python_and_replay(inputs, tmp_path):
+    """--aperiodic: the blocks of corner-coloured cube tiles (the tile's parameters) on the
+    cliff only; ids name region content (8192-id slots, not the periodic tile's indices); the
+    CLI, Python and the file's own provenance give the same grids; bad input is refused."""
+    import rockvdb
+
+    out = tmp_path / "ap.vdb"
+    p = amplify(inputs, inputs["cliff"], out, "--aperiodic", "--colours", "2")
+    assert p.returncode == 0, p.stderr
+    assert "#R " in p.stderr
+    g = {x.name: x for x in vdb.readAll(str(out))[0]}
+    assert g["surface"].gridClass == vdb.GridClass.LEVEL_SET
+    dx = g["surface"].transform.voxelSize()[0]
+    ids = set()
+    for it in g["block_id"].citerOnValues():
+        if it.value >= 0:
+            assert 14 - 3.5 < it.min[0] * dx < 18 + 3.5
+            ids.add(int(it.value))
+    assert len(ids) > 20
+    # Every region of a cube tile has a slot: the cube's own blocks (slot 7), its faces' ...
+    assert max(ids) >= 8192 and len({i // 8192 for i in ids}) >= 4, sorted(ids)[:20]
+    # Python, the same call.
+    s, b, _ = rockvdb.amplify(str(inputs["cliff"]), [str(inputs["tile"])], cell_size=0.5, height_scale=10,
+                              voxel_size=0.2, aperiodic=True, colours=2)
+    assert_bitwise_equal(s, g["surface"])
+    assert_bitwise_equal(b, g["block_id"])
+    # The file's provenance replays it.
+    params = tmp_path / "params.json"
+    prov = json.loads(g["surface"].metadata["rockvdb:params"])
+    assert prov["aperiodic"] is True and prov["colours"] == 2
+    params.write_text(json.dumps(prov))
+    again = tmp_path / "again.vdb"
+    p = run([tool("vdb_amplify"), "--params", str(params), "-o", str(again)])
+    assert p.returncode == 0, p.stderr
+    assert_bitwise_equal(vdb.read(str(again), "surface"), g["surface"])
+    # Bad input: two tiles, a colour count out of range, a tile with user fractures.
+    one_line_error(run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--tiles",
+                        f"{inputs['tile']},{inputs['tile']}", "--aperiodic", "-o", str(tmp_path / "o.vdb")]),
+                   2, "need strata")
+    one_line_error(amplify(inputs, inputs["cliff"], tmp_path / "o.vdb", "--aperiodic", "--colours", "5"), 2,
+                   "colours")
+    frac = tmp_path / "frac.tile"
+    run([tool("vdb_blocks"), "-q", "--tile-size", "10", "--point-radius", "0.5", "--voxel-size", "0.25",
+         "--fractures", '[{"center": [5, 5, 5], "normal": [0, 0, 1], "radius": 3}]', "--tile", str(frac),
+         "-o", str(tmp_path / "frac.vdb")], check=True)
+    p = run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--cell-size", "0.5", "--tiles", str(frac),
+             "--aperiodic", "-o", str(tmp_path / "o.vdb")])
+    one_line_error(p, 2, "user fractures")
+    assert not (tmp_path / "o.vdb").exists()

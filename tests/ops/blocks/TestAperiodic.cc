@@ -1,20 +1,25 @@
-// Aperiodic block tiles (implicit-blocks §6.4; corner cubes): regions are functions of their
-// colours, blocks never meet across regions, tile faces are not fractures, the tiling fills
-// its volume, and it does not repeat with the tile period.
+// Aperiodic block tiles (implicit-blocks §6.4; the corner cubes of aperiodic-rock-piles §2–3):
+// a region is a function of its colours alone, blocks cross tile faces whole, the tiling fills
+// its volume, regions barely overlap, and block ids do not recur with the tile period.
 #include <rockvdb/blocks/Aperiodic.h>
-#include <rockvdb/core/Bake.h>
+#include <rockvdb/core/Error.h>
 #include <rockvdb/core/Random.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
+#include <cstring>
+#include <map>
+#include <tuple>
 
 using namespace rockvdb;
 using namespace rockvdb::blocks;
 
 namespace {
 
+// A quick set: 10 m tiles, coarse points (~4 600 per tile).
 BlockTileParams quick(BlockType type = BlockType::Polyhedral, uint64_t seed = 3)
 {
     BlockTileParams p;
@@ -25,203 +30,234 @@ BlockTileParams quick(BlockType type = BlockType::Polyhedral, uint64_t seed = 3)
     return p;
 }
 
+bool samePlanes(const BlockTile& a, const BlockTile& b)
+{
+    if (a.blocks.size() != b.blocks.size()) return false;
+    for (size_t i = 0; i < a.blocks.size(); ++i) {
+        const auto& x = a.blocks[i].planes;
+        const auto& y = b.blocks[i].planes;
+        if (x.size() != y.size() || std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) != 0) return false;
+    }
+    return true;
+}
+
+// Inside the polytope of a block (its planes, before rounding and warp)?
+bool insidePolytope(const Block& b, const Vec3d& q)
+{
+    for (const auto& pl : b.planes) {
+        if (pl[0] * q[0] + pl[1] * q[1] + pl[2] * q[2] - double(pl[3]) >= 0) return false;
+    }
+    return !b.planes.empty();
+}
+
+// Every block of the cubes [0, n)³ in world coordinates.
+std::vector<Block> worldBlocks(const AperiodicTiles& tiles, int n)
+{
+    std::vector<Block> out;
+    const double s = tiles.size();
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j)
+            for (int k = 0; k < n; ++k) {
+                for (Block b : tiles.cubeTile(tiles.cubeKey(i, j, k))->blocks) {
+                    const Vec3d t(i * s, j * s, k * s);
+                    for (auto& pl : b.planes) pl[3] += float(pl[0] * t[0] + pl[1] * t[1] + pl[2] * t[2]);
+                    for (size_t a = 0; a < 3; ++a) {
+                        b.boundsMin[a] += float(t[a]);
+                        b.boundsMax[a] += float(t[a]);
+                    }
+                    out.push_back(std::move(b));
+                }
+            }
+    return out;
+}
+
 } // namespace
 
-TEST(Aperiodic, Explore)
+TEST(Aperiodic, ARegionIsTheSameWhicheverCubeAsksInAnyOrderAtAnyThreadCount)
+{
+    initialize();
+    const AperiodicTiles a(quick()), b(quick());
+    Task task;
+    // a: two cubes together; b: the second alone first, one thread.
+    const int k1 = a.cubeKey(0, 0, 0), k2 = a.cubeKey(1, 0, 0);
+    ASSERT_NE(k1, k2);
+    a.prepare({k1, k2}, task);
+    {
+        tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+        b.cubeTile(k2);
+        b.cubeTile(k1);
+    }
+    EXPECT_TRUE(samePlanes(*a.cubeTile(k1), *b.cubeTile(k1)));
+    EXPECT_TRUE(samePlanes(*a.cubeTile(k2), *b.cubeTile(k2)));
+    // The cubes share their face x = 1 (mask 6 at x = 1 for k1 is the lower x face of k2): the
+    // region is one object, the same blocks in either cube's tile (translated).
+    const int face = (k2 % 2) + 2 * ((k2 / 4) % 2) + 4 * ((k2 / 16) % 2) + 8 * ((k2 / 64) % 2);
+    const auto& shared = a.region(6, face, task);
+    EXPECT_GT(shared.blocks.size(), 0u);
+    size_t found = 0;
+    const auto tile2 = a.cubeTile(k2);
+    for (const Block& r : shared.blocks) {
+        for (const Block& c : tile2->blocks) {
+            if (c.points == r.points && c.planes.size() == r.planes.size()) { ++found; break; }
+        }
+    }
+    EXPECT_EQ(found, shared.blocks.size());
+}
+
+TEST(Aperiodic, BlocksCrossTileFacesWholeAndFillTheVolume)
 {
     initialize();
     auto tiles = std::make_shared<AperiodicTiles>(quick());
     Task task;
-    const auto t0 = std::chrono::steady_clock::now();
-    auto f = aperiodicField(tiles, {0, 0, 0}, {2, 2, 2}, task);
-    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const auto made = tiles->regionsMade();
-    std::printf("regions %zu %zu %zu %zu in %.2f s\n", made[0], made[1], made[2], made[3], secs);
-    for (int M : {0, 1, 6, 7}) {
-        const auto& r = tiles->region(M, 0, task);
-        std::printf("mask %d: %zu blocks, %zu points, %zu dropped\n", M, r.blocks.size(), r.points, r.dropped);
-    }
-    const double s = 10;
-    int inside = 0, n = 4000, onFace = 0, nf = 4000;
+    const double s = tiles->size();
+    const Vec3d u = tiles->origin();
+    auto f = aperiodicField(tiles, {-1, -1, -1}, {3, 3, 3}, task);
+    // Volume: the cubes [0, 3)³ around their centre.
+    const int n = 4000;
+    int inside = 0;
     for (int k = 0; k < n; ++k) {
-        const Vec3d q(random::uniform(38, 1, k, 5, 25), random::uniform(38, 2, k, 5, 25),
-                      random::uniform(38, 3, k, 5, 25));
+        const Vec3d q = u + Vec3d(random::uniform(41, 1, k, 0.5, 2.5), random::uniform(41, 2, k, 0.5, 2.5),
+                                  random::uniform(41, 3, k, 0.5, 2.5)) * s;
         inside += f->eval(q) < 0;
     }
-    for (int k = 0; k < nf; ++k) {
-        const Vec3d q(s * 1.0, random::uniform(39, 2, k, 5, 25), random::uniform(39, 3, k, 5, 25));
-        onFace += f->eval(q) < 0;
-    }
-    std::printf("fill %.3f, on the face x = s %.3f\n", double(inside) / n, double(onFace) / nf);
-}
-
-TEST(Aperiodic, ExploreHoles)
-{
-    initialize();
-    for (double r : {0.5, 0.34}) {
-        BlockTileParams p = quick();
-        p.pointRadius = r;
-        auto tiles = std::make_shared<AperiodicTiles>(p);
-        Task task;
-        auto f = aperiodicField(tiles, {0, 0, 0}, {2, 2, 2}, task);
-        auto tile = std::make_shared<BlockTile>(generateTile(p));
-        TileFieldOptions o;
-        o.periodic = true;
-        auto g = tileField(tile, o);
-        int n = 4000, in = 0, inP = 0;
-        int holes[4] = {0, 0, 0, 0}, tot[4] = {0, 0, 0, 0}, hist[4] = {0, 0, 0, 0};
+    const double fill = double(inside) / n;
+    EXPECT_GE(fill, 0.85);
+    // Shared tile faces: as full as the volume (a seam — blocks cut at the face, a fracture
+    // along it — would leave a gap on every face point).
+    for (int a = 0; a < 3; ++a) {
+        int onFace = 0;
         for (int k = 0; k < n; ++k) {
-            const Vec3d q(random::uniform(38, 1, k, 5, 25), random::uniform(38, 2, k, 5, 25),
-                          random::uniform(38, 3, k, 5, 25));
-            const bool rock = f->eval(q) < 0;
-            in += rock;
-            inP += g->eval(q) < 0;
-            double d[3];
-            for (int a = 0; a < 3; ++a) d[a] = std::abs(q[a] / 10 - std::floor(q[a] / 10 + 0.5));
-            int kind = 3;
-            if (d[0] <= 0.25 && d[1] <= 0.25 && d[2] <= 0.25) kind = 0;
-            else if ((d[0] <= 0.12) + (d[1] <= 0.12) + (d[2] <= 0.12) >= 2) kind = 1;
-            else if (d[0] <= 0.03 || d[1] <= 0.03 || d[2] <= 0.03) kind = 2;
-            ++tot[kind];
-            holes[kind] += !rock;
-            if (!rock) { const double v = f->eval(q); hist[v < 0.05 ? 0 : v < 0.15 ? 1 : v < 0.3 ? 2 : 3]++; }
+            Vec3d q = u + Vec3d(random::uniform(42, 1, k, 0.5, 2.5), random::uniform(42, 2, k, 0.5, 2.5),
+                                random::uniform(42, 3, k, 0.5, 2.5)) * s;
+            q[a] = u[a] + s * (1 + (k % 2)); // the faces between cubes 0|1 and 1|2
+            onFace += f->eval(q) < 0;
         }
-        std::printf("r %.2f: aperiodic fill %.3f, periodic %.3f; empty by core: v %d/%d e %d/%d f %d/%d c %d/%d\n",
-                    r, double(in) / n, double(inP) / n, holes[0], tot[0], holes[1], tot[1], holes[2], tot[2],
-                    holes[3], tot[3]);
-        std::printf("  empty at distance <5cm %d, <15cm %d, <30cm %d, more %d\n", hist[0], hist[1], hist[2], hist[3]);
+        EXPECT_GE(double(onFace) / n, 0.95 * fill) << "axis " << a;
     }
-}
-
-TEST(Aperiodic, ExploreSlice)
-{
-    initialize();
-    BlockTileParams p = quick();
-    p.pointRadius = 0.34;
-    auto tiles = std::make_shared<AperiodicTiles>(p);
-    Task task;
-    auto f = aperiodicField(tiles, {-1, -1, 0}, {3, 3, 2}, task);
-    const int N = 600;
-    const char* zs = std::getenv("SLICE_Z");
-    const double z = zs ? std::atof(zs) : 15.0;
-    FILE* out = std::fopen("/tmp/slice.ppm", "wb");
-    std::fprintf(out, "P6 %d %d 255\n", N, N);
-    for (int j = N - 1; j >= 0; --j)
-        for (int i = 0; i < N; ++i) {
-            const Vec3d q(i * 30.0 / N, j * 30.0 / N, z);
-            float v, id;
-            Batch b;
-            BatchBuffer bb;
-            bb.n = 1; bb.x[0] = float(q[0]); bb.y[0] = float(q[1]); bb.z[0] = float(q[2]);
-            f->evalIdBatch(bb.view(), &v, &id);
-            unsigned char c[3] = {0, 0, 0};
-            {
-                double d[3];
-                for (int a = 0; a < 3; ++a) d[a] = std::abs(q[a] / 10 - std::floor(q[a] / 10 + 0.5));
-                if (d[0] <= 0.25 && d[1] <= 0.25 && d[2] <= 0.25) c[2] = 120;
-                else if ((d[0] <= 0.12) + (d[1] <= 0.12) + (d[2] <= 0.12) >= 2) c[1] = 120;
-                else if (d[0] <= 0.03 || d[1] <= 0.03 || d[2] <= 0.03) { c[0] = 120; c[1] = 120; }
-            }
-            if (v < 0) {
-                const uint64_t h = random::hash(1, 2, uint64_t(id * 7 + 3));
-                c[0] = 80 + (h & 127); c[1] = 80 + ((h >> 8) & 127); c[2] = 80 + ((h >> 16) & 127);
-            }
-            const double dx = std::abs(q[0] / 10 - std::round(q[0] / 10)), dy = std::abs(q[1] / 10 - std::round(q[1] / 10));
-            if (dx < 0.003 || dy < 0.003) { c[0] = 255; c[1] = 0; c[2] = 0; }
-            std::fwrite(c, 1, 3, out);
-        }
-    std::fclose(out);
-}
-
-TEST(Aperiodic, ExploreCube)
-{
-    initialize();
-    BlockTileParams p = quick();
-    p.pointRadius = 0.34;
-    auto tiles = std::make_shared<AperiodicTiles>(p);
-    Task task;
-    const auto& cube = tiles->region(7, 0, task);
-    auto inside = [](const Block& b, const Vec3d& q) {
-        double d = -1e300;
-        for (const auto& pl : b.planes) d = std::max(d, pl[0] * q[0] + pl[1] * q[1] + pl[2] * q[2] - double(pl[3]));
-        return d < 0;
-    };
-    // the sub-features' blocks
-    std::vector<Block> obst;
-    for (int m = 0; m < 7; ++m)
-        for (int o = 0; o < 8; ++o) {
-            if ((o & m) != 0) continue;
-            const auto& r = tiles->region(m, 0, task);
-            for (Block b : r.blocks) {
-                const Vec3d t(10.0 * (o & 1), 10.0 * ((o >> 1) & 1), 10.0 * ((o >> 2) & 1));
-                for (auto& pl : b.planes) pl[3] += float(pl[0] * t[0] + pl[1] * t[1] + pl[2] * t[2]);
-                obst.push_back(b);
+    // Blocks have no more axis-aligned facets on the tile faces than on planes a third of a
+    // tile off them (their growth boxes are axis-aligned anywhere): faces are crossed, not
+    // fractured (a seam would put a facet of every block it meets on the face).
+    int onPlane = 0, offPlane = 0, facets = 0;
+    const double tol = 0.5 * tiles->params().fractureWidth + 1e-3;
+    for (const Block& b : worldBlocks(*tiles, 3)) {
+        for (const auto& pl : b.planes) {
+            ++facets;
+            for (int a = 0; a < 3; ++a) {
+                if (std::abs(pl[a]) < 0.9999) continue;
+                const double at = double(pl[3]) / double(pl[a]) - u[a];
+                onPlane += std::abs(std::remainder(at, s)) < tol;
+                offPlane += std::abs(std::remainder(at - s / 3, s)) < tol;
             }
         }
-    int n = 3000, own = 0, ob = 0, none = 0, pts = 0;
+    }
+    EXPECT_GT(facets, 1000);
+    EXPECT_LE(onPlane, 2 * offPlane + 3) << offPlane;
+}
+
+TEST(Aperiodic, RegionsOverlapOnlyWhereTheyMeet)
+{
+    initialize();
+    const AperiodicTiles tiles(quick());
+    const double s = tiles.size();
+    const std::vector<Block> blocks = worldBlocks(tiles, 3);
+    const Vec3d u = tiles.origin();
+    const int n = 20000;
+    int rock = 0, twice = 0;
     for (int k = 0; k < n; ++k) {
-        const Vec3d q(random::uniform(38, 1, k, 3, 7), random::uniform(38, 2, k, 3, 7), random::uniform(38, 3, k, 3, 7));
-        bool a = false, b = false;
-        for (const auto& bl : cube.blocks) a = a || inside(bl, q);
-        for (const auto& bl : obst) b = b || inside(bl, q);
-        own += a; ob += b; none += !a && !b;
+        const Vec3d q = u + Vec3d(random::uniform(43, 1, k, 0.7, 2.3), random::uniform(43, 2, k, 0.7, 2.3),
+                                  random::uniform(43, 3, k, 0.7, 2.3)) * s;
+        int in = 0;
+        for (const Block& b : blocks) {
+            bool box = true;
+            for (size_t a = 0; a < 3 && box; ++a) box = q[a] >= b.boundsMin[a] && q[a] <= b.boundsMax[a];
+            if (box && insidePolytope(b, q)) ++in;
+        }
+        rock += in > 0;
+        twice += in > 1;
     }
-    for (const auto& bl : cube.blocks) pts += bl.points;
-    std::printf("cube core centre [3,7]^3: own %d obst %d none %d of %d; %zu blocks, %d points (%zu sampled), dropped %zu\n",
-                own, ob, none, n, cube.blocks.size(), pts, cube.points, cube.dropped);
+    // Where a cluster reaches round a sub-feature's block, or the zones of two features that
+    // do not contain one another meet, the blocks merge (one rock there) instead of leaving a
+    // void: 23 % of the rock (seed 3). Two features filling one zone would double it.
+    EXPECT_GT(rock, n / 2);
+    EXPECT_LT(double(twice) / rock, 0.3) << twice << " of " << rock;
 }
 
-#include <rockvdb/blocks/TileBuild.h>
-#include <rockvdb/core/Sampling.h>
-TEST(Aperiodic, ExploreBuild)
+TEST(Aperiodic, BlockIdsDoNotRecurWithTheTilePeriod)
 {
     initialize();
-    BlockTileParams p = quick();
-    p.pointRadius = 0.34;
-    p.resolveDefaults();
-    p.axis = p.axis.unit();
+    auto tiles = std::make_shared<AperiodicTiles>(quick());
     Task task;
-    const double s = 10;
-    auto pts = poissonPeriodic(s, p.pointRadius, p.seed, tilegen::kPoints);
-    auto discs = tilegen::makeDiscs(p);
-    auto inside = [](const Block& b, const Vec3d& q) {
-        double d = -1e300;
-        for (const auto& pl : b.planes) d = std::max(d, pl[0] * q[0] + pl[1] * q[1] + pl[2] * q[2] - double(pl[3]));
-        return d < 0;
-    };
-    auto fill = [&](const BlockTile& t, Vec3d off) {
-        int n = 2000, in = 0;
-        for (int k = 0; k < n; ++k) {
-            const Vec3d q = off + Vec3d(random::uniform(38, 1, k, 3, 7), random::uniform(38, 2, k, 3, 7), random::uniform(38, 3, k, 3, 7));
-            bool a = false;
-            for (const auto& bl : t.blocks) a = a || inside(bl, q);
-            in += a;
+    const double s = tiles->size();
+    // A wall plane parallel to the tiling axes (y = 3 m), rows along x every 1 m in z: the
+    // cubes around it.
+    const Vec3d u = tiles->origin();
+    auto cube = [&](double x, int a) { return int(std::floor((x - u[a]) / s)); };
+    auto f = aperiodicField(tiles, {cube(0, 0) - 1, cube(3, 1) - 1, cube(2, 2) - 1},
+                            {cube(100, 0) + 1, cube(3, 1) + 1, cube(18, 2) + 1}, task);
+    const double step = 0.25;
+    const int cols = int(100 / step);
+    std::vector<std::vector<float>> rows;
+    for (double z = 2; z < 18; z += 1) {
+        std::vector<float> row(size_t(cols), -1.0f);
+        BatchBuffer b;
+        for (int c0 = 0; c0 < cols; c0 += kMaxBatch) {
+            b.n = std::min(kMaxBatch, cols - c0);
+            for (int i = 0; i < b.n; ++i) {
+                b.x[i] = float((c0 + i) * step);
+                b.y[i] = 3.0f;
+                b.z[i] = float(z);
+            }
+            std::vector<float> v(size_t(b.n)), id(size_t(b.n));
+            f->evalIdBatch(b.view(), v.data(), id.data());
+            for (int i = 0; i < b.n; ++i) row[size_t(c0 + i)] = v[size_t(i)] < 0 ? id[size_t(i)] : -1.0f;
         }
-        return double(in) / n;
+        rows.push_back(std::move(row));
+    }
+    auto match = [&](int shift) {
+        size_t same = 0, both = 0;
+        for (const auto& r : rows) {
+            for (int i = 0; i + shift < cols; ++i) {
+                if (r[size_t(i)] < 0 || r[size_t(i + shift)] < 0) continue;
+                ++both;
+                same += r[size_t(i)] == r[size_t(i + shift)];
+            }
+        }
+        return double(same) / double(both);
     };
-    const BlockTile a = tilegen::buildTile(p, pts, discs, task);
-    std::printf("periodic as made: %zu blocks, fill %.3f\n", a.blocks.size(), fill(a, Vec3d(0)));
-    for (double L : {12.0, 15.0, 20.0}) {
-        BlockTileParams q = p;
-        q.tileSize = L;
-        const BlockTile b = tilegen::buildTile(q, pts, discs, task);
-        std::printf("same points in a %.0f m torus: %zu blocks, fill %.3f\n", L, b.blocks.size(), fill(b, Vec3d(0)));
+    const int p = int(s / step);
+    double random = 0;
+    int count = 0;
+    for (int shift = int(3 / step); shift < 5 * p; ++shift) {
+        if (std::abs(std::remainder(shift, p)) < 2.0 / step) continue;
+        random += match(shift);
+        ++count;
     }
-    {
-        const double side = 9.4, nr = p.neighbourRadius;
-        auto pp = poissonPeriodic(side, p.pointRadius, 77, tilegen::kPoints);
-        const Vec3d off(2 * nr - 0.3);
-        for (auto& x : pp) x += Vec3d(0.3) + off;
-        auto dd = discs;
-        for (auto& d : dd) d.center += off;
-        BlockTileParams q = p;
-        q.tileSize = side + 4 * nr;
-        const BlockTile b = tilegen::buildTile(q, pp, dd, task);
-        std::printf("9.4 m of points in a %.1f m torus: %zu blocks, fill %.3f\n", q.tileSize, b.blocks.size(), fill(b, off));
-        pp = poissonPeriodic(side, p.pointRadius, 77, tilegen::kPoints);
-        for (auto& x : pp) x += Vec3d(0.3) + off;
-        q.tileSize = 20;
-        const BlockTile c = tilegen::buildTile(q, pp, dd, task);
-        std::printf("9.4 m of points in a %.1f m torus: %zu blocks, fill %.3f\n", q.tileSize, c.blocks.size(), fill(c, off));
+    random /= count;
+    // A periodic tile repeats everything (M = 1); here a region recurs only when its colours
+    // do (vertex 1/2, edge 1/4, face 1/16 of the time, cube 1/256).
+    for (int m = 1; m <= 4; ++m) {
+        EXPECT_LT(match(m * p), 0.15) << "at " << m * s << " m (random shifts: " << random << ")";
     }
+    EXPECT_LT(random, 0.02);
 }
+
+TEST(Aperiodic, BadParametersAreClearErrors)
+{
+    BlockTileParams p = quick();
+    EXPECT_THROW(AperiodicTiles(p, 5), ValueError);
+    EXPECT_THROW(AperiodicTiles(p, 1), ValueError);
+    p.extraDiscs.push_back({Vec3d(1, 1, 1), Vec3d(0, 0, 1), 2.0});
+    try {
+        AperiodicTiles t(p);
+        FAIL();
+    } catch (const ValueError& e) {
+        EXPECT_NE(std::string(e.what()).find("user fractures"), std::string::npos) << e.what();
+    }
+    p = quick();
+    p.fill = false;
+    EXPECT_THROW(AperiodicTiles t(p), ValueError);
+    const AperiodicTiles t(quick());
+    Task task;
+    EXPECT_THROW(t.prepare({256}, task), ValueError);
+}
+
