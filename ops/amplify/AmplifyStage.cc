@@ -48,13 +48,14 @@ Schema<AmplifyParams> makeSchema()
                  "cut back to the blocks dilated by this gap (0 = plain union)"), &P::carve);
     s.member(param("aperiodic", ParamType::Bool, "", false, Range::any(),
                  "Replicate the tile aperiodically (§6.4's future work): lattice vertices take "
-                 "one of 2 colours and each cube the blocks of its 8 corners' colouring, made "
-                 "from the tile's parameters (blocks cross cube faces whole; no strata)"),
+                 "one of --colours colours and each cube the blocks of its 8 corners' colouring, "
+                 "made from the tile's parameters as cubes need them (blocks cross cube faces "
+                 "whole; one tile, no strata)"),
              &P::aperiodic);
-    s.member(param("colours", ParamType::Int, "", 3, Range::closed(2, 4),
+    s.member(param("colours", ParamType::Int, "", 2, Range::closed(2, 4),
                  "Aperiodic: colours of the lattice vertices (K: a vertex region recurs with "
-                 "odds 1/K, an edge's 1/K^2, a face's 1/K^4; the K^8 cube tiles are made as "
-                 "cubes need them)"),
+                 "odds 1/K, an edge's 1/K^2, a face's 1/K^4; 3 makes nearly every cube's tile "
+                 "anew)"),
              &P::colours);
     s.add(param("max-slope", ParamType::Real, "", rules.maxSlope, Range::closed(0, 1),
               "epsilon: replicate where |g.u_z| < this"),

@@ -2,30 +2,37 @@
 // §6.4: "Aperiodic tiling using Wang cubes or Corner Cubes would reduce visible artifacts";
 // the corner cubes of aperiodic-rock-piles.txt §2–§3, as ops/rockpile/RockTiles.h builds them).
 //
-// Lattice vertices take one of 2 colours (a hash of their position and the seed); a cube is
-// one of the 2⁸ = 256 corner colourings. Space splits into the cores of lattice features,
-// in the units of the tile size s and by priority: a vertex core (the box of half-size a =
-// 0.25 around it), an edge core (within b = 0.12 of the edge across it), a face core (within
-// c = 0.03 of the face) and the cube's core (the rest of the cube). Every feature's blocks
-// are a pure function of its vertices' colours (2 vertex, 12 edge, 48 face and 256 cube
-// regions, as Table 1 of the rock piles counts them):
-//   1. its own Poisson points in its zone — its core grown by a reach μ (vertex 0.15, edge
-//      0.10, face 0.065, cube 0) into the cores of the features that contain it — away from
-//      the blocks of its sub-features (all known to it: their colours are among its own);
+// Lattice vertices take one of K colours (2 to 4; a hash of their position and the seed); a
+// cube is one of the K⁸ corner colourings. Space splits into the cores of lattice features,
+// in tile sizes and by priority: a vertex core (the box of half-size 0.04 around it), an edge
+// core (within 0.03 of the edge), a face core (within 0.02 of the face) and the cube's core
+// (the rest of the cube). Every feature's blocks are a pure function of its vertices' colours
+// (for K = 2: 2 vertex, 12 edge, 48 face and 256 cube regions, as Table 1 of the rock piles
+// counts them), made in order of dimension:
+//   1. its own Poisson points in its zone, away from the blocks of its sub-features (all
+//      known to it: their colours are among its own). The zone: its core, and where it is
+//      within a reach of 0.35 of it in the core of a feature that contains it, if it is the
+//      nearest such feature of its dimension nested in the nearer lower ones (chainAt): two
+//      features that may both place points somewhere always contain one another;
 //   2. its own fracture discs (the type's density; the set directions are the tile set's);
 //   3. the tile's phases on them (graph, cuts, clusters, visibility, fill: buildTile);
-//   4. it keeps the blocks whose clusters have a point in its core — those are complete
-//      blocks that reach into the zones of the features containing it, which fill around
-//      them (the boundary between regions is made of blocks, not a plane) — separated from
-//      its sub-features' blocks by a plane a fracture width off one of their faces, and
-//      inside its zone's box grown by g = 0.01: two features neither of which contains the
-//      other have zone boxes that far apart, so their blocks never meet.
+//   4. it keeps the blocks whose clusters have a point in its core — complete blocks that
+//      reach into the zones of the features containing it, which fill around them (the
+//      boundary between regions is made of blocks, not planes) — each kept a fracture width
+//      off a sub-feature's block by a plane between them (one of its faces or a separating
+//      plane), when one keeps all the block's points.
 // A block straddling a tile face is the block of a vertex, edge or face region, the same in
-// both cubes (it is one block of the world, owned by the cube at its feature's lower vertex).
+// both cubes (one block of the world, owned by the cube at its feature's lower vertex). The
+// lattice's origin is random (from the seed): a wall or floor at a round coordinate does not
+// lie on lattice planes, where only the regions that recur most (1/K, 1/K², 1/K⁴) show.
 //
-// Departures: fractures do not continue from one region into another (each has its own
-// discs); a cluster that reaches its zone's limit ends there with a hull face, usually cut
-// short by a neighbour (see docs/blocks.md for the measured look).
+// Departures and limits (docs/blocks.md has the measures): fractures do not continue from
+// one region into another (each has its own discs); where a block reaches round a
+// sub-feature's block, or grows into the zone of a feature it does not know, the two
+// overlap and merge into one rock (no void, no fracture there: 23 % of the rock of seed 3's
+// polyhedral 10 m set lies in two blocks); a region recurs with its colours, so block ids
+// still match at tile-period shifts a few per cent of the time (K = 2), against none at other
+// shifts (K = 3, 4 lower it, at the cost of making each cube's tile anew).
 #pragma once
 
 #include <rockvdb/blocks/BlockTile.h>
