@@ -214,24 +214,6 @@ std::vector<std::pair<int, int>> subFeatures(int M)
     return out;
 }
 
-// A block moved by t (metres).
-void translate(Block& b, const Vec3d& t)
-{
-    auto move = [&](std::array<float, 3>& v) {
-        for (int a = 0; a < 3; ++a) v[size_t(a)] = float(double(v[size_t(a)]) + t[a]);
-    };
-    for (auto& pl : b.planes) {
-        pl[3] = float(double(pl[3]) + double(pl[0]) * t[0] + double(pl[1]) * t[1] + double(pl[2]) * t[2]);
-    }
-    move(b.a);
-    move(b.b);
-    for (auto& v : b.vertices) move(v);
-    for (auto& v : b.cluster) move(v);
-    for (auto& v : b.anchors) move(v);
-    move(b.boundsMin);
-    move(b.boundsMax);
-}
-
 // Distance-like value of q from block b: > 0 outside (at most the distance), < 0 inside.
 double outside(const Block& b, const Vec3d& q)
 {

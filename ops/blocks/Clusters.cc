@@ -373,11 +373,8 @@ bool insideAuthored(const AuthoredBlock& a, const Vec3d& p, double size, Vec3d& 
 }
 
 // Move a block so its first anchor (the centroid) lies in [0, s)³.
-void toHome(Block& b, double size)
+void translate(Block& b, const Vec3d& shift)
 {
-    Vec3d shift;
-    for (int a = 0; a < 3; ++a) shift[a] = -size * std::floor(double(b.anchors[0][size_t(a)]) / size);
-    if (shift == Vec3d(0)) return;
     auto move = [&](std::array<float, 3>& v) {
         for (int a = 0; a < 3; ++a) v[size_t(a)] = float(double(v[size_t(a)]) + shift[a]);
     };
@@ -392,6 +389,14 @@ void toHome(Block& b, double size)
     for (auto& v : b.anchors) move(v);
     move(b.boundsMin);
     move(b.boundsMax);
+}
+
+void toHome(Block& b, double size)
+{
+    Vec3d shift;
+    for (int a = 0; a < 3; ++a) shift[a] = -size * std::floor(double(b.anchors[0][size_t(a)]) / size);
+    if (shift == Vec3d(0)) return;
+    translate(b, shift);
 }
 
 } // namespace tilegen

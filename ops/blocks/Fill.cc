@@ -110,7 +110,6 @@ bool separatingPlane(const std::vector<Vec3d>& X, const std::vector<Vec3d>& Y, V
     return false;
 }
 
-
 // The plane separating clusters a and b (b's points moved by offset into a's frame), as
 // (outward normal from a, position) in a's frame; computed from the lower index so both
 // sides get the same plane. Candidates, in order: a cutting disc whose plane separates the

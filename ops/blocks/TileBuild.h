@@ -227,6 +227,9 @@ Block makeAuthored(const AuthoredBlock& a, const std::vector<Vec3d>& inside);
 // unwrapped position (or false).
 bool insideAuthored(const AuthoredBlock& a, const Vec3d& p, double size, Vec3d& unwrapped);
 
+// Move a block by @a shift (planes, ends, vertices, cluster, anchors, bounds; as floats).
+void translate(Block& b, const Vec3d& shift);
+
 // Move a block so its first anchor (the centroid) lies in [0, s)³.
 void toHome(Block& b, double size);
 
