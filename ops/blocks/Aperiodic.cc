@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <set>
 
@@ -469,9 +470,16 @@ void AperiodicTiles::prepare(const std::vector<int>& keys, Task& task) const
             }
         }
     }
+    // Progress: the share of these regions made (the task's current phase).
+    size_t total = 0;
+    for (const auto& level : levels) total += level.size();
+    std::atomic<size_t> made{0};
     for (auto& level : levels) {
         std::vector<Key> todo(level.begin(), level.end());
-        tbb::parallel_for(size_t(0), todo.size(), [&](size_t i) { make(todo[i], task); });
+        tbb::parallel_for(size_t(0), todo.size(), [&](size_t i) {
+            make(todo[i], task);
+            task.advance(double(++made) / double(total));
+        });
         task.check();
     }
 }
