@@ -577,8 +577,9 @@ public:
     std::shared_ptr<const std::vector<int32_t>> keys; ///< per cube: its colouring, -1 left out
     std::vector<FieldPtr> parts;      ///< per colouring (null: absent)
     std::vector<BBoxd> cubeBounds;    ///< a cube tile's blocks, cube frame, warp included
-    BBoxd reach;                         ///< all cube tiles' blocks, cube frame
+    BBoxd reach;                      ///< all cube tiles' blocks, cube frame
     BBoxd box;
+    bool any = false;                 ///< some colouring has a copy
     double cap = 0, lip = 1, amp = 0;
 
     void evalBatch(const Batch& b, float* out) const override { eval(b, out, nullptr); }
@@ -598,7 +599,7 @@ private:
         }
         std::fill(out, out + b.n, float(cap));
         if (id) std::fill(id, id + b.n, kNoId);
-        if (b.n == 0) return;
+        if (b.n == 0 || !any) return;
         const double s = tiles->size();
         // A cube whose blocks all stay farther than the cap from the batch changes nothing.
         int i0[3], i1[3];
@@ -606,28 +607,24 @@ private:
             i0[a] = std::max(lo[size_t(a)], int(std::floor((blo[a] - cap - reach.max()[a]) / s)));
             i1[a] = std::min(lo[size_t(a)] + dim[size_t(a)] - 1, int(std::floor((bhi[a] + cap - reach.min()[a]) / s)));
         }
-        int used[64];
-        int nUsed = 0;
+        std::vector<int> used; // the colourings met (a coarse bake's leaf can meet dozens)
         for (int x = i0[0]; x <= i1[0]; ++x)
             for (int y = i0[1]; y <= i1[1]; ++y)
                 for (int z = i0[2]; z <= i1[2]; ++z) {
                     const int k = (*keys)[size_t(((x - lo[0]) * dim[1] + (y - lo[1])) * dim[2] + (z - lo[2]))];
-                    if (k < 0 || !parts[size_t(k)] || std::find(used, used + nUsed, k) != used + nUsed) continue;
+                    if (k < 0 || !parts[size_t(k)] || std::find(used.begin(), used.end(), k) != used.end()) continue;
                     const BBoxd& cb = cubeBounds[size_t(k)];
                     const Vec3d o = Vec3d(x, y, z) * s;
                     bool near = true;
                     for (int a = 0; a < 3 && near; ++a) {
                         near = cb.min()[a] + o[a] < bhi[a] + cap && cb.max()[a] + o[a] > blo[a] - cap;
                     }
-                    if (!near) continue;
-                    if (nUsed == 64) fail<ValueError>("blocks: a batch meets over 64 cube colourings");
-                    used[nUsed++] = k;
+                    if (near) used.push_back(k);
                 }
         alignas(64) float v[kMaxBatch], vid[kMaxBatch];
         // In colouring order: the same minimum and id whichever cubes the batch met first.
-        std::sort(used, used + nUsed);
-        for (int u = 0; u < nUsed; ++u) {
-            const int k = used[u];
+        std::sort(used.begin(), used.end());
+        for (const int k : used) {
             if (id) {
                 parts[size_t(k)]->evalIdBatch(b, v, vid);
                 for (int i = 0; i < b.n; ++i) {
@@ -714,6 +711,7 @@ FieldPtr aperiodicField(std::shared_ptr<const AperiodicTiles> tiles, const std::
         if (first) { f->box = kb; first = false; } else f->box.expand(kb);
     }
     if (first) f->box = BBoxd(Vec3d(0), Vec3d(-1));
+    f->any = !first;
     return f;
 }
 

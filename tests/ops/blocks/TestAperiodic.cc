@@ -261,3 +261,14 @@ TEST(Aperiodic, BadParametersAreClearErrors)
     EXPECT_THROW(t.prepare({256}, task), ValueError);
 }
 
+
+TEST(Aperiodic, AFieldWithoutCubesIsEmptyAndMakesNoRegion)
+{
+    auto tiles = std::make_shared<AperiodicTiles>(quick());
+    Task task;
+    auto f = aperiodicField(tiles, {0, 0, 0}, {1, 1, 1}, task, [](int, int, int) { return false; });
+    EXPECT_GT(f->bounds().min()[0], f->bounds().max()[0]);
+    EXPECT_FLOAT_EQ(float(f->eval(Vec3d(5, 5, 5))), 2.5f); // the tile field's cap, s/4
+    const auto made = tiles->regionsMade();
+    EXPECT_EQ(made[0] + made[1] + made[2] + made[3], 0u);
+}
