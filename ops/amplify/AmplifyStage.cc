@@ -1,5 +1,6 @@
 #include "AmplifyStage.h"
 
+#include <rockvdb/blocks/BlocksStage.h>
 #include <rockvdb/core/Json.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
@@ -46,17 +47,7 @@ Schema<AmplifyParams> makeSchema()
     s.member(param("carve", ParamType::Real, "m", 0.0, Range::halfOpen(0, 10),
                  "Carving variant: blocks replace the terrain's skin where present, the terrain "
                  "cut back to the blocks dilated by this gap (0 = plain union)"), &P::carve);
-    s.member(param("aperiodic", ParamType::Bool, "", false, Range::any(),
-                 "Replicate the tile aperiodically (§6.4's future work): lattice vertices take "
-                 "one of --colours colours and each cube the blocks of its 8 corners' colouring, "
-                 "made from the tile's parameters as cubes need them (blocks cross cube faces "
-                 "whole; one tile, no strata)"),
-             &P::aperiodic);
-    s.member(param("colours", ParamType::Int, "", 2, Range::closed(2, 4),
-                 "Aperiodic: colours of the lattice vertices (K: a vertex region recurs with "
-                 "odds 1/K, an edge's 1/K^2, a face's 1/K^4; 3 makes nearly every cube's tile "
-                 "anew)"),
-             &P::colours);
+    blocks::addAperiodicRows(s, &P::aperiodic, &P::colours, " (one tile, no strata)");
     s.add(param("max-slope", ParamType::Real, "", rules.maxSlope, Range::closed(0, 1),
               "epsilon: replicate where |g.u_z| < this"),
           [](const P& p) { return json(p.rules.maxSlope); },

@@ -1,5 +1,6 @@
 #include "BlocksStage.h"
 
+#include <rockvdb/blocks/Aperiodic.h>
 #include <rockvdb/blocks/TileBuild.h>
 
 #include <rockvdb/core/Json.h>
@@ -184,6 +185,8 @@ Schema<BlocksParams> makeBlocksSchema()
     addTileRows(s, [](auto& p) -> auto& { return p.tile; });
     s.member(param("periods", ParamType::Ints, "", json::array({1, 1, 1}), Range::closed(1, 1024),
                  "Tile periods baked along x,y,z", 3), &BlocksParams::periods);
+    addAperiodicRows(s, &BlocksParams::aperiodic, &BlocksParams::colours,
+                     " (periods: the cubes baked from the lattice's origin)");
     addBakeRows(s, &BlocksParams::bake, defaultVoxelSize(), defaultHalfWidth());
     return s;
 }
@@ -265,9 +268,18 @@ BakeResult bakeTile(const std::shared_ptr<const BlockTile>& tile, const BlocksPa
     BakeSettings s = params.bake.settings();
     s.withAttribute = true;
     s.attributeName = "block_id";
-    TileFieldOptions opt;
-    opt.periods = params.periods;
-    BakeResult r = bake(*tileField(tile, opt), s, task.interrupter());
+    FieldPtr field;
+    if (params.aperiodic) {
+        // The cubes [0, periods) of the aperiodic tiling of the tile's parameters.
+        auto tiles = std::make_shared<const AperiodicTiles>(tile->params, params.colours);
+        const auto& P = params.periods;
+        field = aperiodicField(tiles, {0, 0, 0}, {P[0] - 1, P[1] - 1, P[2] - 1}, task);
+    } else {
+        TileFieldOptions opt;
+        opt.periods = params.periods;
+        field = tileField(tile, opt);
+    }
+    BakeResult r = bake(*field, s, task.interrupter());
     task.check();
     r.surface->insertMeta("rockvdb:tile", openvdb::StringMetadata(jsonText(tileToJson(*tile))));
     return r;
@@ -320,6 +332,10 @@ json tileTimes(const BlockTileStats& s)
 BlocksResult runBlocks(const BlocksParams& params, const BlocksInputs& inputs, Task& task)
 {
     blocksSchema().validate(params);
+    if (inputs.meshes && params.aperiodic) {
+        fail<ValueError>("blocks: block meshes are the periodic tile's; mesh them from a run "
+                         "without aperiodic");
+    }
     if (inputs.meshes && !params.bake.chunking.chunk.empty()) {
         fail<ValueError>("blocks: block meshes describe the whole tile; mesh them from a run "
                          "without chunk");

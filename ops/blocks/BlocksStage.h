@@ -33,8 +33,28 @@ struct BlocksParams
 
     BlockTileParams tile;
     std::array<int, 3> periods;
+    bool aperiodic;  ///< bake the corner-coloured cube tiling of the tile's parameters
+    int colours;     ///< its lattice vertices' colours
     BakeParams bake;
 };
+
+/// @brief The rows "aperiodic" and "colours" of a stage that tiles blocks (vdb_blocks,
+/// vdb_amplify): one definition, help and range for both.
+template<typename P>
+void addAperiodicRows(Schema<P>& s, bool P::*aperiodic, int P::*colours, const char* where)
+{
+    s.member(param("aperiodic", ParamType::Bool, "", false, Range::any(),
+                   std::string("Tile aperiodically (implicit blocks §6.4's future work): lattice "
+                               "vertices take one of --colours colours and each cube the blocks of "
+                               "its 8 corners' colouring, made from the tile's parameters as cubes "
+                               "need them; blocks cross cube faces whole") + where),
+             aperiodic);
+    s.member(param("colours", ParamType::Int, "", 2, Range::closed(2, 4),
+                   "Aperiodic: colours of the lattice vertices (K: a vertex region recurs with "
+                   "odds 1/K, an edge's 1/K^2, a face's 1/K^4; 3 makes nearly every cube's tile "
+                   "anew)"),
+             colours);
+}
 
 /// @brief The table of BlocksParams (tileSchema()'s rows, periods, the bake's rows).
 const Schema<BlocksParams>& blocksSchema();

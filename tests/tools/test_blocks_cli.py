@@ -85,6 +85,31 @@ def test_periods_repeat_the_tile(tmp_path):
     assert hi[0] - lo[0] == pytest.approx(hi1[0] - lo1[0] + 100, abs=2)  # one tile = 100 voxels
 
 
+def test_aperiodic_periods_are_cubes_of_the_coloured_tiling(tmp_path):
+    """--aperiodic: the cubes [0, periods) of the corner-coloured tiling, from the lattice's
+    origin, ids naming each region's content; the file's provenance replays it bit for bit, and
+    block meshes are refused in one line."""
+    out = tmp_path / "ap.vdb"
+    common = [tool("vdb_blocks"), "-q", "--type", "polyhedral", "--tile-size", "10", "--point-radius", "0.5",
+              "--voxel-size", "0.25", "--seed", "3"]
+    run(common + ["--aperiodic", "--periods", "2,1,1", "-o", str(out)], check=True)
+    s, ids = vdb.read(str(out), "surface"), vdb.read(str(out), "block_id")
+    assert s.gridClass == vdb.GridClass.LEVEL_SET
+    lo, hi = s.evalActiveVoxelBoundingBox()
+    assert 70 < hi[0] - lo[0] < 120  # two 10 m cubes (40 voxels each) and what straddles them
+    values = {int(it.value) for it in ids.citerOnValues() if it.value >= 0}
+    assert len({v // 8192 for v in values}) == 8  # every region of a cube tile shows
+    prov = json.loads(s.metadata["rockvdb:params"])
+    assert prov["aperiodic"] is True and prov["periods"] == [2, 1, 1]
+    (tmp_path / "p.json").write_text(json.dumps(prov))
+    again = tmp_path / "again.vdb"
+    run([tool("vdb_blocks"), "-q", "--params", str(tmp_path / "p.json"), "-o", str(again)], check=True)
+    assert_bitwise_equal(vdb.read(str(again), "block_id"), ids)
+    one_line_error(run(common + ["--aperiodic", "--meshes", str(tmp_path / "m.obj"), "-o", str(tmp_path / "o.vdb")]),
+                   2, "without aperiodic")
+    assert not (tmp_path / "o.vdb").exists() and not (tmp_path / "m.obj").exists()
+
+
 def write_png8_rgb(path, w, h):
     raw = b"".join(b"\x00" + b"".join(bytes([(x * 7) % 256, (y * 5) % 256, 9]) for x in range(w))
                    for y in range(h))
