@@ -457,17 +457,33 @@ FieldPtr aperiodicBlocks(const Field& terrain, std::shared_ptr<const blocks::Ape
     // copy: |f| / L bounds the distance from below (L: the ground's Lipschitz constant).
     const double reach = std::sqrt(3.0) * s + widen;
     const double lip = std::max(1.0, ground.lipschitz());
-    auto near = [&, s](int i, int j, int k) {
-        const Vec3d c = (Vec3d(i, j, k) + Vec3d(0.5)) * s + tiles->origin();
-        return std::abs(ground.eval(c)) / lip <= reach;
-    };
+    // Each cube's colouring, or -1 where no copy can qualify: decided once (a ground
+    // evaluation per cube), then looked up by the field and by every colouring's presence.
+    std::array<int, 3> dim;
+    for (int a = 0; a < 3; ++a) dim[size_t(a)] = hi[size_t(a)] - lo[size_t(a)] + 1;
+    std::vector<int32_t> keyOf(size_t(count), -1);
+    const Vec3d u = tiles->origin();
     Task quiet;
     Task& t = task ? *task : quiet;
-    return blocks::aperiodicField(tiles, lo, hi, t, near, [&](int key, const BlockTile& tile) {
-        return computePresence(terrain, tile, rules, stats, nullptr, 0, task, [&, key](int i, int j, int k) {
-            return tiles->cubeKey(i, j, k) == key && near(i, j, k);
-        });
+    parallelFor(t, keyOf.size(), 64, [&](size_t c) {
+        const int k = int(c % size_t(dim[2])), j = int(c / size_t(dim[2]) % size_t(dim[1]));
+        const int i = int(c / (size_t(dim[2]) * size_t(dim[1])));
+        const Vec3d centre = (Vec3d(lo[0] + i, lo[1] + j, lo[2] + k) + Vec3d(0.5)) * s + u;
+        if (std::abs(ground.eval(centre)) / lip <= reach) {
+            keyOf[c] = tiles->cubeKey(lo[0] + i, lo[1] + j, lo[2] + k);
+        }
     });
+    auto key = [&](int i, int j, int k) {
+        const int64_t x = int64_t(i) - lo[0], y = int64_t(j) - lo[1], z = int64_t(k) - lo[2];
+        if (x < 0 || y < 0 || z < 0 || x >= dim[0] || y >= dim[1] || z >= dim[2]) return -1;
+        return int(keyOf[size_t((x * dim[1] + y) * dim[2] + z)]);
+    };
+    return blocks::aperiodicField(
+        tiles, lo, hi, t, [&](int i, int j, int k) { return key(i, j, k) >= 0; },
+        [&](int k, const BlockTile& tile) {
+            return computePresence(terrain, tile, rules, stats, nullptr, 0, task,
+                                   [&, k](int i, int j, int l) { return key(i, j, l) == k; });
+        });
 }
 
 AmplifiedParts amplifiedParts(FieldPtr terrain,

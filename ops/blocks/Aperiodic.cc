@@ -251,7 +251,8 @@ bool boxesMeet(const Block& a, const Block& b, double pad)
 AperiodicTiles::AperiodicTiles(const BlockTileParams& params, int colours)
     : mParams(params), mColours(colours)
 {
-    require(colours >= 2 && colours <= 4, "blocks", "aperiodic colours", "in [2, 4]", colours);
+    require(colours >= kMinColours && colours <= kMaxColours, "blocks", "aperiodic colours", "in [2, 4]",
+            colours);
     if (!mParams.extraDiscs.empty()) {
         fail<ValueError>("blocks: aperiodic tiles take no user fractures (their coordinates are "
                          "those of one periodic tile)");

@@ -47,12 +47,16 @@
 namespace rockvdb {
 namespace blocks {
 
+/// The colours of the lattice vertices: the table rows' default and range (addAperiodicRows)
+/// and the constructor's check.
+constexpr int kDefaultColours = 2, kMinColours = 2, kMaxColours = 4;
+
 class AperiodicTiles
 {
 public:
     /// @brief The tile set of @a params (resolved and checked here). User fractures and
     /// authored blocks are tile coordinates of one periodic tile: refused (ValueError).
-    explicit AperiodicTiles(const BlockTileParams& params, int colours = 2);
+    explicit AperiodicTiles(const BlockTileParams& params, int colours = kDefaultColours);
 
     const BlockTileParams& params() const { return mParams; }
     double size() const { return mParams.tileSize; }

@@ -2,6 +2,7 @@
 // (vdb_blocks, rockvdb.block_tile and BlockTile.bake are thin wrappers over runBlocks).
 #pragma once
 
+#include <rockvdb/blocks/Aperiodic.h>
 #include <rockvdb/blocks/BlockTile.h>
 
 #include <rockvdb/core/Bake.h>
@@ -49,7 +50,7 @@ void addAperiodicRows(Schema<P>& s, bool P::*aperiodic, int P::*colours, const c
                                "its 8 corners' colouring, made from the tile's parameters as cubes "
                                "need them; blocks cross cube faces whole") + where),
              aperiodic);
-    s.member(param("colours", ParamType::Int, "", 2, Range::closed(2, 4),
+    s.member(param("colours", ParamType::Int, "", kDefaultColours, Range::closed(kMinColours, kMaxColours),
                    "Aperiodic: colours of the lattice vertices (K: a vertex region recurs with "
                    "odds 1/K, an edge's 1/K^2, a face's 1/K^4; 3 makes nearly every cube's tile "
                    "anew)"),
