@@ -124,47 +124,39 @@ double distanceTo(const Feature& F, const Vec3d& q)
     return std::sqrt(d2);
 }
 
-// The features that may place points at q: the core's feature G and, nested in it, the
-// nearest vertex of G within its reach, the nearest edge of G through that vertex within its
-// reach and the nearest face of G through those — a chain, so two features that may both
-// place points anywhere are always one inside the other.
-std::vector<Feature> chainAt(const Vec3d& q)
+// Is F in the chain of features that may place points at q? The chain: the core's feature G
+// and, nested in it, the nearest vertex of G within its reach, the nearest edge of G through
+// that vertex within its reach and the nearest face of G through those — so two features that
+// may both place points anywhere are always one inside the other. (Built only up to F's
+// dimension, without allocating: the sampler asks it of every candidate.)
+bool inChain(const Feature& F, const Vec3d& q)
 {
     const Feature G = coreOf(q);
-    std::vector<Feature> chain;
-    const Feature* last = nullptr;
-    for (int dim = 0; dim < dimOf(G.mask); ++dim) {
+    const int dimF = dimOf(F.mask), dimG = dimOf(G.mask);
+    if (dimF >= dimG) return F == G;
+    if (!contains(G, F)) return false;
+    Feature last{-1, {0, 0, 0}};
+    for (int dim = 0; dim <= dimF; ++dim) {
         Feature best{-1, {0, 0, 0}};
         double bestD = 1e300;
         for (int m = 0; m < 8; ++m) {
             if (dimOf(m) != dim || (m & ~G.mask) != 0) continue;
             for (int o = 0; o < 8; ++o) {
                 if ((o & ~(G.mask & ~m)) != 0) continue;
-                const Feature F{m, {G.base[0] + (o & 1), G.base[1] + ((o >> 1) & 1), G.base[2] + ((o >> 2) & 1)}};
-                if (last && !contains(F, *last)) continue;
-                if (coreDistance(F, q) > kReach[dim]) continue;
-                const double d = distanceTo(F, q);
-                if (d < bestD) { bestD = d; best = F; }
+                const Feature C{m, {G.base[0] + (o & 1), G.base[1] + ((o >> 1) & 1), G.base[2] + ((o >> 2) & 1)}};
+                if (last.mask >= 0 && !contains(C, last)) continue;
+                if (coreDistance(C, q) > kReach[dim]) continue;
+                const double d = distanceTo(C, q);
+                if (d < bestD) { bestD = d; best = C; }
             }
         }
-        if (best.mask >= 0) {
-            chain.push_back(best);
-            last = &chain.back();
-        }
+        if (best.mask >= 0) last = best;
     }
-    chain.push_back(G);
-    return chain;
+    return last == F;
 }
 
 // q (tile units) in the zone of the feature of @a mask at the origin.
-bool inZone(int mask, const Vec3d& q)
-{
-    const Feature F{mask, {0, 0, 0}};
-    for (const Feature& c : chainAt(q)) {
-        if (c == F) return true;
-    }
-    return false;
-}
+bool inZone(int mask, const Vec3d& q) { return inChain(Feature{mask, {0, 0, 0}}, q); }
 
 bool inCore(int mask, const Vec3d& q) { return coreOf(q) == Feature{mask, {0, 0, 0}}; }
 
@@ -327,33 +319,62 @@ void AperiodicTiles::make(const Key& key, Task& task) const
         }
     }
 
-    // 1. Points: Poisson in the zone's box, kept in the zone and away from the obstacles.
+    // 1. Points: Poisson in the zone's box (and 2r beyond: a sampler packs points against
+    //    its box's faces, which would become facets), kept in the zone and away from the
+    //    obstacles (where they are cut out, as a periodic tile's sampling would be).
     Vec3d lo, hi;
     coreBox(M, lo, hi);
     const double reach = kReach[dimOf(M)];
     lo -= Vec3d(reach);
     hi += Vec3d(reach);
+    for (int a = 0; a < 3; ++a) {
+        // Along the axes it spans, the zone stays within the feature: a point's core is a
+        // feature containing it.
+        if ((M >> a) & 1) {
+            lo[a] = std::max(lo[a], 0.0);
+            hi[a] = std::min(hi[a], 1.0);
+        }
+    }
     const Vec3d extent = (hi - lo) * s;
     const double side = std::max({extent[0], extent[1], extent[2]});
-    std::vector<Vec3d> sampled = poissonPeriodic(side, r, seed, kPoints);
-    task.check();
-    std::vector<Vec3d> pts;
+    // The obstacles near each cell of a grid over the box (their bounds padded by r).
+    const double cell = 2 * r;
+    const Vec3d gridLo = lo * s - Vec3d(cell);
+    int dims[3];
+    for (int a = 0; a < 3; ++a) dims[a] = int(std::ceil((extent[a] + 2 * cell) / cell));
+    std::vector<std::vector<int>> near(size_t(dims[0]) * size_t(dims[1]) * size_t(dims[2]));
+    auto cellOf = [&](double v, int a) { return std::clamp(int((v - gridLo[a]) / cell), 0, dims[a] - 1); };
+    auto slot = [&](int i, int j, int k) { return (size_t(i) * size_t(dims[1]) + size_t(j)) * size_t(dims[2]) + size_t(k); };
+    for (size_t n = 0; n < obstacles.size(); ++n) {
+        const Block& o = obstacles[n];
+        int a0[3], a1[3];
+        for (int a = 0; a < 3; ++a) {
+            a0[a] = cellOf(o.boundsMin[size_t(a)] - r, a);
+            a1[a] = cellOf(o.boundsMax[size_t(a)] + r, a);
+        }
+        for (int i = a0[0]; i <= a1[0]; ++i)
+            for (int j = a0[1]; j <= a1[1]; ++j)
+                for (int k = a0[2]; k <= a1[2]; ++k) near[slot(i, j, k)].push_back(int(n));
+    }
+    auto admissible = [&](const Vec3d& q) {
+        if (!inZone(M, q / s)) return false;
+        for (int n : near[slot(cellOf(q[0], 0), cellOf(q[1], 1), cellOf(q[2], 2))]) {
+            const Block& o = obstacles[size_t(n)];
+            bool close = true;
+            for (size_t a = 0; a < 3 && close; ++a) {
+                close = q[a] > o.boundsMin[a] - r && q[a] < o.boundsMax[a] + r;
+            }
+            if (close && outside(o, q) < 0.75 * r) return false;
+        }
+        return true;
+    };
     const double torus = side + 4 * nr;
     const Vec3d offset = Vec3d(2 * nr) - lo * s; // this frame → the torus [0, torus)³
-    for (const Vec3d& u : sampled) {
-        if (u[0] > extent[0] || u[1] > extent[1] || u[2] > extent[2]) continue;
-        const Vec3d q = lo * s + u;
-        if (!inZone(M, q / s)) continue;
-        bool clear = true;
-        for (const Block& o : obstacles) {
-            bool near = true;
-            for (size_t a = 0; a < 3 && near; ++a) {
-                near = q[a] > o.boundsMin[a] - r && q[a] < o.boundsMax[a] + r;
-            }
-            if (near && outside(o, q) < 0.75 * r) { clear = false; break; }
-        }
-        if (clear) pts.push_back(q + offset);
+    std::vector<Vec3d> pts;
+    for (const Vec3d& q : poissonBox(lo * s - Vec3d(2 * r), hi * s + Vec3d(2 * r), r, seed, kPoints)) {
+        if (admissible(q)) pts.push_back(q + offset);
     }
+    task.check();
 
     // 2. Its own discs: one tile's worth around the zone's centre, the set directions of the
     //    tile set's seed.

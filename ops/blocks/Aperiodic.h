@@ -29,7 +29,7 @@
 // Departures and limits (docs/blocks.md has the measures): fractures do not continue from
 // one region into another (each has its own discs); where a block reaches round a
 // sub-feature's block, or grows into the zone of a feature it does not know, the two
-// overlap and merge into one rock (no void, no fracture there: 23 % of the rock of seed 3's
+// overlap and merge into one rock (no void, no fracture there: 24 % of the rock of seed 3's
 // polyhedral 10 m set lies in two blocks); a region recurs with its colours, so block ids
 // still match at tile-period shifts a few per cent of the time (K = 2), against none at other
 // shifts (K = 3, 4 lower it, at the cost of making each cube's tile anew).

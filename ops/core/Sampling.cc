@@ -153,6 +153,90 @@ std::vector<Vec3d> poissonPeriodic(double size, double radius, uint64_t seed, ui
     return points;
 }
 
+std::vector<Vec3d> poissonBox(const Vec3d& lo, const Vec3d& hi, double radius, uint64_t seed,
+                              uint64_t stream, int attempts)
+{
+    require(std::isfinite(radius) && radius > 0, "poisson", "radius", "> 0", radius);
+    require(attempts >= 1 && attempts <= 1000, "poisson", "attempts", "in [1, 1000]", attempts);
+    const double cell = radius / std::sqrt(3.0); // a cell holds at most one point
+    int n[3];
+    double cells = 1;
+    for (int a = 0; a < 3; ++a) {
+        require(std::isfinite(lo[a]) && std::isfinite(hi[a]) && hi[a] >= lo[a], "poisson", "box extent",
+                "finite, hi >= lo", hi[a] - lo[a]);
+        n[a] = std::max(1, int(std::ceil((hi[a] - lo[a]) / cell)));
+        cells *= double(n[a]);
+    }
+    require(cells <= 64e6, "poisson", "box cells", "<= 64e6 (memory)", cells);
+    std::vector<int> grid(size_t(cells), -1);
+    auto index = [&](int i, int j, int k) { return (size_t(i) * size_t(n[1]) + size_t(j)) * size_t(n[2]) + size_t(k); };
+    auto coord = [&](const Vec3d& p, int a) { return std::clamp(int((p[a] - lo[a]) / cell), 0, n[a] - 1); };
+    const double r2 = radius * radius;
+    std::vector<Vec3d> points;
+    std::vector<int> active;
+    uint64_t counter = 0;
+    auto rnd = [&]() { return random::uniform(seed, stream, counter++); };
+    // Neighbour cells that may hold a point closer than r, nearest first (a rejected
+    // candidate, the common case, exits early).
+    std::vector<std::array<int, 3>> order;
+    {
+        std::vector<std::pair<int, std::array<int, 3>>> byDist;
+        for (int i = -2; i <= 2; ++i)
+            for (int j = -2; j <= 2; ++j)
+                for (int k = -2; k <= 2; ++k) {
+                    int gap2 = 0; // squared gap in cells between the two cells
+                    for (int o : {i, j, k}) gap2 += std::max(0, std::abs(o) - 1) * std::max(0, std::abs(o) - 1);
+                    if (gap2 < 3) byDist.push_back({i * i + j * j + k * k, {i, j, k}}); // gap < r = √3 cells
+                }
+        std::stable_sort(byDist.begin(), byDist.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+        for (const auto& e : byDist) order.push_back(e.second);
+    }
+    auto fits = [&](const Vec3d& p) {
+        for (int a = 0; a < 3; ++a) {
+            if (!(p[a] >= lo[a] && p[a] <= hi[a])) return false;
+        }
+        const int c[3] = {coord(p, 0), coord(p, 1), coord(p, 2)};
+        for (const auto& o : order) {
+            const int i = c[0] + o[0], j = c[1] + o[1], k = c[2] + o[2];
+            if (i < 0 || j < 0 || k < 0 || i >= n[0] || j >= n[1] || k >= n[2]) continue;
+            const int q = grid[index(i, j, k)];
+            if (q >= 0 && (points[size_t(q)] - p).lengthSqr() < r2) return false;
+        }
+        return true;
+    };
+    auto add = [&](const Vec3d& p) {
+        grid[index(coord(p, 0), coord(p, 1), coord(p, 2))] = int(points.size());
+        active.push_back(int(points.size()));
+        points.push_back(p);
+    };
+    {
+        const double u = rnd(), v = rnd(), t = rnd(); // in this order (not argument order)
+        add(Vec3d(lo[0] + u * (hi[0] - lo[0]), lo[1] + v * (hi[1] - lo[1]), lo[2] + t * (hi[2] - lo[2])));
+    }
+    while (!active.empty()) {
+        const size_t pick = std::min(active.size() - 1, size_t(rnd() * double(active.size())));
+        const Vec3d centre = points[size_t(active[pick])];
+        bool placed = false;
+        for (int a = 0; a < attempts && !placed; ++a) {
+            // Uniform in the spherical shell [r, 2r] (uniform in volume).
+            const double z = 2.0 * rnd() - 1.0, phi = 2.0 * M_PI * rnd();
+            const double s = std::sqrt(std::max(0.0, 1.0 - z * z));
+            const double rr = radius * std::cbrt(1.0 + 7.0 * rnd());
+            const Vec3d p(centre[0] + rr * s * std::cos(phi), centre[1] + rr * s * std::sin(phi),
+                          centre[2] + rr * z);
+            if (fits(p)) {
+                add(p);
+                placed = true;
+            }
+        }
+        if (!placed) {
+            active[pick] = active.back();
+            active.pop_back();
+        }
+    }
+    return points;
+}
+
 std::vector<Vec3d> dartsPeriodic(double size, double spacing, int count, uint64_t seed,
                                  uint64_t stream)
 {

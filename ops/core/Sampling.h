@@ -24,6 +24,14 @@ Vec3d periodicDelta(const Vec3d& a, const Vec3d& b, double size);
 std::vector<Vec3d> poissonPeriodic(double size, double radius, uint64_t seed, uint64_t stream,
                                    int attempts = 30);
 
+/// @brief Poisson-sphere sampling of the box [lo, hi] (Bridson's algorithm, no wrap-around):
+/// no two points closer than @a radius, and no room left for another after @a attempts
+/// candidates around every point. Points pack against the box's faces: sample a margin
+/// beyond where they are used.
+/// @throw ValueError unless 0 < radius and the box holds at most ~64 M cells of radius/√3.
+std::vector<Vec3d> poissonBox(const Vec3d& lo, const Vec3d& hi, double radius, uint64_t seed,
+                              uint64_t stream, int attempts = 30);
+
 /// @brief Dart throwing in the periodic cube: up to @a count uniform points at least
 /// @a spacing apart (periodic), giving up after 200·count rejected darts.
 std::vector<Vec3d> dartsPeriodic(double size, double spacing, int count, uint64_t seed,

@@ -134,6 +134,47 @@ TEST(Sampling, PoissonPeriodicKeepsItsRadiusAcrossFaces)
     EXPECT_LT(worst, 2 * r);
 }
 
+TEST(Sampling, PoissonBoxIsMaximalInItsBoxAtThePeriodicDensity)
+{
+    // A flat box (the aperiodic regions sample such boxes round their zones).
+    const double r = 0.3;
+    const Vec3d lo(-1, 2, 0.5), hi(7, 8, 2.5);
+    const auto pts = poissonBox(lo, hi, r, 5, 1);
+    for (size_t i = 0; i < pts.size(); ++i) {
+        for (int a = 0; a < 3; ++a) {
+            ASSERT_GE(pts[i][a], lo[a]);
+            ASSERT_LE(pts[i][a], hi[a]);
+        }
+        for (size_t j = i + 1; j < pts.size(); ++j) ASSERT_GE((pts[i] - pts[j]).length(), r);
+    }
+    // Inside (a margin of 2r off its faces, where points pack), the density of the periodic
+    // sampler at the same radius.
+    size_t core = 0;
+    for (const Vec3d& p : pts) {
+        bool in = true;
+        for (int a = 0; a < 3; ++a) in = in && p[a] > lo[a] + 2 * r && p[a] < hi[a] - 2 * r;
+        core += in;
+    }
+    const double density = double(poissonPeriodic(6.0, r, 5, 1).size()) / 216.0;
+    const double volume = (8 - 4 * r) * (6 - 4 * r) * (2 - 4 * r);
+    EXPECT_NEAR(double(core) / volume, density, 0.1 * density);
+    // Maximal: no probe point of the box farther than 2r from every sample.
+    double worst = 0;
+    for (double x = lo[0] + 0.05; x < hi[0]; x += 0.1)
+        for (double y = lo[1] + 0.05; y < hi[1]; y += 0.1)
+            for (double z = lo[2] + 0.05; z < hi[2]; z += 0.1) {
+                double nearest = 1e9;
+                for (const auto& p : pts) nearest = std::min(nearest, (Vec3d(x, y, z) - p).length());
+                worst = std::max(worst, nearest);
+            }
+    EXPECT_LT(worst, 2 * r);
+    // Deterministic; another seed gives other points.
+    EXPECT_EQ(poissonBox(lo, hi, r, 5, 1), pts);
+    EXPECT_NE(poissonBox(lo, hi, r, 6, 1), pts);
+    EXPECT_THROW(poissonBox(lo, Vec3d(7, 1, 1.5), r, 5, 1), ValueError);
+    EXPECT_THROW(poissonBox(lo, hi, 0.0, 5, 1), ValueError);
+}
+
 TEST(Blocks, TileFieldIsPeriodic)
 {
     initialize();
