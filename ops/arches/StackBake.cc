@@ -350,23 +350,57 @@ openvdb::FloatGrid::Ptr materialGrid(const std::vector<std::pair<Material, const
     // Inside tiles are not material voxels: keep only the leaves' active voxels.
     openvdb::tools::pruneInactive(ids->tree());
     const auto& xf = surface.transform();
+    const double h0 = 0.5 * xf.voxelSize()[0];
     std::vector<openvdb::FloatTree::LeafNodeType*> list;
     ids->tree().getNodes(list);
+    // The material with the most volume in the cube of half size h (ties to the lower id), and
+    // that cube's share of material.
+    auto vote = [&](const Vec3d& q, double h, double& share) {
+        double bestV = -1, total = 0;
+        float id = -1.0f;
+        for (const auto& [m, sk] : parts) {
+            const double v = sk->volume(q, h);
+            total += v;
+            if (v > bestV) {
+                bestV = v;
+                id = float(unsigned(m));
+            }
+        }
+        share = total / (8 * h * h * h);
+        return id;
+    };
     parallelFor(task, list.size(), 8, [&](size_t l) {
         auto& leaf = *list[l];
-        const auto* phi = surface.tree().probeConstLeaf(leaf.origin());
+        const auto* phiLeaf = surface.tree().probeConstLeaf(leaf.origin());
+        auto acc = surface.getConstAccessor();
         for (auto it = leaf.beginValueOn(); it; ++it) {
-            const Vec3d p = xf.indexToWorld(it.getCoord());
-            const double half = sigma + (phi ? std::abs(double(phi->getValue(it.pos()))) : 0.0);
-            double bestV = -1;
+            const openvdb::Coord c = it.getCoord();
+            const Vec3d p = xf.indexToWorld(c);
+            const double phi = phiLeaf ? double(phiLeaf->getValue(it.pos())) : 0.0;
+            const double reach = sigma + std::abs(phi);
+            // The layer that is there: from the surface point nearest to p (p − φ n), cubes
+            // of half size h = voxel/2, 1, 2 … voxels just under the surface (centred h deep
+            // along −n), the first at least half full of material. A volume vote round p
+            // (the former rule, half size σ + |φ|) would give a layer thinner than σ to the
+            // material beneath it: a 0.3 m sand cover with σ = 0.6 m came out as bedrock.
+            Vec3d g(0.0);
+            for (int a = 0; a < 3; ++a) {
+                openvdb::Coord u = c, d = c;
+                u[a] += 1;
+                d[a] -= 1;
+                g[a] = double(acc.getValue(u)) - double(acc.getValue(d));
+            }
             float id = -1.0f;
-            for (const auto& [m, sk] : parts) {
-                const double v = sk->volume(p, half);
-                if (v > bestV) {
-                    bestV = v;
-                    id = float(unsigned(m));
+            double share = 0;
+            if (g.length() > 1e-6) {
+                const Vec3d n = g.unit();
+                const Vec3d surfacePoint = p - n * phi;
+                for (double h = h0; h <= reach && id < 0; h *= 2) {
+                    const float pick = vote(surfacePoint - n * h, h, share);
+                    if (share >= 0.5) id = pick;
                 }
             }
+            if (id < 0) id = vote(p, reach, share); // no clear layer under the surface
             leaf.setValueOnly(it.pos(), id);
         }
     });

@@ -66,8 +66,11 @@ openvdb::FloatGrid::Ptr bakeSkeleton(const Skeleton& skeleton, const SkeletonBak
                                      Task& task, BakeStats* stats = nullptr);
 
 /// @brief 'material' (float ids, background −1) over the active voxels of @a surface: the
-/// material among @a mask's with the most volume in the cube of half size σ + |φ| around each
-/// voxel (the cube reaches the surface; ties to the lower id).
+/// visible material, the layer just under the surface point nearest to each voxel — the
+/// material among @a mask's with the most volume in the first of the cubes of half size
+/// h = voxel/2, 1, 2 … voxels centred h under that point along the normal that is at least
+/// half full (ties to the lower id); where none is within σ + |φ|, the most volume in the cube
+/// of half size σ + |φ| round the voxel. A layer one voxel thick shows.
 openvdb::FloatGrid::Ptr materialGrid(const Stacks& stacks, MaterialMask mask, double sigma,
                                      const openvdb::FloatGrid& surface, Task& task);
 /// @brief The same from the skeletons of single materials already built (in id order).

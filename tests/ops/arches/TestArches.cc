@@ -629,3 +629,62 @@ TEST(ArchesStage, HeightfieldAndSolidTerrains)
     EXPECT_EQ(l[1].material, Material::Bedrock);
     EXPECT_NEAR(l[0].thickness * 0.01, 2.0, 0.05); // the opening: floor 0 to the capsule's top at 2 m
 }
+
+TEST(StackBake, TheMaterialIsTheLayerAtTheSurfaceEvenOneVoxelThickOnSlopesAndOverhangs)
+{
+    // A 0.3 m layer of each ground material over another (σ = 0.6 m, 0.25 m voxels: the layer
+    // is thinner than σ, one voxel and a bit thick), on a 27° slope and under an overhang
+    // (issue 39: a volume vote in a cube of half size σ + |φ| gave the material beneath).
+    Task task;
+    const double cell = 0.5, t = 0.3, voxel = 0.25;
+    const int n = 40; // 20 m
+    const std::vector<std::pair<Material, Material>> cases = {
+        {Material::Sand, Material::Bedrock}, {Material::Rocks, Material::Bedrock}, {Material::Bedrock, Material::Sand}};
+    for (const auto& [top, base] : cases) {
+        const char* name = materialName(top);
+        // x < 10 m: the slope z = 2 + x / 2 topped by the layer; x >= 10 m: ground at 2 m and,
+        // over 12 <= x < 18, 4 <= y < 16, an overhang whose underside (4 m up) is the layer.
+        const Stacks st = Stacks::build(geometry(n, n, cell), [&, top = top, base = base](int i, int j, std::vector<Layer>& layers) {
+            const double x = (i + 0.5) * cell, y = (j + 0.5) * cell;
+            auto q = [](double m) { return uint32_t(std::lround(m / 0.01)); };
+            if (x < 10) {
+                const double h = 2 + 0.5 * x;
+                layers.push_back(Layer{base, q(h - t)});
+                layers.push_back(Layer{top, q(t)});
+                return;
+            }
+            layers.push_back(Layer{base, q(2)});
+            if (x >= 12 && x < 18 && y >= 4 && y < 16) {
+                layers.push_back(Layer{Material::Air, q(2)});
+                layers.push_back(Layer{top, q(t)});
+                layers.push_back(Layer{base, q(2 - t)});
+            }
+        }, task);
+        SkeletonBake b;
+        b.sigma = 0.6;
+        b.voxelSize = voxel;
+        b.kernel = Kernel::Interpolate;
+        b.reach = kDefaultReachCells * cell;
+        auto surface = bakeSkeleton(Skeleton(st, kGroundMask), b, task);
+        auto ids = materialGrid(st, kGroundMask, b.sigma, *surface, task);
+        auto acc = ids->getConstAccessor();
+        size_t slope = 0, slopeRight = 0, under = 0, underRight = 0;
+        for (auto it = surface->cbeginValueOn(); it; ++it) {
+            if (std::abs(*it) > 0.5 * voxel) continue; // the voxels at the surface
+            const Vec3d p = surface->indexToWorld(it.getCoord());
+            const bool right = acc.getValue(it.getCoord()) == float(unsigned(top));
+            if (p[0] > 1.5 && p[0] < 8.5 && p[1] > 1.5 && p[1] < 18.5 && p[2] > 2.5) {
+                ++slope;
+                slopeRight += right;
+            }
+            if (p[0] > 13 && p[0] < 17 && p[1] > 5 && p[1] < 15 && std::abs(p[2] - 4) < 0.2) {
+                ++under;
+                underRight += right;
+            }
+        }
+        ASSERT_GT(slope, 500u) << name;
+        ASSERT_GT(under, 200u) << name;
+        EXPECT_GE(double(slopeRight) / slope, 0.95) << name << " on the slope";
+        EXPECT_GE(double(underRight) / under, 0.95) << name << " under the overhang";
+    }
+}
