@@ -116,11 +116,14 @@ Schema<ArchesParams> makeArchesSchema()
                  "around every band voxel (§6), for shaders to blend textures by"),
         &P::weights);
     row(s, param("rock-tiles", ParamType::Text, "", "", Range::any(),
-                 "A rock tile set (.vdb of vdb_rockpile tiles): its rocks are instanced where their seeds fall "
-                 "in rock layers and united with the ground (§5; \"\" = rock layers stay a material surface)"),
+                 "A rock tile set (.vdb of vdb_rockpile tiles): its rocks are instanced where at least "
+                 "rock-threshold of their anchors (seed and solid voxels) lie in rock layers, buried ones dropped, "
+                 "and united with the ground (§5 keeps a rock whose seed lies in a rock layer: half a rock could "
+                 "then stand out of a thin layer; \"\" = rock layers stay a material surface)"),
         &P::rockTiles);
     row(s, param("rock-threshold", ParamType::Real, "", 0.5, Range::openClosed(0, 1),
-                 "Share of a rock's anchors that must lie in rock layers for it to be instanced"),
+                 "Share of a rock's anchors (its seed and solid voxels) that must lie in rock layers for it to "
+                 "be instanced"),
         &P::rockThreshold);
     row(s, param("material-ids", ParamType::Ints, "", json::array({int(Material::Sand), int(Material::Bedrock),
                                                                     int(Material::Rocks)}),
