@@ -79,9 +79,12 @@ std::map<std::string, Tool> makeTools()
          numberKey("z", nullptr, Range::any(), "Drop into the room (between bedrock) holding this height, e.g. a cave's "
                                              "floor (m; default: on each stack's top)")}};
     t["erode"] = {
-        "Turn bedrock inside a sphere into granular material, then stabilise (§4.4)",
-        {key("center", "xyz", nullptr, "[x, y, z] of the sphere (m)", true),
+        "Turn bedrock inside a sphere, or the tube a sphere sweeps along a stroke, into granular material, "
+        "then stabilise (§4.4)",
+        {key("center", "xyz", nullptr, "[x, y, z] of the sphere (m; or points)"),
          numberKey("radius", nullptr, Range::above(0), "R: the sphere's radius (m)", true),
+         key("points", "points", nullptr, "A stroke [[x, y, z], ...] (m): the region is the sphere swept along its "
+                                          "segments (or center)"),
          choiceKey("mode", {"surface", "collapse"}, "surface: the bedrock within depth of an exposed face turns to sand; "
                                                  "collapse: all the bedrock in the sphere turns to rocks and sand"),
          numberKey("depth", nullptr, Range::above(0), "surface mode: thickness eroded below each exposed face (m; "
@@ -589,25 +592,96 @@ void deposit(Stacks& stacks, const json& e, size_t index, Touched& touched, Edit
     });
 }
 
+// The heights where the vertical line through (x, y) lies within R of the segment [a, b] (a
+// capsule; a == b: a sphere): one interval, as the capsule is convex. Its ends are the least
+// z_c(t) − h(t) and the greatest z_c(t) + h(t) over the centres c(t) = a + t (b − a) within R
+// of the line in xy, h(t) = √(R² − d_xy(t)²) concave, so each end is one ternary search.
+bool capsuleSpan(const Vec3d& a, const Vec3d& b, double R, double x, double y, double& lo, double& hi)
+{
+    const Vec3d d = b - a;
+    // d_xy(t)² = A t² + B t + C
+    const double ex = a[0] - x, ey = a[1] - y;
+    const double A = d[0] * d[0] + d[1] * d[1], B = 2 * (ex * d[0] + ey * d[1]), C = ex * ex + ey * ey;
+    // The t in [0, 1] with d_xy(t) < R: an interval round the nearest t.
+    double t0 = 0, t1 = 1;
+    if (A > 1e-18) {
+        const double disc = B * B - 4 * A * (C - R * R);
+        if (disc <= 0) return false;
+        const double sq = std::sqrt(disc);
+        t0 = std::max(0.0, (-B - sq) / (2 * A));
+        t1 = std::min(1.0, (-B + sq) / (2 * A));
+        if (t0 >= t1) return false;
+    } else if (C >= R * R) {
+        return false;
+    }
+    auto half = [&](double t) { return std::sqrt(std::max(0.0, R * R - (A * t * t + B * t + C))); };
+    auto extreme = [&](double sign) { // sign −1: min of z − h; +1: max of z + h
+        double u = t0, v = t1;
+        for (int k = 0; k < 100 && v - u > 1e-12; ++k) {
+            const double m1 = u + (v - u) / 3, m2 = v - (v - u) / 3;
+            const double f1 = sign * (a[2] + m1 * d[2]) + half(m1), f2 = sign * (a[2] + m2 * d[2]) + half(m2);
+            if (f1 < f2) u = m1;
+            else v = m2;
+        }
+        const double t = 0.5 * (u + v);
+        return a[2] + t * d[2] + sign * half(t);
+    };
+    lo = extreme(-1.0);
+    hi = extreme(1.0);
+    return hi > lo;
+}
+
 void erode(Stacks& stacks, const json& e, size_t index, Touched& touched, EditStats& st)
 {
     const auto& g = stacks.geometry();
-    const auto c = vec(e.at("center"), 3, "center", index, "erode");
-    requireInside(g, c[0], c[1], index, "erode", "center");
+    // The region: the sphere at center, or swept along the stroke's segments (§4.4: "erosion
+    // is performed by sweeping the erosion tool over the surface").
+    std::vector<Vec3d> stroke;
+    if (e.contains("center")) {
+        const auto c = vec(e.at("center"), 3, "center", index, "erode");
+        requireInside(g, c[0], c[1], index, "erode", "center");
+        stroke.emplace_back(c[0], c[1], c[2]);
+    } else {
+        const json& points = e.at("points");
+        for (size_t q = 0; q < points.size(); ++q) {
+            const auto v = vec(points[q], 3, "points", index, "erode");
+            requireInside(g, v[0], v[1], index, "erode", ("points[" + std::to_string(q) + "]").c_str());
+            stroke.emplace_back(v[0], v[1], v[2]);
+        }
+    }
     const double R = number(e, "radius", index, "erode");
     const bool collapse = e.at("mode") == "collapse";
     const double rho = number(e, "rho", index, "erode");
     const double depth = e.contains("depth") ? number(e, "depth", index, "erode") : g.cell;
     const uint64_t dq = std::max<uint64_t>(1, uint64_t(std::llround(depth / g.quantum)));
+    Vec3d bmin = stroke[0], bmax = stroke[0];
+    for (const Vec3d& v : stroke) {
+        bmin = minComponent(bmin, v);
+        bmax = maxComponent(bmax, v);
+    }
     int i0, j0, i1, j1;
-    axisWindow(g, c[0], c[1], R, i0, j0, i1, j1);
+    axisWindow(g, 0.5 * (bmin[0] + bmax[0]), 0.5 * (bmin[1] + bmax[1]),
+               R + 0.5 * std::max(bmax[0] - bmin[0], bmax[1] - bmin[1]), i0, j0, i1, j1);
     st.stacks += stacks.edit(i0, j0, i1, j1, [&](int i, int j, std::vector<Layer>& layers) {
         const double x = g.x0 + (i + 0.5) * g.cell, y = g.y0 + (j + 0.5) * g.cell;
-        const double d2 = (x - c[0]) * (x - c[0]) + (y - c[1]) * (y - c[1]);
-        if (d2 >= R * R) return false;
-        const double half = std::sqrt(R * R - d2);
-        const uint64_t lo = quantaAt(g, c[2] - half), hi = quantaAt(g, c[2] + half);
-        if (hi <= lo) return false;
+        // The region on this stack's axis: the union of the segments' spans, in quanta.
+        std::vector<std::pair<uint64_t, uint64_t>> region;
+        for (size_t q = 0; q < std::max<size_t>(1, stroke.size() - 1); ++q) {
+            double zlo, zhi;
+            const Vec3d& a = stroke[q];
+            const Vec3d& b = stroke[std::min(q + 1, stroke.size() - 1)];
+            if (!capsuleSpan(a, b, R, x, y, zlo, zhi)) continue;
+            const uint64_t qa = quantaAt(g, zlo), qb = quantaAt(g, zhi);
+            if (qa < qb) region.emplace_back(qa, qb);
+        }
+        if (region.empty()) return false;
+        std::sort(region.begin(), region.end());
+        std::vector<std::pair<uint64_t, uint64_t>> spans;
+        for (const auto& r : region) {
+            if (!spans.empty() && r.first <= spans.back().second) spans.back().second = std::max(spans.back().second, r.second);
+            else spans.push_back(r);
+        }
+        const uint64_t lo = spans.front().first, hi = spans.back().second;
         // The bedrock within the sphere (collapse), or within depth of an exposed face (surface).
         std::vector<std::pair<uint64_t, uint64_t>> eroded; // [a, b) quanta
         uint64_t z = 0;
@@ -624,12 +698,13 @@ void erode(Stacks& stacks, const json& e, size_t index, Touched& touched, EditSt
             if (openAbove) eroded.emplace_back(b > dq ? std::max(a, b - dq) : a, b);
             if (openBelow) eroded.emplace_back(a, std::min(b, a + dq));
         }
-        // Clip to the sphere, sort and merge (a thin layer's top and underside skins overlap).
+        // Clip to the region, sort and merge (a thin layer's top and underside skins overlap).
         std::vector<std::pair<uint64_t, uint64_t>> merged;
-        for (auto [a, b] : eroded) {
-            a = std::max(a, lo);
-            b = std::min(b, hi);
-            if (a < b) merged.emplace_back(a, b);
+        for (const auto& [ea, eb] : eroded) {
+            for (const auto& [ra, rb] : spans) {
+                const uint64_t a = std::max(ea, ra), b = std::min(eb, rb);
+                if (a < b) merged.emplace_back(a, b);
+            }
         }
         if (merged.empty()) return false;
         std::sort(merged.begin(), merged.end());
@@ -815,6 +890,7 @@ void validateEdit(const json& e, size_t index)
             bad(index, tool, "node_profiles applies to profiles");
         }
     } else if (tool == "erode") {
+        if (e.contains("center") == e.contains("points")) bad(index, tool, "give center or points (a stroke), one of them");
         const bool collapse = full.at("mode") == "collapse";
         if (e.contains("rho") && !collapse) bad(index, tool, "rho applies to mode collapse");
         if (e.contains("depth") && collapse) bad(index, tool, "depth applies to mode surface");

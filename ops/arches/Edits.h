@@ -16,10 +16,11 @@
 //   deposit — "material" sand | rocks, "center" [x, y], "radius" R, "amount" h (m at the
 //             centre), "profile" smooth | flat, optional "z": drop on each stack's ground top
 //             (default) or into the room containing height z (a cave's floor).
-//   erode   — "center" [x, y, z], "radius" R (a sphere), "mode" surface | collapse: surface
-//             turns the bedrock within "depth" of an exposed face (a top or an overhang's
-//             underside) inside the sphere into sand; collapse turns all the bedrock inside
-//             it into rocks (share "rho") and sand. Bedrock removed = granular added, exactly.
+//   erode   — "center" [x, y, z] or a stroke "points", "radius" R (the sphere, or the tube it
+//             sweeps along the stroke's segments), "mode" surface | collapse: surface turns the
+//             bedrock within "depth" of an exposed face (a top or an overhang's underside)
+//             inside the region into sand; collapse turns all the bedrock inside it into rocks
+//             (share "rho") and sand. Bedrock removed = granular added, exactly.
 //   stabilize — a global stabilisation (what Stacks.stabilize() records after edits).
 #pragma once
 

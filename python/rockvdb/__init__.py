@@ -1280,11 +1280,16 @@ def _edit_method(tool):
     P = inspect.Parameter
     params = [P("self", P.POSITIONAL_OR_KEYWORD)]
     lines = [spec["help"] + " (an edit; see Stacks.edit).", "", "Keys:"]
-    required = [k for k in spec["keys"] if k["required"]]
-    optional = [k for k in spec["keys"] if k not in required]
-    for k in required:
-        params.append(P(k["name"], P.POSITIONAL_OR_KEYWORD))
-        lines.append(f"  {k['name']} (required): {k['help']}.")
+    # Positional: the keys up to the last required one, in the table's order (erode's center
+    # may give way to points: it and what follows it then default to None, the table's own
+    # check naming what is missing); the rest keyword-only.
+    last = max((n for n, k in enumerate(spec["keys"]) if k["required"]), default=-1)
+    positional, optional = spec["keys"][:last + 1], spec["keys"][last + 1:]
+    defaulted = False
+    for k in positional:
+        defaulted = defaulted or not k["required"]
+        params.append(P(k["name"], P.POSITIONAL_OR_KEYWORD, **({"default": None} if defaulted else {})))
+        lines.append(f"  {k['name']} ({'required' if k['required'] else 'optional'}): {k['help']}.")
     for k in optional:
         params.append(P(k["name"], P.KEYWORD_ONLY, default=None))
         shown = "" if k["default"] is None else f"; default {k['default']!r}"

@@ -283,7 +283,8 @@ EDITS = [{"tool": "sculpt", "mode": "carve", "points": [[6.0, 5.0, 12.0], [7.0, 
          {"tool": "crack", "nodes": [[3.0, 3.0], [10.0, 6.0], [16.0, 4.0]],
           "profile": [[-1.0, 1.0], [1.0, 1.0], [0.0, -3.0]]},
          {"tool": "tunnel", "nodes": [[2.0, 11.0, 9.0], [18.0, 11.0, 9.5]],
-          "profile": [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]]}]
+          "profile": [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]]},
+         {"tool": "erode", "points": [[3.0, 14.0, 12.0], [12.0, 15.0, 12.0]], "radius": 1.5}]
 
 
 def test_edits_from_python_replay_through_the_cli_and_continue_from_stacks(tmp_path):
@@ -295,9 +296,11 @@ def test_edits_from_python_replay_through_the_cli_and_continue_from_stacks(tmp_p
              s.deposit((4.0, 9.0), 2.5, 1.0),
              s.erode((14.0, 7.0, 12.0), 2.0, mode="collapse", rho=0.6),
              s.crack(EDITS[3]["nodes"], profile=EDITS[3]["profile"]),
-             s.tunnel(EDITS[4]["nodes"], profile=EDITS[4]["profile"])]
+             s.tunnel(EDITS[4]["nodes"], profile=EDITS[4]["profile"]),
+             s.erode(points=EDITS[5]["points"], radius=1.5)]
     assert s.params["edits"] == EDITS
-    assert [e["tool"] for e in s.edit_stats] == ["sculpt", "deposit", "erode", "crack", "tunnel"]
+    assert [e["tool"] for e in s.edit_stats] == ["sculpt", "deposit", "erode", "crack", "tunnel", "erode"]
+    assert -stats[5]["bedrock_quanta"] == stats[5]["sand_quanta"] > 0  # a stroke's band (surface mode)
     assert stats[3]["bedrock_quanta"] < 0 and stats[4]["bedrock_quanta"] < 0
     assert stats[0]["bedrock_quanta"] < 0 and stats[1]["sand_quanta"] > 0
     assert -stats[2]["bedrock_quanta"] == stats[2]["sand_quanta"] + stats[2]["rocks_quanta"] > 0
@@ -309,7 +312,7 @@ def test_edits_from_python_replay_through_the_cli_and_continue_from_stacks(tmp_p
     (tmp_path / "p.json").write_text(json.dumps(prov))
     run([AR, "-q", "--params", str(tmp_path / "p.json"), "-o", str(tmp_path / "cli.vdb")], check=True)
     same_grids(tmp_path / "cli.vdb", grids)
-    # Saved after the first edit, continued in the CLI with the other two.
+    # Saved after the first edit, continued in the CLI with the others.
     first = rockvdb.Stacks.from_scene(scene, edits=EDITS[:1])
     first.save(tmp_path / "first.stacks")
     (tmp_path / "more.json").write_text(json.dumps(EDITS[1:]))
@@ -327,6 +330,7 @@ def test_bad_edits_are_one_line_naming_the_edit_and_change_nothing(tmp_path):
     for call, needle in [(lambda: s.sculpt([(1, 1, 5)], 0), "edits[0] (sculpt): radius must be > 0"),
                          (lambda: s.deposit((500, 1), 2, 1), "outside the terrain"),
                          (lambda: s.erode((5, 5, 12), 2, rho=0.5), "rho applies to mode collapse"),
+                         (lambda: s.erode(radius=2), "give center or points (a stroke), one of them"),
                          (lambda: s.edit({"tool": "smash"}), "unknown tool 'smash'")]:
         with pytest.raises(ValueError) as e:
             call()

@@ -303,7 +303,9 @@ TEST(Edits, DefaultsRangesAndValuesComeFromTheToolTable)
     const auto strength = tools.at("sculpt").at("keys")[4];
     ASSERT_EQ(strength.at("name"), "strength");
     EXPECT_EQ(strength.at("range"), "> 0");
-    EXPECT_EQ(tools.at("erode").at("keys")[4].at("range"), "in [0, 1]");
+    const auto rho = tools.at("erode").at("keys")[5];
+    ASSERT_EQ(rho.at("name"), "rho");
+    EXPECT_EQ(rho.at("range"), "in [0, 1]");
     // A given key is kept.
     EXPECT_EQ(withDefaults({{"tool", "erode"}, {"mode", "collapse"}}).at("mode"), "collapse");
 }
@@ -559,4 +561,53 @@ TEST(Crack, AStepFarTooSmallIsRefusedBeforeAllocating)
         EXPECT_NE(std::string(x.what()).find("use a larger step"), std::string::npos) << x.what();
     }
     EXPECT_TRUE(s == s0);
+}
+
+TEST(Erode, AStrokeErodesAContinuousBandAlongItsSegmentsAndNothingElse)
+{
+    // Flat bedrock at 5 m (30 x 20 m); a stroke of three points 10 m apart at the ground's
+    // height, R = 1 m: spheres at the points alone would leave 8 m gaps between them.
+    Task task;
+    Stacks s = Stacks::build(geometry(60, 40, 0.5), [](int, int, std::vector<Layer>& layers) {
+        layers.push_back(Layer{Material::Bedrock, 500});
+    }, task);
+    const std::vector<Vec3d> stroke = {{5, 10, 5}, {15, 10, 5}, {25, 13, 5}};
+    json points = json::array();
+    for (const Vec3d& p : stroke) points.push_back({p[0], p[1], p[2]});
+    const double R = 1.0;
+    const EditStats e = applyEdit(s, {{"tool", "erode"}, {"points", points}, {"radius", R}, {"depth", 0.3}}, 0,
+                                  context(), task);
+    EXPECT_EQ(-e.bedrock, e.sand);
+    EXPECT_EQ(e.rocks, 0);
+    auto distance = [&](double x, double y) { // to the stroke, in xy
+        double best = 1e9;
+        for (size_t q = 0; q + 1 < stroke.size(); ++q) {
+            const Vec3d a = stroke[q], b = stroke[q + 1];
+            const double dx = b[0] - a[0], dy = b[1] - a[1];
+            const double t = std::clamp(((x - a[0]) * dx + (y - a[1]) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
+            best = std::min(best, std::hypot(x - a[0] - t * dx, y - a[1] - t * dy));
+        }
+        return best;
+    };
+    size_t band = 0;
+    for (int j = 0; j < 40; ++j)
+        for (int i = 0; i < 60; ++i) {
+            const double x = (i + 0.5) * 0.5, y = (j + 0.5) * 0.5, d = distance(x, y);
+            const double top = topOf(s, i, j, Material::Bedrock);
+            if (d < 0.8 * R) { // the sphere reaches 0.6 m below the ground there: the whole depth
+                ++band;
+                ASSERT_NEAR(top, 4.7, 1e-9) << x << ", " << y;
+            } else if (d > R) {
+                ASSERT_NEAR(top, 5.0, 1e-9) << x << ", " << y;
+            }
+        }
+    EXPECT_GT(band, 100u); // ~ 2 x 0.8 m x 30 m / 0.25 m²: along the whole stroke
+    // A stroke needs its points (or a center), not both.
+    EXPECT_THROW(applyEdit(s, {{"tool", "erode"}, {"radius", R}}, 0, context(), task), ValueError);
+    EXPECT_THROW(applyEdit(s, {{"tool", "erode"}, {"points", points}, {"center", {5, 5, 5}}, {"radius", R}}, 0,
+                           context(), task),
+                 ValueError);
+    EXPECT_THROW(applyEdit(s, {{"tool", "erode"}, {"points", {{5, 5, 5}, {99, 5, 5}}}, {"radius", R}}, 0, context(),
+                           task),
+                 ValueError); // outside the terrain
 }
