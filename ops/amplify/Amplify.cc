@@ -5,6 +5,7 @@
 #include <rockvdb/core/GridField.h>
 #include <rockvdb/core/GridUtil.h>
 #include <rockvdb/core/Noise.h>
+#include <rockvdb/core/Schema.h>
 
 #include <nlohmann/json.hpp>
 
@@ -203,11 +204,7 @@ Strata Strata::fromJson(const nlohmann::json& j, const std::vector<std::string>&
     Strata st;
     try {
         if (!j.is_object()) fail<ValueError>("strata: expected an object with \"layers\"");
-        for (auto it = j.begin(); it != j.end(); ++it) {
-            if (it.key() != "normal" && it.key() != "noise" && it.key() != "layers") {
-                fail<ValueError>("strata: unknown key '", it.key(), "'");
-            }
-        }
+        requireKnownKeys(j, {"normal", "noise", "layers"}, "strata", "the object");
         if (j.contains("normal")) {
             const auto& n = j.at("normal");
             st.normal = Vec3d(n.at(0).get<double>(), n.at(1).get<double>(), n.at(2).get<double>());
@@ -215,6 +212,7 @@ Strata Strata::fromJson(const nlohmann::json& j, const std::vector<std::string>&
         }
         if (j.contains("noise")) {
             const auto& n = j.at("noise");
+            requireKnownKeys(n, {"amplitude", "frequency", "seed"}, "strata", "noise");
             st.noiseAmplitude = n.value("amplitude", 0.0);
             st.noiseFrequency = n.value("frequency", 0.05);
             st.noiseSeed = n.value("seed", uint64_t(1));
@@ -227,6 +225,10 @@ Strata Strata::fromJson(const nlohmann::json& j, const std::vector<std::string>&
         if (!layers.is_array() || layers.empty()) fail<ValueError>("strata: \"layers\" must be a non-empty array");
         for (size_t k = 0; k < layers.size(); ++k) {
             const json& L = layers[k];
+            // The last layer reaches up: it has no top.
+            requireKnownKeys(L, k + 1 < layers.size() ? std::vector<std::string>{"tile", "top"}
+                                                      : std::vector<std::string>{"tile"},
+                             "strata", "layers[" + std::to_string(k) + "]" + (k + 1 < layers.size() ? "" : " (the top one)"));
             const json& t = L.at("tile");
             int index = -1;
             if (t.is_number_integer()) {

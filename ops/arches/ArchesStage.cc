@@ -178,6 +178,7 @@ Stacks strataStacks(const ArchesParams& p, const json& node, Task& task)
         if (!layers.is_array() || layers.empty()) fail<ValueError>("arches: terrain.layers must be a non-empty list");
         for (size_t k = 0; k < layers.size(); ++k) {
             const std::string path = "terrain.layers[" + std::to_string(k) + "]";
+            requireKnownKeys(layers[k], {"material", "thickness"}, "arches", path);
             Stratum st;
             st.material = materialFromName(at(layers[k], "material", path).get<std::string>(), path + ".material");
             st.thickness = at(layers[k], "thickness", path).get<double>();

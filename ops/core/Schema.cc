@@ -175,6 +175,20 @@ std::string closestName(const std::string& key, const std::vector<std::string>& 
     return bestD <= std::max<size_t>(2, key.size() / 3) ? best : std::string();
 }
 
+void requireKnownKeys(const json& j, const std::vector<std::string>& keys, const std::string& op,
+                      const std::string& where)
+{
+    if (!j.is_object()) fail<ValueError>(op, ": ", where, " must be an object");
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        if (std::find(keys.begin(), keys.end(), it.key()) != keys.end()) continue;
+        std::string list;
+        for (const auto& k : keys) list += (list.empty() ? "" : ", ") + k;
+        const std::string best = closestName(it.key(), keys);
+        fail<ValueError>(op, ": ", where, ": unknown key '", it.key(), "' (keys: ", list,
+                         best.empty() ? std::string() : "; did you mean '" + best + "'?", ")");
+    }
+}
+
 const ParamInfo* SchemaBase::find(const std::string& name) const
 {
     for (const auto& p : mInfo) {

@@ -110,6 +110,13 @@ nlohmann::json jsonOrFile(const nlohmann::json& value);
 /// none is close enough to suggest.
 std::string closestName(const std::string& key, const std::vector<std::string>& names);
 
+/// @brief Check that @a j is an object whose keys are all among @a keys: a JSON input's own
+/// table (every reader of user JSON calls it, so a misspelt key is an error, not ignored).
+/// @throw ValueError "<op>: <where>: unknown key 'k' (keys: a, b; did you mean 'x'?)", or
+/// "<op>: <where> must be an object".
+void requireKnownKeys(const nlohmann::json& j, const std::vector<std::string>& keys, const std::string& op,
+                      const std::string& where);
+
 /// The table without its binding to a Params type: what interfaces read.
 class SchemaBase
 {

@@ -78,6 +78,17 @@ def test_bad_input(inputs, tmp_path):
     strata.write_text('{"layers": [{"tile": "eq", "top": 5}, {"tile": "granite"}]}')
     one_line_error(amplify(inputs, inputs["cliff"], out, "--strata", str(strata)), 2,
                    "unknown tile 'granite'", "eq")
+    # Every key of the strata is checked (a misspelt one was ignored: issue 39).
+    for text, needles in [
+            ('{"noise": {"amplitud": 1}, "layers": [{"tile": "eq"}]}',
+             ("strata: noise: unknown key 'amplitud'", "did you mean 'amplitude'")),
+            ('{"layers": [{"tile": "eq", "topp": 5}, {"tile": "eq"}]}', ("layers[0]: unknown key 'topp'",)),
+            ('{"layers": [{"tile": "eq", "top": 5}, {"tile": "eq", "top": 9}]}',
+             ("layers[1] (the top one): unknown key 'top'", "keys: tile")),
+            ('{"layers": [{"tile": "eq"}], "normals": [0, 0, 1]}', ("unknown key 'normals'", "did you mean 'normal'"))]:
+        strata.write_text(text)
+        one_line_error(amplify(inputs, inputs["cliff"], out, "--strata", str(strata)), 2, *needles)
+    strata.write_text('{"layers": [{"tile": "eq", "top": 5}, {"tile": "granite"}]}')
     other = tmp_path / "other.tile"
     run([tool("vdb_blocks"), "-q", "--tile-size", "12", "--point-radius", "0.6",
          "--voxel-size", "0.25", "-o", str(tmp_path / "other.vdb"), "--tile", str(other)],

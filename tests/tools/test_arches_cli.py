@@ -63,6 +63,8 @@ def test_a_file_replays_from_its_own_provenance_and_from_its_stacks(tmp_path):
 @pytest.mark.parametrize("edit,needles", [
     (lambda s: s["terrain"]["layers"][1].update(material="lava"), ["terrain.layers[1].material", "lava"]),
     (lambda s: s["terrain"]["layers"][2].update(thickness=-1), ["terrain.layers[2]", ">= 0"]),
+    (lambda s: s["terrain"]["layers"][0].update(colour="red"),
+     ["terrain.layers[0]: unknown key 'colour'", "keys: material, thickness"]),
     (lambda s: s.update(sigma=0), ["sigma"]),
     (lambda s: s.update(kernel="gauss"), ["kernel", "gauss", "interpolate, box"]),
     (lambda s: s.update(kernel="box", reach=2), ["reach", "box"]),
