@@ -374,10 +374,7 @@ std::shared_ptr<const blocks::Presence> computePresence(const Field& terrain,
         }
     }
     stats.cells += cells.size();
-    for (const auto& b : tile.blocks) {
-        stats.blockBytes += double(b.planes.size() * sizeof(b.planes[0]) +
-                                   b.anchors.size() * sizeof(b.anchors[0]) + 64);
-    }
+    stats.blockBytes += blocks::tileFieldBytes(tile);
     stats.presenceSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return grid;
 }

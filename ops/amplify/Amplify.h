@@ -84,7 +84,7 @@ struct AmplifyStats
 {
     size_t cells = 0;          ///< tile cells examined
     size_t replicated = 0;     ///< #R: present (cell, block) copies
-    double blockBytes = 0;     ///< memory of the block fields (planes, anchors, bounds)
+    double blockBytes = 0;     ///< memory of the block fields (blocks::tileFieldBytes: planes, anchors, bounds, relief table)
     double presenceSeconds = 0;
     double bakeSeconds = 0;    ///< band bake of f̃ (cull + fill + finish)
     double splitSeconds = 0;   ///< union of the parts' grids and block_id / material split

@@ -187,6 +187,12 @@ struct TileFieldOptions
 /// can reach a batch (a cell grid over the tile), so a point costs a few blocks.
 FieldPtr tileField(std::shared_ptr<const BlockTile> tile, const TileFieldOptions& options);
 
+/// @brief Memory the tile's block fields need (bytes): every block's planes, bounds and
+/// anchors, and the relief's table (texel warp-scale/64 over the tile: most of it, 2.0 of
+/// 2.05 MB for the bench's 10 m tile). What Table 2 of the paper counts; the cell grid a tile
+/// field adds for culling is not included.
+double tileFieldBytes(const BlockTile& tile);
+
 /// @brief A single block's field (home frame), for tests and per-block meshes.
 FieldPtr blockField(std::shared_ptr<const BlockTile> tile, size_t index);
 

@@ -50,10 +50,11 @@ const char* blockTypeName(BlockType type) { return kTypeNames[int(type)]; }
 //           s·tan θ apart, and the gap between the two sheets becomes a sliver block;
 //   prismatic 18 discs, radii 0.2–0.3·s, jitter 8°, 25% irregular ("slightly more
 //           irregular");
-//   polyhedral 44 discs, centres 0.05·s apart (≈ 1 m), radii 0.1–0.25·s, random normals;
-//   rhombohedral 24 discs, radii 0.3–0.45·s, jitter 2°, three sets at 60° to each other;
-//   tabular 30 discs: a third bedding planes (radius s), the rest radius ≈ s/10;
-//   columnar 24 discs: radii 0.5–0.7·s along three sets 60° apart, 15% cross-joints.
+//   polyhedral 44 discs, centres 0.05·s apart (the paper's ≈ 1 m spacing of disc centres; it
+//           gives no radii), radii 0.05–0.15·s, random normals;
+//   rhombohedral 24 discs, radii 0.12–0.22·s, jitter 2°, three sets at 60° to each other;
+//   tabular 30 discs: a third bedding planes (radius s), the rest radius 0.08–0.12·s (≈ s/10);
+//   columnar 18 discs: radii 0.5–0.7·s along three sets 60° apart, 15% cross-joints.
 //   smooth-radius R 0.0125·s and warp-amplitude 0.0025·s (0.25 m and 0.05 m at 20 m): the
 //           rounding and the warp eat rock in proportion to their size over the blocks',
 //           so a tile scaled down keeps its share of rock (seed 3, voxel s/50: 89–91 % at

@@ -335,6 +335,19 @@ double warpedSlope(const BlockTile& t)
     return 1.0 + amp * (8.0 / r + 2.8 * noise::kGradientBound2 * 4.0 / t.params.relief.scale);
 }
 
+} // namespace
+
+double tileFieldBytes(const BlockTile& t)
+{
+    double bytes = double(relief::tableTexels(t.params.relief, coordinateLow(t), coordinateHigh(t))) * sizeof(float);
+    for (const auto& b : t.blocks) {
+        bytes += double(sizeof(BlockShape) + b.planes.size() * 4 * sizeof(float) + b.anchors.size() * sizeof(b.anchors[0]));
+    }
+    return bytes;
+}
+
+namespace {
+
 // One evaluator (and relief table) per tile, shared by its tile field and block fields.
 std::shared_ptr<const Blocks> blocksFor(const std::shared_ptr<const BlockTile>& tile)
 {

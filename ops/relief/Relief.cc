@@ -16,6 +16,14 @@ namespace {
 int wrap(int i, int n) { return ((i % n) + n) % n; }
 } // namespace
 
+size_t tableTexels(const ReliefParams& p, float lo, float hi)
+{
+    if (!(p.amplitude > 0) || !p.image.empty()) return 0;
+    const double span = double(hi - lo) + 2.0;
+    const double n = std::ceil(span / (p.scale / 64.0)) + 2;
+    return n * n <= 16e6 ? size_t(n) * size_t(n) : 0;
+}
+
 Relief::Relief(const ReliefParams& p, uint64_t seed, float lo, float hi)
     : mAmp(float(p.amplitude))
 {
@@ -54,10 +62,8 @@ Relief::Relief(const ReliefParams& p, uint64_t seed, float lo, float hi)
     // Procedural relief: tabulate the turbulence once (texel = scale/64: 8 texels across
     // the 4th octave's wavelength at the default scale) over the coordinate range.
     const double texel = p.scale / 64.0;
-    const double span = double(hi - lo) + 2.0;
-    const double n = std::ceil(span / texel) + 2;
-    if (n * n <= 16e6) {
-        mTableN = int(n);
+    if (const size_t texels = tableTexels(p, lo, hi)) {
+        mTableN = int(std::lround(std::sqrt(double(texels))));
         mTableLo = lo - 1.0f;
         mTableTexel = float(texel);
         mTable.resize(size_t(mTableN) * size_t(mTableN));

@@ -31,6 +31,11 @@ struct ReliefParams
 ///  - Turbulence: creases carve grooves and high turbulence raises bumps. It is tabulated
 ///    once (texel = scale/64) over the coordinate range [lo, hi] when that fits in 16 M
 ///    texels, so the three projections of a point cost three bilinear lookups.
+/// @brief Texels of the procedural relief's table over [lo, hi] (texel scale/64, when that
+/// fits in 16 M texels; 0 when it is not tabulated: no amplitude, an image, or too large) —
+/// its memory is 4 bytes each.
+size_t tableTexels(const ReliefParams& p, float lo, float hi);
+
 class Relief
 {
 public:
