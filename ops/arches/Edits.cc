@@ -12,6 +12,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
 #include <vector>
 
 namespace rockvdb {
@@ -106,8 +107,10 @@ std::map<std::string, Tool> makeTools()
              numberKey("step", nullptr, Range::above(0), "Spacing of cross-sections along arcs (m; default one cell)")}};
     };
     t["crack"] = sweepTool("Carve a crack or ravine: a graph projected on the terrain, a profile swept along it (§4.2)",
-                           key("nodes", "points2", nullptr, "Nodes [[x, y], ...] (m), projected on the ground's "
-                                                            "bedrock top", true),
+                           key("nodes", "points23", nullptr, "Nodes [[x, y], ...] (m), projected down on the ground's "
+                                                             "bedrock top, or [[x, y, z], ...], projected on the bedrock "
+                                                             "surface nearest to them (a cliff face, an overhang's "
+                                                             "underside: within 4 sigma)", true),
                            "v > 0 is above the surface");
     t["tunnel"] = sweepTool("Carve tunnels and caves: a graph in 3D, a profile swept along it (§4.2)",
                             key("nodes", "points", nullptr, "Nodes [[x, y, z], ...] (m)", true), "v is up");
@@ -431,17 +434,90 @@ private:
     std::map<size_t, double> mCache;
 };
 
-void sweep(Stacks& stacks, const json& e, size_t index, const std::string& tool, Touched& touched, EditStats& st,
-           Task& task)
+// The bedrock's convolution field round a crack's 3D nodes (§3.3; positive inside), and the
+// projection on its surface nearest to a point: Newton steps on the field of a kernel 4σ wide
+// (smooth, and not yet saturated 4σ from the surface), then on the field of σ itself.
+class BedrockSurface
+{
+public:
+    BedrockSurface(const Stacks& stacks, const std::vector<Vec3d>& nodes, double sigma, double margin, Task& task)
+        : mSigma(sigma)
+    {
+        const auto& g = stacks.geometry();
+        Vec3d lo = nodes[0], hi = nodes[0];
+        for (const Vec3d& v : nodes) {
+            lo = minComponent(lo, v);
+            hi = maxComponent(hi, v);
+        }
+        const double reach = margin + 8 * sigma + 2 * g.cell;
+        int i0, j0, i1, j1;
+        axisWindow(g, 0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]),
+                   reach + 0.5 * std::max(hi[0] - lo[0], hi[1] - lo[1]), i0, j0, i1, j1);
+        mWindow = std::make_unique<Stacks>(stacks.window(i0, j0, i1, j1, task));
+        mBedrock = std::make_unique<Skeleton>(*mWindow, maskOf(Material::Bedrock));
+    }
+
+    double field(const Vec3d& p, double sigma) const { return mBedrock->field(p, sigma); }
+
+    Vec3d gradient(const Vec3d& p, double sigma) const
+    {
+        const double h = 0.5 * sigma;
+        Vec3d d;
+        for (int a = 0; a < 3; ++a) {
+            Vec3d e(0.0);
+            e[a] = h;
+            d[a] = (field(p + e, sigma) - field(p - e, sigma)) / (2 * h);
+        }
+        return d;
+    }
+
+    /// The surface point nearest @a q; false when no surface is within ~4σ of it.
+    bool project(Vec3d& q) const
+    {
+        for (const double sigma : {4 * mSigma, mSigma}) {
+            for (int it = 0; it < 40; ++it) {
+                const double f = field(q, sigma);
+                const Vec3d d = gradient(q, sigma);
+                const double g2 = d.lengthSqr();
+                if (g2 < 1e-12) return false; // saturated: no surface within the kernel
+                Vec3d step = d * (-f / g2);
+                const double len = step.length();
+                if (len > 0.5 * sigma) step *= 0.5 * sigma / len;
+                q += step;
+                if (len < 1e-4 * sigma) break;
+            }
+        }
+        return std::abs(field(q, mSigma)) < 0.05;
+    }
+
+    /// The outward normal at @a p (the field grows inwards).
+    Vec3d normal(const Vec3d& p) const
+    {
+        const Vec3d d = gradient(p, mSigma);
+        return d.lengthSqr() > 1e-24 ? -d.unit() : Vec3d(0, 0, 1);
+    }
+
+private:
+    double mSigma;
+    std::unique_ptr<Stacks> mWindow;
+    std::unique_ptr<Skeleton> mBedrock;
+};
+
+void sweep(Stacks& stacks, const json& e, size_t index, const std::string& tool, const EditContext& ctx,
+           Touched& touched, EditStats& st, Task& task)
 {
     const auto& g = stacks.geometry();
     const bool crack = tool == "crack";
     SweepSpec spec;
     const json& nodes = e.at("nodes");
+    // A crack's nodes are [x, y] (projected down on the ground's bedrock top) or [x, y, z]
+    // (projected on the nearest bedrock surface, any orientation: §4.2 projects G "onto the
+    // surface of the terrain" — a cliff face or an overhang's underside as well as a top).
+    const bool onSurface = !crack || nodes[0].size() == 3;
     for (size_t q = 0; q < nodes.size(); ++q) {
-        const auto v = vec(nodes[q], crack ? 2 : 3, "nodes", index, tool);
+        const auto v = vec(nodes[q], onSurface ? 3 : 2, "nodes", index, tool);
         requireInside(g, v[0], v[1], index, tool, ("nodes[" + std::to_string(q) + "]").c_str());
-        spec.nodes.emplace_back(v[0], v[1], crack ? 0.0 : v[2]);
+        spec.nodes.emplace_back(v[0], v[1], onSurface ? v[2] : 0.0);
     }
     if (e.contains("arcs")) {
         for (const auto& a : e.at("arcs")) spec.arcs.emplace_back(a[0].get<int>(), a[1].get<int>());
@@ -459,7 +535,26 @@ void sweep(Stacks& stacks, const json& e, size_t index, const std::string& tool,
     }
     spec.step = e.contains("step") ? e.at("step").get<double>() : g.cell;
     BedrockTop top(stacks);
-    if (crack) {
+    std::unique_ptr<BedrockSurface> surface;
+    if (crack && onSurface) {
+        double extent = 0; // the profiles' reach from their centre
+        for (const auto& prof : spec.profiles)
+            for (const Vec2d& u : prof) extent = std::max(extent, u.length());
+        surface = std::make_unique<BedrockSurface>(stacks, spec.nodes, ctx.sigma, extent, task);
+        for (size_t q = 0; q < spec.nodes.size(); ++q) {
+            Vec3d v = spec.nodes[q];
+            if (!surface->project(v)) {
+                bad(index, tool, "nodes[" + std::to_string(q) + "] has no bedrock surface within 4 sigma (" +
+                                     jsonText(nodes[q]) + ")");
+            }
+        }
+        spec.place = [&](const Vec3d& p) {
+            Vec3d q = p;
+            surface->project(q); // (between projected nodes: a point near the surface)
+            return q;
+        };
+        spec.normal = [&](const Vec3d& p) { return surface->normal(p); };
+    } else if (crack) {
         // Project G on the ground: each cross-section's centre on the bedrock top, its v axis
         // the top's normal.
         spec.place = [&](const Vec3d& p) { return Vec3d(p[0], p[1], top(p[0], p[1])); };
@@ -818,11 +913,14 @@ void validateEdit(const json& e, size_t index)
         }
         if (type == "xy") vec(e.at(name), 2, name, index, tool);
         if (type == "xyz") vec(e.at(name), 3, name, index, tool);
-        if (type == "points" || type == "points2") {
-            const size_t dim = type == "points" ? 3 : 2;
+        if (type == "points" || type == "points2" || type == "points23") {
             const json& p = e.at(name);
+            // points23: [x, y] or [x, y, z], as the first node is.
+            const size_t dim = type == "points" ? 3 : type == "points2" ? 2
+                             : (p.is_array() && !p.empty() && p[0].is_array() && p[0].size() == 3 ? 3 : 2);
             if (!p.is_array() || p.empty()) {
-                bad(index, tool, name + " must be a non-empty list of " + (dim == 3 ? "[x, y, z]" : "[x, y]"));
+                bad(index, tool, name + " must be a non-empty list of " +
+                                     (type == "points23" ? "[x, y] or of [x, y, z]" : dim == 3 ? "[x, y, z]" : "[x, y]"));
             }
             for (size_t q = 0; q < p.size(); ++q) vec(p[q], dim, name + "[" + std::to_string(q) + "]", index, tool);
         }
@@ -923,7 +1021,7 @@ EditStats applyEdit(Stacks& stacks, const json& given, size_t index, const EditC
                 sculptPoint(work, v, R, add, delta, k, atCenter, ctx, index, touched, st, task);
             }
         } else if (st.tool == "crack" || st.tool == "tunnel") {
-            sweep(work, e, index, st.tool, touched, st, task);
+            sweep(work, e, index, st.tool, ctx, touched, st, task);
         } else if (st.tool == "deposit") {
             deposit(work, e, index, touched, st);
         } else {

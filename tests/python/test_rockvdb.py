@@ -277,7 +277,7 @@ def test_amplify_mask_roi_carve_and_stats(tmp_path):
     full = {}
     _, ids_full, _ = rockvdb.amplify(str(png), [eq], stats=full, **common)
     assert full["replicated"] > 0 and full["active_voxels"] > 0
-    assert 0 < full["block_field_bytes"] < 1e6
+    assert 1e5 < full["block_field_bytes"] < 4e6  # the tile's planes, anchors and relief table
     assert all(full[k] >= 0 for k in ("presence_seconds", "bake_seconds", "split_seconds"))
     # Mask: blocks allowed only where y >= 8 m (rows are y, one pixel per heightfield cell).
     mask = np.zeros((65, 65), dtype=np.float32)

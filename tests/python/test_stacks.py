@@ -284,7 +284,9 @@ EDITS = [{"tool": "sculpt", "mode": "carve", "points": [[6.0, 5.0, 12.0], [7.0, 
           "profile": [[-1.0, 1.0], [1.0, 1.0], [0.0, -3.0]]},
          {"tool": "tunnel", "nodes": [[2.0, 11.0, 9.0], [18.0, 11.0, 9.5]],
           "profile": [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]]},
-         {"tool": "erode", "points": [[3.0, 14.0, 12.0], [12.0, 15.0, 12.0]], "radius": 1.5}]
+         {"tool": "erode", "points": [[3.0, 14.0, 12.0], [12.0, 15.0, 12.0]], "radius": 1.5},
+         {"tool": "crack", "nodes": [[4.0, 13.0, 11.3], [9.0, 13.0, 11.7]],  # under an overhang: 3D nodes
+          "profile": [[-0.5, 0.5], [0.5, 0.5], [0.0, -0.8]]}]
 
 
 def test_edits_from_python_replay_through_the_cli_and_continue_from_stacks(tmp_path):
@@ -297,9 +299,11 @@ def test_edits_from_python_replay_through_the_cli_and_continue_from_stacks(tmp_p
              s.erode((14.0, 7.0, 12.0), 2.0, mode="collapse", rho=0.6),
              s.crack(EDITS[3]["nodes"], profile=EDITS[3]["profile"]),
              s.tunnel(EDITS[4]["nodes"], profile=EDITS[4]["profile"]),
-             s.erode(points=EDITS[5]["points"], radius=1.5)]
+             s.erode(points=EDITS[5]["points"], radius=1.5),
+             s.crack(EDITS[6]["nodes"], profile=EDITS[6]["profile"])]
     assert s.params["edits"] == EDITS
-    assert [e["tool"] for e in s.edit_stats] == ["sculpt", "deposit", "erode", "crack", "tunnel", "erode"]
+    assert [e["tool"] for e in s.edit_stats] == ["sculpt", "deposit", "erode", "crack", "tunnel", "erode", "crack"]
+    assert stats[6]["bedrock_quanta"] < 0  # cut up into the overhang's underside
     assert -stats[5]["bedrock_quanta"] == stats[5]["sand_quanta"] > 0  # a stroke's band (surface mode)
     assert stats[3]["bedrock_quanta"] < 0 and stats[4]["bedrock_quanta"] < 0
     assert stats[0]["bedrock_quanta"] < 0 and stats[1]["sand_quanta"] > 0

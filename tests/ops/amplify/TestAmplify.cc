@@ -104,7 +104,11 @@ TEST(Amplify, BlocksOnTheCliffOnlyAndTheTerrainStaysInside)
     initialize();
     Scene s = scene();
     EXPECT_GT(s.stats.replicated, 10u);
-    EXPECT_LT(s.stats.blockBytes, 1e6);
+    // Table 2's memory: everything the tile's block fields need (planes, anchors and the
+    // relief table, which is most of it), once per tile however many blocks are replicated.
+    EXPECT_EQ(s.stats.blockBytes, blocks::tileFieldBytes(*smallTile()));
+    EXPECT_GT(s.stats.blockBytes, 4.0 * double(relief::tableTexels(smallTile()->params.relief, 0.0f, 10.0f)));
+    EXPECT_LT(s.stats.blockBytes, 4e6);
     auto r = bake(*s.amplified, settings());
     auto bare = bake(*s.terrain, settings()).surface;
     // Slope rule: no block voxels over the plateau or the valley floor (blocks on the cliff

@@ -611,3 +611,73 @@ TEST(Erode, AStrokeErodesAContinuousBandAlongItsSegmentsAndNothingElse)
                            task),
                  ValueError); // outside the terrain
 }
+
+namespace {
+
+// The heights where stack (i, j) holds air between bedrock (rooms), as [bottom, top] pairs.
+std::vector<std::pair<double, double>> airGaps(const Stacks& s, int i, int j)
+{
+    std::vector<Layer> layers;
+    s.layers(i, j, layers);
+    std::vector<std::pair<double, double>> out;
+    double z = s.geometry().z0;
+    for (size_t l = 0; l < layers.size(); ++l) {
+        const double top = z + layers[l].thickness * s.geometry().quantum;
+        if (layers[l].material != Material::Bedrock && l + 1 < layers.size()) out.emplace_back(z, top);
+        z = top;
+    }
+    return out;
+}
+
+} // namespace
+
+TEST(Crack, NodesIn3DCutAlongAVerticalWallAndUnderAnOverhang)
+{
+    // §4.2 projects the crack's graph on the terrain's surface, whatever its orientation. 0.5 m
+    // stacks; a V profile 1 m wide at the surface, 1.5 m deep.
+    Task task;
+    const json profile = {{-0.5, 0.5}, {0.5, 0.5}, {0.0, -1.5}};
+    // A wall facing +x at x = 10 m: bedrock to 10 m on its left, to 2 m on its right. The
+    // graph runs 0.3 m in front of it at 6 m up: a horizontal groove cut into the face.
+    Stacks wall = Stacks::build(geometry(40, 40, 0.5), [](int i, int, std::vector<Layer>& layers) {
+        layers.push_back(Layer{Material::Bedrock, i < 20 ? 1000u : 200u});
+    }, task);
+    const EditStats e = applyEdit(wall, {{"tool", "crack"}, {"nodes", {{10.3, 4.0, 6.0}, {10.3, 16.0, 6.0}}},
+                                         {"profile", profile}, {"spline", false}}, 0, context(), task);
+    EXPECT_LT(e.bedrock, 0);
+    for (int j = 12; j <= 28; ++j) { // y 6.25 .. 14.25: away from the ends
+        // 0.25 m into the face (x = 9.75): the V is 0.625 m wide there, round z = 6.
+        const auto gaps = airGaps(wall, 19, j);
+        ASSERT_EQ(gaps.size(), 1u) << j;
+        EXPECT_NEAR(gaps[0].first, 6.0 - 0.3125, 0.08) << j;
+        EXPECT_NEAR(gaps[0].second, 6.0 + 0.3125, 0.08) << j;
+        EXPECT_NEAR(topOf(wall, 19, j, Material::Bedrock), 10.0, 1e-9); // the wall's top stays
+        EXPECT_TRUE(airGaps(wall, 15, j).empty()) << "2.25 m in: beyond the V's apex";
+        EXPECT_NEAR(topOf(wall, 21, j, Material::Bedrock), 2.0, 1e-9); // the ground in front stays
+    }
+    // An overhang: a slab 5..8 m over a floor at 2 m; the graph 0.3 m under the slab's
+    // underside cuts up into it (not down into the floor, 2.7 m away).
+    Stacks over = Stacks::build(geometry(40, 40, 0.5), [](int i, int j, std::vector<Layer>& layers) {
+        layers.push_back(Layer{Material::Bedrock, 200});
+        if (i >= 6 && i < 34 && j >= 6 && j < 34) {
+            layers.push_back(Layer{Material::Air, 300});
+            layers.push_back(Layer{Material::Bedrock, 300});
+        }
+    }, task);
+    applyEdit(over, {{"tool", "crack"}, {"nodes", {{6.0, 10.1, 4.7}, {14.0, 10.1, 4.7}}}, {"profile", profile},
+                     {"spline", false}},
+              0, context(), task);
+    for (int i = 16; i <= 24; ++i) {
+        const auto under = airGaps(over, i, 20); // y = 10.25: 0.15 m off the graph's line
+        ASSERT_EQ(under.size(), 1u) << i;
+        EXPECT_NEAR(under[0].first, 2.0, 1e-9) << "the floor stays";
+        // 0.15 m off the V's axis it reaches 0.9 m up (half-width (1.5 − d) / 4 = 0.15).
+        EXPECT_NEAR(under[0].second, 5.9, 0.1) << "cut up into the slab";
+        EXPECT_NEAR(airGaps(over, i, 26)[0].second, 5.0, 1e-9) << "3 m aside the slab stays";
+    }
+    // A 3D node with no bedrock surface near it is refused.
+    EXPECT_THROW(applyEdit(over, {{"tool", "crack"}, {"nodes", {{10.0, 10.0, 30.0}, {12.0, 10.0, 30.0}}},
+                                  {"profile", profile}},
+                           0, context(), task),
+                 ValueError);
+}
