@@ -11,7 +11,8 @@ using namespace rockvdb;
 
 int main(int argc, char** argv)
 {
-    cli::Tool tool("vdb_preview", previewSchema().summary() + " --ids tints each id.");
+    cli::Tool tool("vdb_preview", previewSchema().summary() + " --ids tints each id; --texture textures the "
+                                  "ground by its weight_* grids (arches §6).");
     CLI::App& app = tool.app();
     std::string input, gridName = "surface", idsName;
     app.add_option("input", input, "Input .vdb ('-' = stdin)")->required();
@@ -38,7 +39,12 @@ int main(int argc, char** argv)
             if (!ids) fail<ValueError>("no float grid '", idsName, "' in '", src, "'");
         }
         PreviewStats st;
-        writePreview(*grid, tool.output(), s, ids.get(), &st);
+        const std::vector<PreviewMaterial> materials = s.texture ? previewMaterials(*grids) : std::vector<PreviewMaterial>();
+        if (s.texture && materials.empty()) {
+            fail<ValueError>("preview: --texture needs weight_* grids, and '", src, "' has none (vdb_arches writes "
+                             "them unless --no-weights)");
+        }
+        writePreview(*grid, tool.output(), s, ids.get(), &st, &materials);
         // What the picture shows, per id: a part that is hidden shows up here as 0%.
         char line[64];
         std::snprintf(line, sizeof line, "surface %.1f%% of the image",
@@ -49,6 +55,13 @@ int main(int argc, char** argv)
             for (const auto& [id, n] : st.idPixels) {
                 std::snprintf(line, sizeof line, " %d %.1f%%", id,
                               100.0 * double(n) / double(st.pixels));
+                msg += line;
+            }
+        }
+        if (!materials.empty()) {
+            msg += "; by material:";
+            for (const auto& [name, n] : st.materialPixels) {
+                std::snprintf(line, sizeof line, " %s %.1f%%", name.c_str(), 100.0 * double(n) / double(st.pixels));
                 msg += line;
             }
         }

@@ -2,7 +2,9 @@
 
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Image.h>
+#include <rockvdb/core/Noise.h>
 #include <rockvdb/core/Random.h>
+#include <rockvdb/core/Triplanar.h>
 #include <rockvdb/core/VdbIO.h>
 
 #include <openvdb/math/Ray.h>
@@ -37,6 +39,10 @@ const Schema<PreviewSettings>& previewSchema()
                        "Vertical field of view"), &P::fov);
         t.member(param("zoom", ParamType::Real, "", 1.0, Range::openClosed(0, 1e6),
                        "> 1 moves the camera closer"), &P::zoom);
+        t.member(param("texture", ParamType::Bool, "", false, Range::any(),
+                       "Texture the surface by its material weight grids (weight_sand, weight_bedrock, "
+                       "weight_rocks: vdb_arches' §6 output): each material's pattern mapped triplanarly "
+                       "with Lp weights, p = 8, blended by the weights at each pixel"), &P::texture);
         return t;
     }();
     return s;
@@ -75,9 +81,63 @@ std::map<int, std::array<double, 3>> parsePalette(const std::string& text, const
     return out;
 }
 
-std::vector<uint8_t> renderPreview(const openvdb::FloatGrid& grid, const PreviewSettings& s,
-                                   const openvdb::FloatGrid* ids, PreviewStats* stats)
+std::vector<PreviewMaterial> previewMaterials(const openvdb::GridPtrVec& grids)
 {
+    std::vector<PreviewMaterial> out;
+    for (const auto& g : grids) {
+        const std::string name = g ? g->getName() : std::string();
+        if (name.rfind("weight_", 0) != 0 || name.size() == 7) continue;
+        auto f = openvdb::gridConstPtrCast<openvdb::FloatGrid>(g);
+        if (!f) continue;
+        PreviewMaterial m;
+        m.name = name.substr(7);
+        m.weight = f;
+        if (m.name == "sand") m.colour = {{0.62, 0.50, 0.30}};
+        else if (m.name == "bedrock") m.colour = {{0.42, 0.40, 0.38}};
+        else if (m.name == "rocks") m.colour = {{0.30, 0.29, 0.28}};
+        else {
+            uint64_t h = 0;
+            for (char c : m.name) h = random::mix64(h + uint8_t(c));
+            m.colour = {{0.3 + 0.4 * random::toUnit(h), 0.3 + 0.4 * random::toUnit(random::mix64(h)),
+                         0.3 + 0.4 * random::toUnit(random::mix64(h + 1))}};
+        }
+        out.push_back(m);
+    }
+    return out;
+}
+
+std::array<double, 3> materialTexture(const PreviewMaterial& m, const openvdb::Vec3d& p, const openvdb::Vec3d& n)
+{
+    // Each material's 2D pattern T(u, v) (a shade around 1): sand a fine grain; bedrock strata
+    // along the second coordinate (horizontal bands on walls, where it is z) broken by noise;
+    // rocks blotches; others a soft noise.
+    const uint64_t seed = m.name == "sand" ? 1 : m.name == "bedrock" ? 2 : m.name == "rocks" ? 3 : 4;
+    auto T = [&](double u, double v, bool vIsZ) {
+        if (m.name == "sand") return 0.9 + 0.2 * noise::gradient2(seed, float(u * 9), float(v * 9));
+        if (m.name == "bedrock") {
+            const double wobble = noise::gradient2(seed, float(u * 0.7), float(v * 0.7));
+            if (!vIsZ) return 0.93 + 0.12 * wobble;
+            return 0.9 + 0.1 * std::sin(2 * M_PI * (v / 0.45 + 0.6 * wobble)) + 0.05 * wobble;
+        }
+        if (m.name == "rocks") return 0.75 + 0.5 * std::abs(noise::gradient2(seed, float(u * 2.5), float(v * 2.5)));
+        return 0.9 + 0.15 * noise::gradient2(seed, float(u * 3), float(v * 3));
+    };
+    const double shade = triplanar(float(n[0]), float(n[1]), float(n[2]), float(T(p[0], p[1], false)),
+                                   float(T(p[0], p[2], true)), float(T(p[1], p[2], true)), 8.0f);
+    return {{m.colour[0] * shade, m.colour[1] * shade, m.colour[2] * shade}};
+}
+
+std::vector<uint8_t> renderPreview(const openvdb::FloatGrid& grid, const PreviewSettings& s,
+                                   const openvdb::FloatGrid* ids, PreviewStats* stats,
+                                   const std::vector<PreviewMaterial>* materials)
+{
+    if (s.texture && (!materials || materials->empty())) {
+        fail<ValueError>("preview: texture needs material weight grids (weight_sand, ...: vdb_arches writes them "
+                         "unless --no-weights)");
+    }
+    const std::vector<PreviewMaterial> none;
+    const std::vector<PreviewMaterial>& mats = s.texture ? *materials : none;
+    std::vector<int32_t> dominant(s.texture ? size_t(s.width) * size_t(s.height) : 0, -1);
     s.validate();
     requireLevelSet(grid, "preview input");
     using Vec3R = openvdb::Vec3R;
@@ -121,6 +181,8 @@ std::vector<uint8_t> renderPreview(const openvdb::FloatGrid& grid, const Preview
         Intersector inter(proto);
         auto idAcc = ids ? std::make_unique<openvdb::FloatGrid::ConstAccessor>(ids->getConstAccessor())
                          : nullptr;
+        std::vector<openvdb::FloatGrid::ConstAccessor> weightAcc;
+        for (const auto& m : mats) weightAcc.push_back(m.weight->getConstAccessor());
         const double th = std::tan(halfFov);
         for (int j = r.begin(); j != r.end(); ++j) {
             for (int i = 0; i < s.width; ++i) {
@@ -150,6 +212,24 @@ std::vector<uint8_t> renderPreview(const openvdb::FloatGrid& grid, const Preview
                             }
                         }
                     }
+                    if (!mats.empty()) {
+                        // §6: Σ w_m T_m / Σ w_m with the weights at the hit point's voxel.
+                        Vec3R sum(0.0);
+                        double total = 0, best = 0;
+                        for (size_t k = 0; k < mats.size(); ++k) {
+                            const auto ijk = mats[k].weight->transform().worldToIndexCellCentered(hit);
+                            const double w = std::max(0.0f, weightAcc[k].getValue(ijk));
+                            if (w <= 0) continue;
+                            const auto t = materialTexture(mats[k], hit, n);
+                            sum += Vec3R(t[0], t[1], t[2]) * w;
+                            total += w;
+                            if (w > best) {
+                                best = w;
+                                dominant[size_t(j) * size_t(s.width) + size_t(i)] = int32_t(k);
+                            }
+                        }
+                        if (total > 0) albedo = sum / total;
+                    }
                     shown[size_t(j) * size_t(s.width) + size_t(i)] = what;
                     const double diffuse = std::max(0.0, n.dot(key));
                     const double skyFill = 0.5 + 0.5 * n[2];
@@ -173,14 +253,18 @@ std::vector<uint8_t> renderPreview(const openvdb::FloatGrid& grid, const Preview
             ++stats->surfacePixels;
             if (w >= 0) ++stats->idPixels[w];
         }
+        for (const int32_t k : dominant) {
+            if (k >= 0) ++stats->materialPixels[mats[size_t(k)].name];
+        }
     }
     return rgb;
 }
 
 void writePreview(const openvdb::FloatGrid& grid, const std::string& path,
-                  const PreviewSettings& s, const openvdb::FloatGrid* ids, PreviewStats* stats)
+                  const PreviewSettings& s, const openvdb::FloatGrid* ids, PreviewStats* stats,
+                  const std::vector<PreviewMaterial>* materials)
 {
-    const auto rgb = renderPreview(grid, s, ids, stats);
+    const auto rgb = renderPreview(grid, s, ids, stats, materials);
     writeFileAtomic(path, encodePngRgb8(s.width, s.height, rgb));
 }
 

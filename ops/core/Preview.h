@@ -26,6 +26,7 @@ struct PreviewSettings
     /// Albedo (linear RGB in [0, 1]) per id; ids not listed get a colour hashed from the id
     /// (not a row: the CLI's --palette text, Python's dict).
     std::map<int, std::array<double, 3>> palette;
+    bool texture;       ///< §6: texture the surface by the material weight grids (PreviewMaterial)
     /// @brief The table's ranges (ValueError naming the row).
     void validate() const;
 };
@@ -39,7 +40,26 @@ struct PreviewStats
     size_t pixels = 0;                 ///< width · height
     size_t surfacePixels = 0;          ///< pixels whose ray hits the surface
     std::map<int, size_t> idPixels;    ///< surface pixels per id (ids >= 0)
+    std::map<std::string, size_t> materialPixels; ///< textured: surface pixels per dominant material
 };
+
+/// A ground material for the texturing of arches §6: its weight grid (a fog grid, the share of
+/// its visible faces round each band voxel: vdb_arches' weight_<name>), its colour and pattern.
+struct PreviewMaterial
+{
+    std::string name;                       ///< "sand", "bedrock", "rocks", or another
+    openvdb::FloatGrid::ConstPtr weight;
+    std::array<double, 3> colour{{0.5, 0.5, 0.5}}; ///< linear albedo
+};
+
+/// @brief The materials of @a grids' weight_<name> float grids (in their order): sand, bedrock
+/// and rocks get their colours and patterns, other names a colour hashed from the name.
+std::vector<PreviewMaterial> previewMaterials(const openvdb::GridPtrVec& grids);
+
+/// @brief The texture of material @a m at @a p (world) for the unit normal @a n: its 2D pattern
+/// on the three axis planes, blended triplanarly with Lp weights, p = 8 (arches §6), times its
+/// colour. (Per pixel, at the hit point; the paper blends per mesh vertex.)
+std::array<double, 3> materialTexture(const PreviewMaterial& m, const openvdb::Vec3d& p, const openvdb::Vec3d& n);
 
 /// @brief Parse "ID=#rrggbb,ID=#rrggbb,..." (sRGB hex colours) into a palette.
 /// @throw ValueError naming @a what for malformed entries.
@@ -50,13 +70,17 @@ std::map<int, std::array<double, 3>> parsePalette(const std::string& text,
 /// active bounding box. When @a ids is given (e.g. block_id), surfaces are tinted per id.
 /// @return RGB8 pixels, row 0 at the top.
 /// @param stats  if given, receives the surface and per-id pixel counts
+/// @param materials  with s.texture: the weight grids (previewMaterials); each surface pixel
+///   takes Σ w_m T_m / Σ w_m (its weights at the hit point's voxel; ids, if given, are then only
+///   counted). @throw ValueError when s.texture has none.
 std::vector<uint8_t> renderPreview(const openvdb::FloatGrid& grid, const PreviewSettings& s,
                                    const openvdb::FloatGrid* ids = nullptr,
-                                   PreviewStats* stats = nullptr);
+                                   PreviewStats* stats = nullptr,
+                                   const std::vector<PreviewMaterial>* materials = nullptr);
 
 /// @brief renderPreview + PNG, written atomically.
 void writePreview(const openvdb::FloatGrid& grid, const std::string& path,
                   const PreviewSettings& s, const openvdb::FloatGrid* ids = nullptr,
-                  PreviewStats* stats = nullptr);
+                  PreviewStats* stats = nullptr, const std::vector<PreviewMaterial>* materials = nullptr);
 
 } // namespace rockvdb

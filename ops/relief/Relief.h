@@ -5,6 +5,7 @@
 
 #include <rockvdb/core/Image.h>
 #include <rockvdb/core/Noise.h>
+#include <rockvdb/core/Triplanar.h>
 
 #include <cmath>
 #include <cstdint>
@@ -79,26 +80,9 @@ private:
     std::vector<float> mTable;
 };
 
-/// @brief The triplanar displacement magnitude Σ α_i d(γ_i(p)) for a unit gradient g, with
-/// α_i = |g·u_i|^p / Σ_j |g·u_j|^p (p = 1: the blocks paper's |g·u_i|, normalised so that the
-/// surface moves by at most A; p = 8: the arches paper's sharper texture blend).
-/// dxy, dxz, dyz are d at the projections on the xy, xz and yz planes.
-inline float triplanar(float gx, float gy, float gz, float dxy, float dxz, float dyz, float p)
-{
-    float ax = std::abs(gx), ay = std::abs(gy), az = std::abs(gz);
-    if (p == 8.0f) {
-        // The default exponent by squaring (no pow call; the same value up to rounding).
-        ax *= ax; ay *= ay; az *= az;
-        ax *= ax; ay *= ay; az *= az;
-        ax *= ax; ay *= ay; az *= az;
-    } else if (p != 1.0f) {
-        ax = std::pow(ax, p);
-        ay = std::pow(ay, p);
-        az = std::pow(az, p);
-    }
-    const float sum = std::max(ax + ay + az, 1e-12f);
-    return (az * dxy + ay * dxz + ax * dyz) / sum;
-}
+/// The triplanar displacement magnitude Σ α_i d(γ_i(p)) for a unit gradient g (dxy, dxz, dyz:
+/// d at the projections on the xy, xz and yz planes; core/Triplanar.h).
+using rockvdb::triplanar;
 
 } // namespace relief
 } // namespace rockvdb

@@ -505,14 +505,18 @@ mesh = _stage_function(
     before=["grid", "path"])
 
 
-def _preview(grid, path, ids=None, palette=None, **params):
+def _preview(grid, path, ids=None, palette=None, weights=None, **params):
     fn = "preview"
     if palette is not None and not isinstance(palette, dict):
         raise _type_error(fn, "palette", "a dict {id: '#rrggbb'}", palette)
     text = ",".join(f"{_int(k, 'palette key', fn)}={_str(v, 'palette colour', fn)}"
                     for k, v in (palette or {}).items())
+    if weights is not None and not isinstance(weights, (list, tuple)):
+        raise _type_error(fn, "weights", "a list of weight_* grids", weights)
+    weight_grids = [_grid(w, "weights", fn) for w in (weights or [])]
     return _rockvdb.preview(_grid(grid, "grid", fn), _path(path, "path", fn),
-                            _stage_params(_PREVIEW, fn, params), _opt(ids, _grid, "ids", fn), text)
+                            _stage_params(_PREVIEW, fn, params), _opt(ids, _grid, "ids", fn), text,
+                            weight_grids)
 
 
 _PREVIEW = _table("preview")
@@ -522,8 +526,10 @@ preview = _stage_function(
     "framing its active voxels.",
     "ids: an id grid (e.g. material) to tint surfaces by id, palette: {id: '#rrggbb'} colours "
     "(other ids get a colour hashed from the id; default None). Returns what the image shows: "
-    "{'surface': share of pixels on the surface, 'ids': {id: share}} (shares in [0, 1]).",
-    before=["grid", "path"], after=[("ids", None), ("palette", None)])
+    "{'surface': share of pixels on the surface, 'ids': {id: share}, 'materials': {name: share of "
+    "pixels where it weighs most}} (shares in [0, 1]). weights: the weight_* grids texture=True "
+    "blends (e.g. those Stacks.bake returns; default None).",
+    before=["grid", "path"], after=[("ids", None), ("palette", None), ("weights", None)])
 
 
 def provenance(grid):

@@ -171,12 +171,15 @@ void bindGrids(py::module_& m)
         writeMesh(mesh, path, axis);
     }, py::arg("grid"), py::arg("path"), py::arg("params"), "vdb_mesh (the table's JSON)");
     m.def("preview", [](Grid grid, const std::string& path, const std::string& params,
-                        std::optional<Grid> ids, const std::string& palette) {
+                        std::optional<Grid> ids, const std::string& palette, const std::vector<Grid>& weights) {
         PreviewSettings s = previewSchema().fromJson(parseParams(params, "preview"));
         if (!palette.empty()) s.palette = parsePalette(palette, "preview: palette");
+        openvdb::GridPtrVec given;
+        for (const auto& w : weights) given.push_back(w);
+        const std::vector<PreviewMaterial> materials = previewMaterials(given);
         PreviewStats st;
         withTask([&](Task&) {
-            writePreview(*grid, path, s, ids ? ids->get() : nullptr, &st);
+            writePreview(*grid, path, s, ids ? ids->get() : nullptr, &st, &materials);
             return 0;
         });
         py::dict out;
@@ -184,9 +187,12 @@ void bindGrids(py::module_& m)
         py::dict byId;
         for (const auto& [id, n] : st.idPixels) byId[py::int_(id)] = double(n) / double(st.pixels);
         out["ids"] = byId;
+        py::dict byMaterial;
+        for (const auto& [name, n] : st.materialPixels) byMaterial[py::str(name)] = double(n) / double(st.pixels);
+        out["materials"] = byMaterial;
         return out;
     }, py::arg("grid"), py::arg("path"), py::arg("params"), py::arg("ids") = py::none(),
-       py::arg("palette") = "", "vdb_preview (the table's JSON)");
+       py::arg("palette") = "", py::arg("weights") = std::vector<Grid>(), "vdb_preview (the table's JSON)");
     m.def("provenance", [](Grid grid) -> py::object {
         auto p = provenance(*grid);
         if (!p) return py::none();

@@ -42,7 +42,7 @@ TABLE_FUNCTIONS = [
     (rockvdb.Field.bake, "bake", [], {"self", "attribute"}),
     (rockvdb.heightfield, "heightfield", [], {"path", "stats"}),
     (rockvdb.mesh, "mesh", [], {"grid", "path"}),
-    (rockvdb.preview, "preview", [], {"grid", "path", "ids", "palette"}),
+    (rockvdb.preview, "preview", [], {"grid", "path", "ids", "palette", "weights"}),
     (rockvdb.csg, "csg", ["ids"], {"op", "grids", "ids"}),
     (rockvdb.asset, "asset", [], {"grid", "path", "ids", "mask", "stats"}),
     (rockvdb.asset_each, "asset", ["id"], {"grid", "ids", "mask", "stats"}),

@@ -1,6 +1,7 @@
 """vdb_arches: material-stack terrain from a scene file (arches §3, §6)."""
 import json
 import os
+import re
 
 import numpy as np
 import pyopenvdb as vdb
@@ -202,3 +203,31 @@ def test_sample_11_canyon_cliffs_shed_rock_piles(tmp_path):
     again = rockvdb.Stacks.load(tmp_path / "arches_canyon_collapse.stacks")
     assert again.stabilize()["moves"] == 0  # already at rest
     assert (tmp_path / "arches_canyon_collapse.png").stat().st_size > 10000
+
+
+def test_preview_textures_the_ground_by_its_weight_grids(tmp_path):
+    """§6 in vdb_preview (--texture): each ground material's pattern, triplanar Lp (p = 8),
+    blended by the weight_* grids; the CLI and Python give the same PNG; a file without
+    weights is refused in one line, nothing written."""
+    out = tmp_path / "a.vdb"
+    run([AR, "-q", str(small_scene(tmp_path)), "--voxel-size", "0.25", "-o", str(out)], check=True)
+    png = tmp_path / "t.png"
+    p = run([tool("vdb_preview"), str(out), "--texture", "--width", "240", "--height", "160", "-o", str(png)])
+    assert p.returncode == 0, p.stderr
+    shares = dict((m, float(v)) for m, v in re.findall(r"(\w+) ([\d.]+)%", p.stderr.split("by material:")[1]))
+    assert shares["bedrock"] > 5 and sum(shares.values()) > 10, p.stderr
+    grids, _ = vdb.readAll(str(out))
+    surface = [g for g in grids if g.name == "surface"][0]
+    weights = [g for g in grids if g.name.startswith("weight_")]
+    r = rockvdb.preview(surface, tmp_path / "py.png", weights=weights, texture=True, width=240, height=160)
+    assert (tmp_path / "py.png").read_bytes() == png.read_bytes()
+    assert abs(100 * r["materials"]["bedrock"] - shares["bedrock"]) < 0.06
+    # The texture shows: the same view untextured differs.
+    run([tool("vdb_preview"), str(out), "--width", "240", "--height", "160", "-o", str(tmp_path / "u.png")],
+        check=True)
+    assert (tmp_path / "u.png").read_bytes() != png.read_bytes()
+    bare = tmp_path / "bare.vdb"
+    run([AR, "-q", str(small_scene(tmp_path)), "--voxel-size", "0.25", "--no-weights", "-o", str(bare)], check=True)
+    one_line_error(run([tool("vdb_preview"), str(bare), "--texture", "-o", str(tmp_path / "n.png")]), 2,
+                   "--texture needs weight_* grids")
+    assert not (tmp_path / "n.png").exists()
