@@ -687,6 +687,18 @@ void deposit(Stacks& stacks, const json& e, size_t index, Touched& touched, Edit
     });
 }
 
+// Intervals [a, b) sorted and merged where they touch or overlap.
+std::vector<std::pair<uint64_t, uint64_t>> mergeIntervals(std::vector<std::pair<uint64_t, uint64_t>> in)
+{
+    std::sort(in.begin(), in.end());
+    std::vector<std::pair<uint64_t, uint64_t>> out;
+    for (const auto& r : in) {
+        if (!out.empty() && r.first <= out.back().second) out.back().second = std::max(out.back().second, r.second);
+        else out.push_back(r);
+    }
+    return out;
+}
+
 // The heights where the vertical line through (x, y) lies within R of the segment [a, b] (a
 // capsule; a == b: a sphere): one interval, as the capsule is convex. Its ends are the least
 // z_c(t) − h(t) and the greatest z_c(t) + h(t) over the centres c(t) = a + t (b − a) within R
@@ -770,12 +782,7 @@ void erode(Stacks& stacks, const json& e, size_t index, Touched& touched, EditSt
             if (qa < qb) region.emplace_back(qa, qb);
         }
         if (region.empty()) return false;
-        std::sort(region.begin(), region.end());
-        std::vector<std::pair<uint64_t, uint64_t>> spans;
-        for (const auto& r : region) {
-            if (!spans.empty() && r.first <= spans.back().second) spans.back().second = std::max(spans.back().second, r.second);
-            else spans.push_back(r);
-        }
+        const std::vector<std::pair<uint64_t, uint64_t>> spans = mergeIntervals(std::move(region));
         const uint64_t lo = spans.front().first, hi = spans.back().second;
         // The bedrock within the sphere (collapse), or within depth of an exposed face (surface).
         std::vector<std::pair<uint64_t, uint64_t>> eroded; // [a, b) quanta
@@ -802,12 +809,7 @@ void erode(Stacks& stacks, const json& e, size_t index, Touched& touched, EditSt
             }
         }
         if (merged.empty()) return false;
-        std::sort(merged.begin(), merged.end());
-        std::vector<std::pair<uint64_t, uint64_t>> parts;
-        for (const auto& r : merged) {
-            if (!parts.empty() && r.first <= parts.back().second) parts.back().second = std::max(parts.back().second, r.second);
-            else parts.push_back(r);
-        }
+        const std::vector<std::pair<uint64_t, uint64_t>> parts = mergeIntervals(std::move(merged));
         uint64_t total = 0;
         for (const auto& [a, b] : parts) total += b - a;
         // Eroded bedrock becomes sand, and in collapse mode its top share rho becomes rocks

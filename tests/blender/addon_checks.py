@@ -60,11 +60,25 @@ def evaluated(obj):
             v = np.zeros(len(me.vertices), np.float32)
             a.data.foreach_get("value", v)
             attrs[a.name] = sorted(set(int(x) for x in np.unique(v)))
+    # arches §6 weights on the vertices: each one's [min, max], the share of vertices whose
+    # weights sum to 1 (they are shares of visible faces) and of those with none.
+    weights, total = {}, np.zeros(len(me.vertices), np.float32)
+    for a in me.attributes:
+        if a.name.startswith("weight_"):
+            v = np.zeros(len(me.vertices), np.float32)
+            a.data.foreach_get("value", v)
+            weights[a.name] = [float(v.min()), float(v.max())] if len(v) else [0.0, 0.0]
+            total += v
     lo = [min(v.co[i] for v in me.vertices) for i in range(3)] if me.vertices else None
     hi = [max(v.co[i] for v in me.vertices) for i in range(3)] if me.vertices else None
+    nodes = [n for m in obj.data.materials for n in m.node_tree.nodes]
     return {"vertices": len(me.vertices), "attributes": attrs, "min": lo, "max": hi,
-            "tint": [n.attribute_name for m in obj.data.materials for n in m.node_tree.nodes
-                     if n.type == "ATTRIBUTE"]}
+            "tint": [n.attribute_name for n in nodes if n.type == "ATTRIBUTE"],
+            "weights": weights,
+            # (over the vertices with any weight: the terrain's floor, facing nothing, has none)
+            "weights_sum_one": float(np.mean(np.abs(total[total > 0.01] - 1) < 0.02)) if (total > 0.01).any() else 0.0,
+            "weights_none": float(np.mean(total <= 0.01)) if weights and len(total) else 1.0,
+            "noise_textures": sum(1 for n in nodes if n.type == "TEX_NOISE")}
 
 
 def result(name, obj, copy=True):

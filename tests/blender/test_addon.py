@@ -162,12 +162,21 @@ def test_results_hold_their_grids_meshed_and_tinted(report):
         ids = [g for g in ("material", "block_id", "rock_id") if g in names]
         assert sorted(r["attributes"]) == sorted(ids), name
         assert r["tint"] == ids[:1], name
-    # material stacks: the ground 'surface' meshed, tinted by 'material'
+    # material stacks: the ground 'surface' meshed, its 'material' ids and weight_* grids on
+    # the vertices, textured by the weights (arches §6: three triplanar noise patterns per
+    # material, blended by the weight attributes, which sum to 1 where the ground is visible)
     for name in ("stacks", "stacks_scene"):
         r = R[name]
         assert "surface" in r["volume_grids"] and "material" in r["volume_grids"], name
         assert r["modifiers"][0] == ["VOLUME_TO_MESH", "surface", 0.0, 0.0], name
-        assert r["tint"] == ["material"] and r["vertices"] > 500, name
+        assert r["vertices"] > 500, name
+        assert "weight_bedrock" in r["weights"], name
+        assert r["tint"] == sorted(r["weights"]), name
+        assert r["noise_textures"] == 3 * len(r["weights"]), name
+        # (the floor of the terrain's block faces nothing: no weights there)
+        assert r["weights_sum_one"] > 0.95 and r["weights_none"] < 0.35, (name, r["weights_sum_one"], r["weights_none"])
+    assert set(R["stacks_scene"]["weights"]) == {"weight_sand", "weight_bedrock", "weight_rocks"}
+    assert all(hi > 0.5 for lo, hi in R["stacks_scene"]["weights"].values()), R["stacks_scene"]["weights"]
     assert R["stacks"]["attributes"]["material"] == [3]             # bedrock only
     assert {2, 3, 4} <= set(R["stacks_scene"]["attributes"]["material"])  # sand, bedrock, rocks
     # amplify: terrain (material 0) and blocks; two strata, two tiles' materials

@@ -5,7 +5,9 @@ One result is three objects, the first the one an artist handles:
                  0, vdb_mesh's adaptivity), then a geometry-nodes modifier that copies the id
                  grids onto the mesh's points as attributes 'material', 'block_id', 'rock_id'
                  (each vertex takes the id of the nearest surface voxel), and a material that
-                 tints by them (Attribute node: Cycles and Eevee);
+                 tints by them (Attribute node: Cycles and Eevee) — or, for material stacks, their
+                 weight_* grids too, and a material that textures the ground by them (arches §6:
+                 triplanar noise per material, Lp weights p = 8, blended by the weights);
   <name> grids   the Volume object holding the grids, read from a cache .vdb next to the .blend
                  (//rockvdb_cache/, or Blender's temporary folder for an unsaved file), hidden;
   <name> ids     the id grids' surface voxels as points with those attributes, hidden.
@@ -23,6 +25,11 @@ import rockvdb
 from rockvdb import _rockvdb
 
 ID_GRIDS = ("material", "block_id", "rock_id")
+# arches §6: the share of each ground material's visible faces (vdb_arches' weight_<name>)
+WEIGHT_PREFIX = "weight_"
+# Colour (linear) and 2D pattern scale (1/m) of each known material's texture
+TEXTURES = {"sand": ((0.62, 0.50, 0.30), 40.0), "bedrock": ((0.42, 0.40, 0.38), 4.0),
+            "rocks": ((0.30, 0.29, 0.28), 10.0)}
 
 
 def cache_dir():
@@ -66,7 +73,7 @@ def _id_points(grids):
     """The id grids' values at the surface voxels (|phi| <= half a voxel: about one voxel per
     surface column, enough for the nearest-point look-up): (points N x 3, {name: values N})."""
     surface = next(g for g in grids if g.name == "surface")
-    ids = [g for g in grids if g.name in ID_GRIDS]
+    ids = [g for g in grids if g.name in ID_GRIDS or g.name.startswith(WEIGHT_PREFIX)]
     if not ids:
         return np.zeros((0, 3), np.float32), {}
     pts, values = _rockvdb.surface_ids(surface, ids, 0.5)
@@ -135,6 +142,76 @@ def _material(name, attribute, instancer=False):
     mix.inputs["Color1"].default_value = (0.30, 0.28, 0.26, 1.0)
     L.new(noise.outputs["Color"], mix.inputs["Color2"])
     L.new(mix.outputs["Color"], bsdf.inputs["Base Color"])
+    return mat
+
+
+def _textured_material(name, weights):
+    """arches §6: every ground material's texture mapped triplanarly (three 2D noise patterns
+    on the axis planes, Lp weights |n_i|^8 / Σ|n_j|^8 of the normal), blended by the weight
+    attributes (per vertex, as the paper): Σ w_m T_m / Σ w_m."""
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    N, L = mat.node_tree.nodes, mat.node_tree.links
+    bsdf = N.get("Principled BSDF")
+    bsdf.inputs["Roughness"].default_value = 0.9
+
+    def math(op, a, b=None, c=None):
+        m = N.new("ShaderNodeMath")
+        m.operation = op
+        for k, v in enumerate((a, b, c)):
+            if v is None:
+                continue
+            if isinstance(v, (int, float)):
+                m.inputs[k].default_value = v
+            else:
+                L.new(v, m.inputs[k])
+        return m.outputs[0]
+
+    geo = N.new("ShaderNodeNewGeometry")
+    pos, nrm = N.new("ShaderNodeSeparateXYZ"), N.new("ShaderNodeSeparateXYZ")
+    L.new(geo.outputs["Position"], pos.inputs[0])
+    L.new(geo.outputs["Normal"], nrm.inputs[0])
+    powered = [math("POWER", math("ABSOLUTE", nrm.outputs[k]), 8.0) for k in range(3)]
+    total = math("ADD", math("ADD", powered[0], powered[1]), powered[2])
+    lp = [math("DIVIDE", powered[k], math("MAXIMUM", total, 1e-12)) for k in range(3)]
+    projections = []  # (u, v) of the projection along x, y, z: (y, z), (x, z), (x, y)
+    for u, v in ((1, 2), (0, 2), (0, 1)):
+        c = N.new("ShaderNodeCombineXYZ")
+        L.new(pos.outputs[u], c.inputs[0])
+        L.new(pos.outputs[v], c.inputs[1])
+        projections.append(c.outputs[0])
+    colour_sum, weight_sum = None, None
+    for attr in weights:
+        kind = attr[len(WEIGHT_PREFIX):]
+        rgb, scale = TEXTURES.get(kind, ((0.45, 0.45, 0.45), 6.0))
+        shade = None
+        for k in range(3):
+            tex = N.new("ShaderNodeTexNoise")
+            tex.noise_dimensions = "2D"
+            tex.inputs["Scale"].default_value = scale
+            L.new(projections[k], tex.inputs["Vector"])
+            term = math("MULTIPLY", lp[k], tex.outputs["Fac"])
+            shade = term if shade is None else math("ADD", shade, term)
+        w = N.new("ShaderNodeAttribute")
+        w.attribute_name = attr
+        weight = math("MAXIMUM", w.outputs["Fac"], 0.0)
+        coloured = N.new("ShaderNodeVectorMath")
+        coloured.operation = "SCALE"
+        coloured.inputs[0].default_value = rgb
+        L.new(math("MULTIPLY", math("MULTIPLY_ADD", shade, 0.8, 0.6), weight), coloured.inputs["Scale"])
+        if colour_sum is None:
+            colour_sum, weight_sum = coloured.outputs[0], weight
+        else:
+            add = N.new("ShaderNodeVectorMath")
+            add.operation = "ADD"
+            L.new(colour_sum, add.inputs[0])
+            L.new(coloured.outputs[0], add.inputs[1])
+            colour_sum, weight_sum = add.outputs[0], math("ADD", weight_sum, weight)
+    final = N.new("ShaderNodeVectorMath")
+    final.operation = "SCALE"
+    L.new(colour_sum, final.inputs[0])
+    L.new(math("DIVIDE", 1.0, math("MAXIMUM", weight_sum, 1e-6)), final.inputs["Scale"])
+    L.new(final.outputs[0], bsdf.inputs["Base Color"])
     return mat
 
 
@@ -223,14 +300,16 @@ def build(context, stage, label, prepared, operator_props, target=None):
 def _set_ids(obj, pts_obj, values):
     """The ids modifier and the tinting material for the id attributes in @a values."""
     attrs = [a for a in ID_GRIDS if a in values]
+    weights = sorted(a for a in values if a.startswith(WEIGHT_PREFIX))
     old = obj.modifiers.get("rockvdb ids")
     if old is not None:
         obj.modifiers.remove(old)
-    if attrs:
+    if attrs or weights:
         mod = obj.modifiers.new("rockvdb ids", "NODES")
-        mod.node_group = _ids_tree(obj.name + " ids", pts_obj, attrs)
-    obj["rockvdb_ids"] = attrs
-    mat = _material(obj.name, attrs[0] if attrs else None)
+        mod.node_group = _ids_tree(obj.name + " ids", pts_obj, attrs + weights)
+    obj["rockvdb_ids"] = attrs + weights
+    # Material stacks' ground: textured by its weights (§6); anything else tinted by its ids.
+    mat = _textured_material(obj.name, weights) if weights else _material(obj.name, attrs[0] if attrs else None)
     if obj.data.materials:
         obj.data.materials[0] = mat
     else:
