@@ -300,7 +300,7 @@ void AperiodicTiles::make(const Key& key, Task& task) const
         std::lock_guard<std::mutex> lock(mMutex);
         if (mRegions.count(key)) return;
     }
-    const auto [M, C] = key;
+    const int M = key.first, C = key.second; // (not a structured binding: lambdas below capture M)
     const BlockTileParams& p = mParams;
     const double s = p.tileSize;
     const double r = p.pointRadius, nr = p.neighbourRadius, w = p.fractureWidth;
