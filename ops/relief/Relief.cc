@@ -14,13 +14,16 @@ namespace relief {
 
 namespace {
 int wrap(int i, int n) { return ((i % n) + n) % n; }
+// The procedural relief's table texel: scale/64 (8 texels across the 4th octave's wavelength
+// at the default scale).
+double tableTexel(const ReliefParams& p) { return p.scale / 64.0; }
 } // namespace
 
 size_t tableTexels(const ReliefParams& p, float lo, float hi)
 {
     if (!(p.amplitude > 0) || !p.image.empty()) return 0;
     const double span = double(hi - lo) + 2.0;
-    const double n = std::ceil(span / (p.scale / 64.0)) + 2;
+    const double n = std::ceil(span / tableTexel(p)) + 2;
     return n * n <= 16e6 ? size_t(n) * size_t(n) : 0;
 }
 
@@ -59,9 +62,8 @@ Relief::Relief(const ReliefParams& p, uint64_t seed, float lo, float hi)
                       float(std::max(mImage.width, mImage.height)) / mScale;
         return;
     }
-    // Procedural relief: tabulate the turbulence once (texel = scale/64: 8 texels across
-    // the 4th octave's wavelength at the default scale) over the coordinate range.
-    const double texel = p.scale / 64.0;
+    // Procedural relief: tabulate the turbulence once (tableTexel) over the coordinate range.
+    const double texel = tableTexel(p);
     if (const size_t texels = tableTexels(p, lo, hi)) {
         mTableN = int(std::lround(std::sqrt(double(texels))));
         mTableLo = lo - 1.0f;

@@ -513,6 +513,8 @@ def _preview(grid, path, ids=None, palette=None, weights=None, **params):
                     for k, v in (palette or {}).items())
     if weights is not None and not isinstance(weights, (list, tuple)):
         raise _type_error(fn, "weights", "a list of weight_* grids", weights)
+    if weights and not params.get("texture"):
+        raise ValueError("preview: weights apply to texture=True (they would be ignored)")
     weight_grids = [_grid(w, "weights", fn) for w in (weights or [])]
     return _rockvdb.preview(_grid(grid, "grid", fn), _path(path, "path", fn),
                             _stage_params(_PREVIEW, fn, params), _opt(ids, _grid, "ids", fn), text,

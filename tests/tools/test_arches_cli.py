@@ -222,6 +222,9 @@ def test_preview_textures_the_ground_by_its_weight_grids(tmp_path):
     r = rockvdb.preview(surface, tmp_path / "py.png", weights=weights, texture=True, width=240, height=160)
     assert (tmp_path / "py.png").read_bytes() == png.read_bytes()
     assert abs(100 * r["materials"]["bedrock"] - shares["bedrock"]) < 0.06
+    with pytest.raises(ValueError, match="weights apply to texture=True"):
+        rockvdb.preview(surface, tmp_path / "no.png", weights=weights)
+    assert not (tmp_path / "no.png").exists()
     # The texture shows: the same view untextured differs.
     run([tool("vdb_preview"), str(out), "--width", "240", "--height", "160", "-o", str(tmp_path / "u.png")],
         check=True)
