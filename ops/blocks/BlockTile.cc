@@ -31,6 +31,12 @@ BlockTile generateTile(const BlockTileParams& in, Task& task)
     p.resolveDefaults();
     p.validate();
     p.axis = p.axis.unit();
+    for (size_t a = 0; a < p.authored.size(); ++a) {
+        AuthoredBlock& ab = p.authored[a];
+        if (ab.isExpression() && !ab.field) {
+            ab.field = authoredExpressionField(ab.expression, "authored block " + std::to_string(a));
+        }
+    }
     // 1. Poisson-sphere points in the periodic tile.
     const auto t0 = Clock::now();
     std::vector<Vec3d> pts = poissonPeriodic(p.tileSize, p.pointRadius, p.seed, kPoints);
@@ -308,6 +314,10 @@ BlockTile buildTile(const BlockTileParams& p, const std::vector<Vec3d>& pts, std
         std::vector<Foreign> foreign;
         const std::vector<int>& mem = members[c];
         auto add = [&](const Vec3d& q, int to, int disc, const Vec3d& centre) {
+            // An expression block's points stop nothing: its neighbours grow by the cap into
+            // it and it carves them (w away) in the tile field.
+            const int own = owner[size_t(to)];
+            if (own >= 0 && p.authored[size_t(own)].isExpression()) return;
             const int k = clusterOf[size_t(to)];
             const Vec3d off = k >= 0 ? q - pointsOf[size_t(k)][size_t(indexIn[size_t(to)])] : Vec3d(0);
             foreign.push_back({q, k, off, disc, centre});

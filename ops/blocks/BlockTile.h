@@ -44,10 +44,18 @@ struct Disc
     double radius = 0;
 };
 
-/// A user-authored convex block: planes n·p <= d (tile coordinates, n need not be unit).
+/// A user-authored block (tile coordinates): a convex polytope, planes n·p <= d (n need not
+/// be unit; boxes become these), or any bounded expression of the JSON expression language
+/// (core/Expression.h: a sphere, a smooth union ...) as its compact JSON text. An expression
+/// block keeps every later block (authored blocks after it, then the fractured ones)
+/// fracture-width away from it: they grow up to it and are carved by it (TileField.cc).
 struct AuthoredBlock
 {
-    std::vector<std::array<double, 4>> planes;
+    std::vector<std::array<double, 4>> planes; ///< a polytope (empty for an expression)
+    std::string expression;                    ///< an expression block's JSON (else empty)
+    FieldPtr field;                            ///< the expression's field (else null)
+
+    bool isExpression() const { return !expression.empty(); }
 };
 
 using relief::ReliefParams;
@@ -98,10 +106,19 @@ struct BlockTileParams
 /// @brief User fractures from JSON: [{"center": [x,y,z], "normal": [x,y,z], "radius": r}].
 std::vector<Disc> fracturesFromJson(const nlohmann::json& j);
 /// @brief Authored blocks from JSON: [{"type": "box", "center", "size", "rotate"} or
-/// {"type": "polytope", "planes": [[nx, ny, nz, d], ...]}] (boxes become polytopes).
+/// {"type": "polytope", "planes": [[nx, ny, nz, d], ...]} (convex: boxes become polytopes),
+/// or any other expression node ({"type": "sphere", ...}, {"type": "union", "smooth": R,
+/// ...}; {"type": "expression", "expression": {...}} wraps a box or polytope node as an
+/// expression)]. @throw ValueError naming the entry.
 std::vector<AuthoredBlock> authoredListFromJson(const nlohmann::json& j);
 
-enum class BlockKind { Polytope, Segment, Point };
+/// @brief An authored expression block's field from its JSON text, checked: bounded, a
+/// distance bound of slope 1 (no warp node: the tile's warp-* rows
+/// roughen every block), no terrain node. @a what names the block in errors.
+/// @throw ValueError naming it.
+FieldPtr authoredExpressionField(const std::string& text, const std::string& what);
+
+enum class BlockKind { Polytope, Segment, Point, Expression };
 
 /// One block in its home frame (unwrapped tile coordinates; its anchor centroid lies in
 /// [0, s)³). Floats: the tile file stores exactly these values.
@@ -111,6 +128,8 @@ struct Block
     std::vector<std::array<float, 4>> planes; ///< outward unit n, d: h(p) = n·p - d, fold order
     std::array<float, 3> a{}, b{};            ///< segment ends / point centre
     float radius = 0;                         ///< segment / point radius
+    std::string expression;                   ///< expression block: its JSON text
+    std::array<float, 3> origin{};            ///< expression block: f(p - origin) (home frame)
     std::vector<std::array<float, 3>> vertices; ///< hull vertices (in memory only)
     std::vector<std::array<float, 3>> cluster;  ///< the cluster's points (in memory only)
     std::vector<float> areas;                   ///< facet area per plane (in memory only)

@@ -3,6 +3,8 @@
 #include <rockvdb/blocks/BlocksStage.h>
 
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
+#include <rockvdb/core/Json.h>
 #include <rockvdb/core/Primitives.h>
 
 #include <nlohmann/json.hpp>
@@ -114,6 +116,19 @@ void tilegen::checkTileRules(const BlockTileParams& p)
     }
     for (size_t i = 0; i < authored.size(); ++i) {
         const std::string what = "authored block " + std::to_string(i);
+        if (authored[i].isExpression()) {
+            const FieldPtr f = authored[i].field ? authored[i].field
+                                                 : authoredExpressionField(authored[i].expression, what);
+            const BBoxd bb = f->bounds();
+            const Vec3d ext = bb.extents();
+            const double extent = std::max({ext[0], ext[1], ext[2]});
+            if (extent > tileSize) {
+                fail<ValueError>(op, ": ", what, " is ", extent, " m across, wider than the ", tileSize,
+                                 " m tile (a periodic tile cannot hold a block wider than itself); "
+                                 "make it smaller or raise --tile-size");
+            }
+            continue;
+        }
         require(authored[i].planes.size() >= 4, op, what.c_str(), "at least 4 planes",
                 authored[i].planes.size());
         for (const auto& q : authored[i].planes) {
@@ -194,13 +209,82 @@ std::vector<Disc> fracturesFromJson(const json& j)
     return out;
 }
 
+namespace {
+
+// Expression nodes a block cannot be: terrains (unbounded sheets, file paths a tile file
+// could not carry) and warps (not a distance bound; the tile's warp-* rows roughen blocks).
+void refuseNodes(const json& j, const std::string& w)
+{
+    if (j.is_array()) {
+        for (size_t k = 0; k < j.size(); ++k) refuseNodes(j[k], w);
+        return;
+    }
+    if (!j.is_object()) return;
+    if (j.contains("type") && j["type"].is_string()) {
+        const std::string t = j["type"];
+        if (t == "heightfield" || t == "noise_terrain" || t == "sea_cliff") {
+            fail<ValueError>("blocks: ", w, " holds a '", t, "' node: a block is a bounded solid, "
+                             "not a terrain (amplify a terrain with vdb_amplify instead)");
+        }
+        if (t == "warp") {
+            fail<ValueError>("blocks: ", w, " holds a 'warp' node: a block's expression must be "
+                             "a distance bound; the tile's warp-* parameters roughen every block");
+        }
+    }
+    for (const auto& [key, value] : j.items()) {
+        if (key == "child" || key == "children") refuseNodes(value, w);
+    }
+}
+
+} // namespace
+
+FieldPtr authoredExpressionField(const std::string& text, const std::string& what)
+{
+    const json j = parseJsonOrDiscarded(text);
+    if (j.is_discarded()) fail<ValueError>("blocks: ", what, " is not JSON");
+    refuseNodes(j, what);
+    FieldPtr f;
+    try {
+        f = fieldFromJson(j, ExpressionContext{});
+    } catch (const ValueError& e) {
+        fail<ValueError>("blocks: ", what, ": ", e.what());
+    }
+    if (!isBounded(f->bounds()) || f->bounds().empty()) {
+        fail<ValueError>("blocks: ", what, " is unbounded (a plane or a difference from "
+                         "nothing); intersect it with a bounded shape");
+    }
+    // The tile field's culling takes each block's base for a 1-Lipschitz distance bound.
+    if (f->lipschitz() > 1.0 + 1e-9 || f->modulus(1.0) > 1.0 + 1e-9) {
+        fail<ValueError>("blocks: ", what, " is not a distance bound of slope 1 (slope ",
+                         std::max(f->lipschitz(), f->modulus(1.0)), ")");
+    }
+    return f;
+}
+
+namespace {
+
+AuthoredBlock expressionBlock(const json& node, const std::string& w)
+{
+    AuthoredBlock a;
+    a.expression = node.dump();
+    a.field = authoredExpressionField(a.expression, w);
+    return a;
+}
+
 AuthoredBlock authoredFromJson(const json& j, const std::string& w)
 {
     if (!j.is_object() || !j.contains("type") || !j["type"].is_string()) {
-        fail<ValueError>("blocks: ", w, " needs a \"type\" (box or polytope)");
+        fail<ValueError>("blocks: ", w, " needs a \"type\" (box, polytope or an expression node)");
     }
     AuthoredBlock a;
     const std::string type = j["type"];
+    if (type == "expression") {
+        allowKeys(j, w, {"type", "expression"});
+        if (!j.contains("expression") || !j["expression"].is_object()) {
+            fail<ValueError>("blocks: ", w, " needs \"expression\": {an expression node}");
+        }
+        return expressionBlock(j["expression"], w);
+    }
     if (type == "box") {
         allowKeys(j, w, {"type", "center", "size", "rotate"});
         if (!j.contains("size")) fail<ValueError>("blocks: ", w, " needs \"size\"");
@@ -238,10 +322,13 @@ AuthoredBlock authoredFromJson(const json& j, const std::string& w)
             a.planes.push_back(pl);
         }
     } else {
-        fail<ValueError>("blocks: ", w, " has unknown type '", type, "' (box or polytope)");
+        // Any other node of the expression language (its parser names unknown types).
+        return expressionBlock(j, w);
     }
     return a;
 }
+
+} // namespace
 
 std::vector<AuthoredBlock> authoredListFromJson(const json& j)
 {

@@ -87,11 +87,16 @@ void addTileRows(Schema<P>& s, Access at)
     bind(param("authored", ParamType::Json, "", nullptr, Range::any(),
              "Authored blocks, a JSON file (or list): [{\"type\":\"box\",\"center\":[..],"
              "\"size\":[..],\"rotate\":[..]} or {\"type\":\"polytope\",\"planes\":"
-             "[[nx,ny,nz,d],...]}, ...]"),
+             "[[nx,ny,nz,d],...]} (convex), or any bounded expression node as vdb_primitive "
+             "expr takes ({\"type\":\"sphere\",...}, a smooth union, ...; it keeps later "
+             "blocks fracture-width away), ...]; ids in list order"),
          [](const T& t) {
              if (t.authored.empty()) return json();
              json a = json::array();
-             for (const auto& b : t.authored) a.push_back({{"type", "polytope"}, {"planes", b.planes}});
+             for (const auto& b : t.authored) {
+                 if (b.isExpression()) a.push_back(json::parse(b.expression));
+                 else a.push_back({{"type", "polytope"}, {"planes", b.planes}});
+             }
              return a;
          },
          [](T& t, const json& j) {

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 namespace rockvdb {
@@ -303,9 +304,74 @@ Block makeBlock(const std::vector<Vec3d>& P, double thickness, double smoothRadi
     return b;
 }
 
+namespace {
+
+// An expression block: its bounds are the expression's; its anchors are inside samples of a
+// 16³ grid over them (the expression need not be convex, so anchorsOf's pull towards the
+// centroid could leave it): the deepest sample first, then farthest-point samples.
+Block makeExpressionBlock(const AuthoredBlock& a, const std::vector<Vec3d>& inside)
+{
+    Block b;
+    b.authored = true;
+    b.kind = BlockKind::Expression;
+    b.expression = a.expression;
+    b.points = int(inside.size());
+    const FieldPtr f = a.field ? a.field : authoredExpressionField(a.expression, "authored block");
+    const BBoxd bb = f->bounds();
+    constexpr int kGrid = 16;
+    BatchBuffer buf;
+    std::vector<Vec3d> samples;
+    std::vector<float> depth;
+    alignas(64) float v[kMaxBatch];
+    for (int i = 0; i < kGrid; ++i) {
+        buf.n = 0;
+        for (int j = 0; j < kGrid; ++j)
+            for (int k = 0; k < kGrid; ++k) {
+                const Vec3d q = bb.min() + bb.extents() * Vec3d((i + 0.5) / kGrid, (j + 0.5) / kGrid,
+                                                                 (k + 0.5) / kGrid);
+                buf.x[buf.n] = float(q[0]);
+                buf.y[buf.n] = float(q[1]);
+                buf.z[buf.n] = float(q[2]);
+                ++buf.n;
+            }
+        f->evalBatch(buf.view(), v);
+        for (int m = 0; m < buf.n; ++m) {
+            if (v[m] <= 0.0f) {
+                samples.emplace_back(buf.x[m], buf.y[m], buf.z[m]);
+                depth.push_back(v[m]);
+            }
+        }
+    }
+    if (samples.empty()) {
+        fail<ValueError>("blocks: an authored expression block is thinner than 1/16 of its "
+                         "bounds (", bb.extents().length(), " m across): no inside sample");
+    }
+    const size_t deepest = size_t(std::min_element(depth.begin(), depth.end()) - depth.begin());
+    b.anchors.push_back(f3(samples[deepest]));
+    std::vector<double> dist(samples.size(), std::numeric_limits<double>::max());
+    Vec3d last = samples[deepest];
+    for (size_t k = 1; k < 16 && k < samples.size(); ++k) {
+        size_t best = 0;
+        double bestD = -1;
+        for (size_t i = 0; i < samples.size(); ++i) {
+            dist[i] = std::min(dist[i], (samples[i] - last).lengthSqr());
+            if (dist[i] > bestD) { bestD = dist[i]; best = i; }
+        }
+        last = samples[best];
+        b.anchors.push_back(f3(last));
+    }
+    for (const auto& q : inside) b.cluster.push_back(f3(q));
+    b.boundsMin = f3(bb.min());
+    b.boundsMax = f3(bb.max());
+    return b;
+}
+
+} // namespace
+
 // An authored block's planes (normalised) and geometry; its vertices by plane triples.
 Block makeAuthored(const AuthoredBlock& a, const std::vector<Vec3d>& inside)
 {
+    if (a.isExpression()) return makeExpressionBlock(a, inside);
     Block b;
     b.authored = true;
     b.points = int(inside.size());
@@ -359,6 +425,16 @@ Block makeAuthored(const AuthoredBlock& a, const std::vector<Vec3d>& inside)
 // unwrapped position (or false).
 bool insideAuthored(const AuthoredBlock& a, const Vec3d& p, double size, Vec3d& unwrapped)
 {
+    if (a.isExpression()) {
+        const BBoxd bb = a.field->bounds();
+        for (int i = -1; i <= 1; ++i)
+            for (int j = -1; j <= 1; ++j)
+                for (int k = -1; k <= 1; ++k) {
+                    const Vec3d q = p + Vec3d(i, j, k) * size;
+                    if (bb.isInside(q) && a.field->eval(q) <= 0.0f) { unwrapped = q; return true; }
+                }
+        return false;
+    }
     for (int i = -1; i <= 1; ++i)
         for (int j = -1; j <= 1; ++j)
             for (int k = -1; k <= 1; ++k) {
@@ -384,6 +460,7 @@ void translate(Block& b, const Vec3d& shift)
     }
     move(b.a);
     move(b.b);
+    move(b.origin);
     for (auto& v : b.vertices) move(v);
     for (auto& v : b.cluster) move(v);
     for (auto& v : b.anchors) move(v);

@@ -13,6 +13,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <climits>
 #include <mutex>
 #include <cmath>
@@ -144,6 +145,14 @@ __attribute__((noinline)) void foldGrad(const PlaneSoA& P, const std::vector<int
     }
 }
 
+// An authored expression block (image) that keeps this block fracture-width away from it.
+struct Carver
+{
+    int block;
+    std::array<int, 3> image; // the carver's frame → this block's, in tiles
+    Vec3f offset;             // the same in metres
+};
+
 struct BlockShape
 {
     BlockKind kind;
@@ -151,6 +160,9 @@ struct BlockShape
     Vec3f a, ba;     // segment a and b - a (point: ba = 0)
     float invLen2 = 0, radius = 0;
     Vec3f lo, hi;    // bounds of the warped block (unwarped bounds + amplitude)
+    FieldPtr expr;   // expression block: its field, at p - origin
+    Vec3f origin = Vec3f(0.0f);
+    std::vector<Carver> carvers;
 };
 
 // Scratch for one block evaluation (a batch of at most kMaxBatch points).
@@ -160,7 +172,12 @@ struct Work
     alignas(64) float qx[kMaxBatch], qy[kMaxBatch], qz[kMaxBatch];
     alignas(64) float lx[kMaxBatch], ly[kMaxBatch], lz[kMaxBatch];
     alignas(64) float dxy[kMaxBatch], dxz[kMaxBatch], dyz[kMaxBatch];
+    alignas(64) float ex[kMaxBatch], ey[kMaxBatch], ez[kMaxBatch];
     std::vector<int> act;
+    std::unique_ptr<Work> inner; // a carver's evaluation (made on first use)
+    // Carver values of this batch by (block, image in tiles): several neighbours of one
+    // expression block share its evaluation.
+    std::vector<std::pair<std::array<int, 4>, std::vector<float>>> carved;
 };
 
 class Blocks
@@ -187,10 +204,36 @@ public:
             s.radius = b.radius;
             s.lo = Vec3f(b.boundsMin[0], b.boundsMin[1], b.boundsMin[2]) - Vec3f(amp);
             s.hi = Vec3f(b.boundsMax[0], b.boundsMax[1], b.boundsMax[2]) + Vec3f(amp);
+            if (b.kind == BlockKind::Expression) {
+                s.expr = authoredExpressionField(b.expression, "expression block " +
+                                                                   std::to_string(mShapes.size()));
+                s.origin = Vec3f(b.origin[0], b.origin[1], b.origin[2]);
+            }
             mShapes.push_back(std::move(s));
         }
         // The box term sits this far outside each block's box (far from the band).
         mMargin = std::max(0.5f, 2.0f * (mR + amp));
+        // Each expression block keeps every later block (and image) whose box comes within
+        // w of its own fracture-width away: b_j ∩̃ (w − b_a), in the warped frame.
+        mW = float(tile.params.fractureWidth);
+        const float S = float(tile.size());
+        for (size_t a = 0; a < mShapes.size(); ++a) {
+            if (mShapes[a].kind != BlockKind::Expression) continue;
+            for (size_t j = a + 1; j < mShapes.size(); ++j) {
+                BlockShape& J = mShapes[j];
+                for (int i = -2; i <= 2; ++i)
+                    for (int k = -2; k <= 2; ++k)
+                        for (int l = -2; l <= 2; ++l) {
+                            const Vec3f off(float(i) * S, float(k) * S, float(l) * S);
+                            bool near = true;
+                            for (int c = 0; c < 3 && near; ++c) {
+                                near = mShapes[a].lo[c] + off[c] - mW - mR < J.hi[c] &&
+                                       J.lo[c] < mShapes[a].hi[c] + off[c] + mW + mR;
+                            }
+                            if (near) J.carvers.push_back({int(a), {i, k, l}, off});
+                        }
+            }
+        }
     }
 
     size_t size() const { return mShapes.size(); }
@@ -233,9 +276,12 @@ public:
         }
     }
 
-    // b'_j at n local points (relief already in w): c_j(p + δ(p)), raised to the box term.
+    // b'_j at n local points (relief already in w): c_j(p + δ(p)), raised to the box term,
+    // carved by the expression blocks before it. Values of magnitude >= band are all alike
+    // to the caller (carvers that cannot reach the band are skipped).
     void eval(size_t j, int n, const float* x, const float* y, const float* z,
-              const Vec3f& centre, float rho, Work& w, float* out) const
+              const Vec3f& centre, float rho, Work& w, float* out, float band = kInf,
+              const std::array<int, 3>& image = {0, 0, 0}) const
     {
         const BlockShape& s = mShapes[j];
         const float amp = mRelief.amplitude();
@@ -267,7 +313,7 @@ public:
             py = w.qy;
             pz = w.qz;
         }
-        base(s, n, px, py, pz, centre, rho + amp, w.act, out);
+        base(s, n, px, py, pz, centre, rho + amp, w, out);
         // Box term, vectorised: signed distance to the box, lowered by the margin.
         const float lx = s.lo[0], ly = s.lo[1], lz = s.lo[2], hx = s.hi[0], hy = s.hi[1],
                     hz = s.hi[2], m = mMargin;
@@ -278,16 +324,69 @@ public:
             const float in = std::min(std::max(qx, std::max(qy, qz)), 0.0f);
             out[i] = std::max(out[i], std::sqrt(ox * ox + oy * oy + oz * oz) + in - m);
         }
+        for (const Carver& c : s.carvers) carve(c, n, x, y, z, centre, rho, w, out, band, image);
     }
 
 private:
-    // c_j (unwarped convex base) at n points within ρ of centre.
+    // out = out ∩̃ (w − b_a) for the carver's image: where b_a < w the block gives way.
+    // Skipped when b_a >= w + band + 2R over the whole batch: then w − b_a <= −band − 2R, so
+    // the result differs from out only where both lie below −band (alike to the caller).
+    // @a image: this block's copy (tiles), so copies of one carver share one evaluation.
+    void carve(const Carver& c, int n, const float* x, const float* y, const float* z,
+               const Vec3f& centre, float rho, Work& w, float* out, float band,
+               const std::array<int, 3>& image) const
+    {
+        const Vec3f lc = centre - c.offset;
+        if (lowerBound(size_t(c.block), lc, rho) >= mW + band + 2.0f * mR) return;
+        const std::array<int, 4> key{c.block, image[0] + c.image[0], image[1] + c.image[1],
+                                     image[2] + c.image[2]};
+        const float* value = nullptr;
+        for (const auto& e : w.carved) if (e.first == key) value = e.second.data();
+        if (!value) {
+            if (!w.inner) w.inner = std::make_unique<Work>();
+            Work& v = *w.inner;
+            for (int i = 0; i < n; ++i) {
+                v.lx[i] = x[i] - c.offset[0];
+                v.ly[i] = y[i] - c.offset[1];
+                v.lz[i] = z[i] - c.offset[2];
+            }
+            relief(n, v.lx, v.ly, v.lz, v);
+            w.carved.emplace_back(key, std::vector<float>(size_t(n)));
+            const std::array<int, 3> at{key[1], key[2], key[3]};
+            eval(size_t(c.block), n, v.lx, v.ly, v.lz, lc, rho, v, w.carved.back().second.data(),
+                 band, at);
+            value = w.carved.back().second.data();
+        }
+        const SmoothBlend blend(mR);
+        for (int i = 0; i < n; ++i) out[i] = blend.intersection(out[i], mW - value[i]);
+    }
+
+    // An expression block's points, moved into its own frame (p − origin), as a batch.
+    Batch exprBatch(const BlockShape& s, int n, const float* x, const float* y, const float* z,
+                    const Vec3f& centre, float rho, Work& w) const
+    {
+        for (int i = 0; i < n; ++i) {
+            w.ex[i] = x[i] - s.origin[0];
+            w.ey[i] = y[i] - s.origin[1];
+            w.ez[i] = z[i] - s.origin[2];
+        }
+        Batch b{w.ex, w.ey, w.ez, n};
+        b.center = centre - s.origin;
+        b.radius = rho;
+        return b; // band and reach stay infinite: the warp reads exact values
+    }
+
+    // c_j (unwarped base) at n points within ρ of centre.
     void base(const BlockShape& s, int n, const float* x, const float* y, const float* z,
-              const Vec3f& centre, float rho, std::vector<int>& act, float* out) const
+              const Vec3f& centre, float rho, Work& w, float* out) const
     {
         if (s.kind == BlockKind::Polytope) {
-            activePlanes(s.planes, centre, rho, mR, act);
-            fold(s.planes, act, mR, n, x, y, z, out);
+            activePlanes(s.planes, centre, rho, mR, w.act);
+            fold(s.planes, w.act, mR, n, x, y, z, out);
+            return;
+        }
+        if (s.kind == BlockKind::Expression) {
+            s.expr->evalBatch(exprBatch(s, n, x, y, z, centre, rho, w), out);
             return;
         }
         for (int i = 0; i < n; ++i) {
@@ -306,6 +405,11 @@ private:
             foldGrad(s.planes, w.act, mR, n, x, y, z, w.f, w.gx, w.gy, w.gz);
             return;
         }
+        if (s.kind == BlockKind::Expression) {
+            // Central differences (a millimetre); only the direction is used.
+            s.expr->gradientBatch(exprBatch(s, n, x, y, z, centre, rho, w), 1e-3f, w.gx, w.gy, w.gz);
+            return;
+        }
         for (int i = 0; i < n; ++i) {
             const float px = x[i] - s.a[0], py = y[i] - s.a[1], pz = z[i] - s.a[2];
             const float h = std::min(std::max((px * s.ba[0] + py * s.ba[1] + pz * s.ba[2]) * s.invLen2, 0.0f), 1.0f);
@@ -322,7 +426,7 @@ private:
 
     std::vector<BlockShape> mShapes;
     relief::Relief mRelief;
-    float mR, mP, mMargin = 0.5f;
+    float mR, mP, mMargin = 0.5f, mW = 0.0f;
 };
 
 // A slope bound of the warped blocks, for the renormaliser's floor only (|∇δ| from the relief
@@ -576,7 +680,8 @@ private:
                 }
                 mBlocks.relief(b.n, w.lx, w.ly, w.lz, w);
             }
-            mBlocks.eval(size_t(c.block), b.n, w.lx, w.ly, w.lz, lc, rho, w, v);
+            mBlocks.eval(size_t(c.block), b.n, w.lx, w.ly, w.lz, lc, rho, w, v, b.band,
+                         {c.ix, c.iy, c.iz});
             if (id) {
                 const float bid = (mOpt.blockIds ? (*mOpt.blockIds)[size_t(c.block)] : float(c.block)) +
                                   mOpt.idOffset;

@@ -55,8 +55,12 @@ json tileToJson(const BlockTile& t)
     for (const auto& b : t.blocks) {
         json jb;
         jb["kind"] = b.kind == BlockKind::Polytope ? "polytope"
-                   : b.kind == BlockKind::Segment  ? "segment" : "point";
-        if (b.kind == BlockKind::Polytope) {
+                   : b.kind == BlockKind::Segment  ? "segment"
+                   : b.kind == BlockKind::Expression ? "expression" : "point";
+        if (b.kind == BlockKind::Expression) {
+            jb["expression"] = json::parse(b.expression);
+            jb["origin"] = floats(b.origin);
+        } else if (b.kind == BlockKind::Polytope) {
             json planes = json::array();
             for (const auto& q : b.planes) {
                 planes.push_back({shortFloat(q[0]), shortFloat(q[1]), shortFloat(q[2]),
@@ -127,6 +131,15 @@ BlockTile tileFromJson(const json& j)
                 b.b = f3From(jb.at("b"));
                 b.radius = jb.at("radius").get<float>();
                 if (!(b.radius > 0)) fail<ValueError>("tile file: block radius must be > 0");
+            } else if (kind == "expression") {
+                b.kind = BlockKind::Expression;
+                const json& e = jb.at("expression");
+                if (!e.is_object()) fail<ValueError>("tile file: an expression block's expression is not an object");
+                b.expression = e.dump();
+                // Checked as the authored block it came from (bounded, slope 1, no terrain).
+                (void)authoredExpressionField(b.expression, "tile file: expression block " +
+                                                               std::to_string(t.blocks.size()));
+                b.origin = f3From(jb.at("origin"));
             } else {
                 fail<ValueError>("tile file: unknown block kind '", kind, "'");
             }

@@ -4,6 +4,7 @@
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Combinators.h>
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Expression.h>
 #include <rockvdb/core/Primitives.h>
 #include <rockvdb/core/Random.h>
 #include <rockvdb/core/Sampling.h>
@@ -493,6 +494,148 @@ TEST(Blocks, UserDiscSplitsABlockAndAuthoredBoxIsOneBlock)
         }
     }
     EXPECT_GT(A.points, 10);
+}
+
+namespace {
+
+// n directions spread over the sphere (Fibonacci).
+std::vector<Vec3d> directions(int n)
+{
+    std::vector<Vec3d> out;
+    const double golden = M_PI * (3.0 - std::sqrt(5.0));
+    for (int i = 0; i < n; ++i) {
+        const double z = 1.0 - 2.0 * (i + 0.5) / n, r = std::sqrt(1.0 - z * z);
+        out.emplace_back(r * std::cos(golden * i), r * std::sin(golden * i), z);
+    }
+    return out;
+}
+
+BlockTileParams withAuthored(BlockTileParams p, const char* json)
+{
+    p.authored = authoredListFromJson(nlohmann::json::parse(json));
+    return p;
+}
+
+} // namespace
+
+// The paper allows any implicit primitive as a block (§4.2): an authored sphere is one block
+// (id 0), its neighbours grow up to it and stand exactly the fracture width w away.
+TEST(Blocks, AuthoredSphereIsOneBlockAndItsNeighboursStandFractureWidthAway)
+{
+    BlockTileParams p = small(BlockType::Equidimensional, 5);
+    p.relief.amplitude = 0; // the sphere exactly
+    p.fractureWidth = 0.05;
+    p = withAuthored(p, R"([{"type": "sphere", "center": [5, 5, 5], "radius": 1.6}])");
+    auto t = make(p);
+    const Block& A = t->blocks[0];
+    ASSERT_EQ(A.kind, BlockKind::Expression);
+    EXPECT_TRUE(A.authored);
+    EXPECT_GT(A.points, 20); // the Poisson points it claimed (~4.6 per m³)
+    const Vec3d c(5, 5, 5);
+    EXPECT_LT((v3(A.anchors[0]) - c).length(), 0.35); // the deepest grid sample
+    for (const auto& q : A.anchors) EXPECT_LE((v3(q) - c).length(), 1.6);
+    for (const auto& q : A.cluster) EXPECT_LE((v3(q) - c).length(), 1.6 + 1e-5);
+
+    TileFieldOptions o;
+    o.periodic = true;
+    const FieldPtr tile = tileField(t, o);
+    const FieldPtr sphere = blockField(t, 0);
+    float id = -2;
+    EXPECT_NEAR(tile->evalId(c, &id), -1.6, 1e-5);
+    EXPECT_EQ(id, 0.0f);
+    int filled = 0, shell = 0;
+    for (const Vec3d& d : directions(600)) {
+        EXPECT_NEAR(sphere->eval(c + d * 1.6), 0.0, 1e-5);
+        // Mid-gap: nothing but the sphere's +w/2 there (no neighbour reaches into the gap).
+        const float mid = tile->eval(c + d * (1.6 + 0.025));
+        EXPECT_GE(mid, 0.0249f) << "a neighbour reaches into the gap at " << d;
+        // A neighbour block 0.1 m outside the gap: grown up to the sphere and carved by it.
+        filled += tile->evalId(c + d * (1.6 + 0.05 + 0.1), &id) < 0 && id > 0;
+        ++shell;
+    }
+    std::printf("shell 0.1 m outside the gap: %d of %d in a neighbour\n", filled, shell);
+    EXPECT_GT(double(filled) / shell, 0.85) << filled << " of " << shell;
+
+    // The tile file keeps the expression and replays the same values.
+    auto back = std::make_shared<const BlockTile>(tileFromJson(tileToJson(*t)));
+    ASSERT_EQ(back->blocks[0].kind, BlockKind::Expression);
+    const FieldPtr tile2 = tileField(back, o);
+    for (uint64_t i = 0; i < 2000; ++i) {
+        const Vec3d q(random::uniform(7, 0, 3 * i, 2, 8), random::uniform(7, 0, 3 * i + 1, 2, 8),
+                      random::uniform(7, 0, 3 * i + 2, 2, 8));
+        ASSERT_EQ(tile->eval(q), tile2->eval(q)) << q;
+    }
+
+    // With the tile's warp, the sphere's surface moves by at most the amplitude A.
+    BlockTileParams warped = p;
+    warped.relief.amplitude = 0.1;
+    auto tw = make(warped);
+    const FieldPtr ws = blockField(tw, 0);
+    double moved = 0;
+    for (const Vec3d& d : directions(600)) moved = std::max(moved, std::abs(double(ws->eval(c + d * 1.6))));
+    EXPECT_LE(moved, 0.1 + 1e-3);
+    EXPECT_GT(moved, 0.02); // and it does move: the relief applies to authored blocks too
+}
+
+// A construction tree as a block: two spheres joined by a smooth union keep the neck the
+// hard union would not have, exactly the expression's values (no warp).
+TEST(Blocks, AuthoredSmoothUnionIsTheExpressionsField)
+{
+    const char* expr = R"({"type": "union", "smooth": 1.0, "children": [
+        {"type": "sphere", "center": [4, 5, 5], "radius": 1},
+        {"type": "sphere", "center": [6.2, 5, 5], "radius": 1}]})";
+    BlockTileParams p = small(BlockType::Equidimensional, 5);
+    p.relief.amplitude = 0;
+    p = withAuthored(p, (std::string("[") + expr + "]").c_str());
+    auto t = make(p);
+    ASSERT_EQ(t->blocks[0].kind, BlockKind::Expression);
+    const FieldPtr direct = fieldFromJsonText(expr, ExpressionContext{});
+    const FieldPtr block = blockField(t, 0);
+    const Vec3d neck(5.1, 5, 5);
+    EXPECT_LT(block->eval(neck), -0.05f); // the hard union gives +0.1 there
+    EXPECT_EQ(block->eval(neck), direct->eval(neck));
+    for (uint64_t i = 0; i < 500; ++i) {
+        const Vec3d q(random::uniform(3, 0, 3 * i, 2.5, 7.5), random::uniform(3, 0, 3 * i + 1, 3.5, 6.5),
+                      random::uniform(3, 0, 3 * i + 2, 3.5, 6.5));
+        ASSERT_EQ(block->eval(q), direct->eval(q)) << q;
+    }
+    TileFieldOptions o;
+    o.periodic = true;
+    float id = -2;
+    EXPECT_LT(tileField(t, o)->evalId(neck, &id), 0.0f);
+    EXPECT_EQ(id, 0.0f);
+}
+
+TEST(Blocks, AuthoredExpressionsThatAreNotBoundedBlocksAreRefused)
+{
+    const BlockTileParams p = small(BlockType::Equidimensional, 5);
+    auto refused = [&](const char* json, const char* says) {
+        try {
+            make(withAuthored(p, json));
+            ADD_FAILURE() << json << " was accepted";
+        } catch (const ValueError& e) {
+            EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("authored[0]"), std::string::npos) << e.what();
+        }
+    };
+    refused(R"([{"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1]}])", "unbounded");
+    refused(R"([{"type": "warp", "amplitude": 0.2, "child": {"type": "sphere", "radius": 1}}])", "'warp'");
+    refused(R"([{"type": "noise_terrain", "samples": [8, 8], "cell_size": 1}])", "terrain");
+    refused(R"([{"type": "sphere", "center": [5, 5, 5], "radius": 1, "colour": 3}])", "colour");
+    // A non-uniform scale is a distance bound (the smallest scale times the child's): an
+    // ellipsoid is a block, inside where the ellipsoid is.
+    auto e = make(withAuthored(p, R"([{"type": "transform", "translate": [5, 5, 5],
+        "scale": [1, 3, 1], "child": {"type": "sphere", "radius": 1}}])"));
+    const FieldPtr ell = blockField(e, 0);
+    EXPECT_LT(ell->eval(Vec3d(5, 7.9, 5)), 0.0f);
+    EXPECT_GT(ell->eval(Vec3d(5, 8.1, 5)), 0.0f);
+    EXPECT_GT(ell->eval(Vec3d(6.1, 5, 5)), 0.0f);
+    try {
+        make(withAuthored(p, R"([{"type": "sphere", "center": [5, 5, 5], "radius": 6}])"));
+        ADD_FAILURE() << "a 12 m sphere in a 10 m tile was accepted";
+    } catch (const ValueError& e) {
+        EXPECT_NE(std::string(e.what()).find("wider than the 10 m tile"), std::string::npos) << e.what();
+    }
 }
 
 TEST(Blocks, ZeroAmplitudeIsTheSmoothPolytope)
