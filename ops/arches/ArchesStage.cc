@@ -601,6 +601,20 @@ void requireBakeOnly(const std::string& row)
 
 } // namespace
 
+json savedScene(const std::string& paramsText, const std::string& path)
+{
+    const json scene = parseJsonOrDiscarded(paramsText);
+    if (!scene.is_object()) {
+        fail<IoError>("corrupt stacks file '", path, "': its parameters are not a JSON object");
+    }
+    try {
+        (void)archesSchema().fromJson(scene);
+    } catch (const ValueError& e) {
+        fail<IoError>("corrupt stacks file '", path, "': parameters: ", e.what());
+    }
+    return scene;
+}
+
 Scene openScene(const SceneInputs& in, Task& task)
 {
     if (!in.scenePath.empty() && !in.stacksPath.empty()) {
@@ -614,8 +628,7 @@ Scene openScene(const SceneInputs& in, Task& task)
         scene = readScene(in.scenePath, baseDir);
     } else if (!in.stacksPath.empty()) {
         StackFile f = readStackFile(in.stacksPath);
-        scene = parseJsonOrDiscarded(f.params);
-        if (!scene.is_object()) fail<IoError>("arches: ", in.stacksPath, " holds no scene parameters");
+        scene = savedScene(f.params, in.stacksPath);
         saved = std::move(f.stacks);
     }
     json given = in.given;

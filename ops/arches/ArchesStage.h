@@ -183,6 +183,10 @@ struct Scene
 /// @throw ValueError naming the row at fault; IoError for unreadable files; Interrupted.
 Scene openScene(const SceneInputs& inputs, Task& task);
 
+/// @brief The scene a .stacks file was made by (its parameters), checked against the table
+/// as the file's: @throw IoError "corrupt stacks file '<path>': parameters: ..." (one line).
+nlohmann::json savedScene(const std::string& paramsText, const std::string& path);
+
 /// @brief Bake the stacks of a scene (bakeStacks; @a params, @a inputs as openScene gave them)
 /// with @a overrides on top of its rows: only the bake's (bakeOnlyRows); the other rows made
 /// the stacks. @a points: the rocks instanced in rock layers as VDB points (needs rock-tiles

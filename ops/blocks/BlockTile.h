@@ -168,9 +168,12 @@ BlockTile generateTile(const BlockTileParams& params);
 
 /// @brief The tile file: JSON "rockvdb-tile" version 1 (parameters, discs, blocks, stats).
 nlohmann::json tileToJson(const BlockTile& tile);
-BlockTile tileFromJson(const nlohmann::json& j);
+/// @brief A tile from its JSON, every value checked before anything is sized from it.
+/// @throw IoError "corrupt <what>: <root>.blocks[12].planes has ... entries" (one line).
+BlockTile tileFromJson(const nlohmann::json& j, const std::string& what = "tile file",
+                       const std::string& root = "");
 void writeTile(const BlockTile& tile, const std::string& path);
-/// @throw IoError for unreadable files; ValueError for malformed content.
+/// @throw IoError for unreadable files and corrupt content (naming the file and the key).
 BlockTile readTile(const std::string& path);
 
 /// @brief Which replicated copies exist (the presence function e_i of §5): copy

@@ -2,6 +2,7 @@
 #include "MergeFiles.h"
 
 #include <rockvdb/core/Chunks.h>
+#include <rockvdb/core/Corrupt.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Json.h>
 #include <rockvdb/core/Merge.h>
@@ -42,41 +43,43 @@ std::vector<std::string> manifestChunks(const std::string& path)
     if (!in) fail<IoError>("merge: cannot open manifest ", path);
     const json m = parseJsonOrDiscarded(
         std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>()));
-    if (!m.is_object() || m.value("format", "") != "rockvdb-chunks" || !m.contains("files") ||
-        !m["files"].is_array() || !m.contains("count") || !m["count"].is_number_integer()) {
+    if (!m.is_object() || m.value("format", "") != "rockvdb-chunks") {
         fail<ValueError>("merge: ", path, " is not a rockvdb chunk manifest");
     }
+    // Every value checked before anything is sized from it (issue 40): the chunk count
+    // against the entries the manifest lists.
+    const Corrupt c("chunk manifest '" + path + "'", "");
+    const json& files = c.array(c.at(m, "", "files"), "files", 1, size_t(1) << 20);
+    const int64_t count = c.integer(c.at(m, "", "count"), "count", 1, int64_t(1) << 20);
+    if (count != int64_t(files.size())) {
+        c.fail("files", "lists " + std::to_string(files.size()) + " of the " + std::to_string(count) +
+                            " chunks its count says");
+    }
     const auto dir = std::filesystem::path(path).parent_path();
-    const long long count = m["count"].get<long long>();
-    std::vector<std::string> files(size_t(std::max(0LL, count)));
-    std::set<long long> seen;
-    for (const auto& f : m["files"]) {
-        if (!f.is_object() || !f.contains("index") || !f["index"].is_number_integer() ||
-            !f.contains("file") || !f["file"].is_string() || !f.contains("crc32") ||
-            !f["crc32"].is_number_unsigned() || !f.contains("bytes") || !f["bytes"].is_number_unsigned()) {
-            fail<ValueError>("merge: ", path, ": a chunk entry lacks index, file, crc32 or bytes");
-        }
-        const long long i = f["index"].get<long long>();
-        if (i < 0 || i >= count || !seen.insert(i).second) {
-            fail<ValueError>("merge: ", path, ": chunk index ", i, " is outside [0, ", count, ") or listed twice");
-        }
-        const std::string file = (dir / f["file"].get<std::string>()).string();
+    std::vector<std::string> out(static_cast<size_t>(count));
+    std::set<int64_t> seen;
+    for (size_t k = 0; k < files.size(); ++k) {
+        const std::string key = Corrupt::item("files", k);
+        const json& f = files[k];
+        const int64_t i = c.integer(c.at(f, key, "index"), key + ".index", 0, count - 1);
+        if (!seen.insert(i).second) c.fail(key + ".index", "lists chunk " + std::to_string(i) + " twice");
+        const std::string name = c.string(c.at(f, key, "file"), key + ".file");
+        const uint32_t crc = uint32_t(c.integer(c.at(f, key, "crc32"), key + ".crc32", 0, UINT32_MAX));
+        const uint64_t bytes = uint64_t(c.integer(c.at(f, key, "bytes"), key + ".bytes", 0, INT64_MAX));
+        const std::string file = (dir / name).string();
         if (!std::filesystem::exists(file)) {
-            fail<IoError>("merge: chunk ", i, "/", count, " (", file, ") is missing: rerun the bake "
-                          "with the same --chunk-dir to recompute it");
+            fail<IoError>("merge: chunk ", i, "/", count, " (", file, ") of manifest '", path,
+                          "' is missing: rerun the bake with the same --chunk-dir to recompute it");
         }
-        const auto [crc, size] = fileChecksum(file);
-        if (crc != f["crc32"].get<uint32_t>() || size != f["bytes"].get<uint64_t>()) {
+        const auto [fileCrc, size] = fileChecksum(file);
+        if (fileCrc != crc || size != bytes) {
             fail<IoError>("merge: chunk ", i, "/", count, " (", file, ") does not match its checksum "
-                          "in the manifest (damaged or half written): rerun the bake with the same "
-                          "--chunk-dir to recompute it");
+                          "in manifest '", path, "' (damaged or half written): rerun the bake with "
+                          "the same --chunk-dir to recompute it");
         }
-        files[size_t(i)] = file;
+        out[size_t(i)] = file;
     }
-    if (seen.size() != files.size()) {
-        fail<ValueError>("merge: ", path, " lists ", seen.size(), " of its ", count, " chunks");
-    }
-    return files;
+    return out; // count entries, each index once in [0, count): every chunk is there
 }
 
 StageResult mergeChunkFiles(const std::vector<std::string>& inputs, const std::string& tool,

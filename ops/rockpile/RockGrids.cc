@@ -3,6 +3,7 @@
 #include <rockvdb/core/Json.h>
 #include <rockvdb/rockpile/RockTiles.h>
 
+#include <rockvdb/core/Corrupt.h>
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
 #include <rockvdb/core/GridUtil.h>
@@ -330,48 +331,89 @@ openvdb::FloatGrid::Ptr tileGrid(const TileSet& set, Task& task)
     return rho;
 }
 
-TileSet tilesFromGrid(const openvdb::FloatGrid& rho)
+TileSet tilesFromGrid(const openvdb::FloatGrid& rho, const std::string& file)
 {
+    const std::string what = file.empty() ? "rock tile set grid '" + rho.getName() + "'"
+                                          : "rock tile set '" + file + "'";
     const auto meta = rho.getMetadata<openvdb::StringMetadata>("rockvdb:tiles");
     if (!meta) fail<ValueError>("rockpile: grid '", rho.getName(), "' holds no tile set (no rockvdb:tiles metadata)");
+    // Every value is checked before anything is sized from it (issue 40): a wrong one is
+    // named with its key, an IoError (the file is corrupt).
+    const Corrupt c(what, "rockvdb:tiles");
     const nlohmann::json j = parseJsonOrDiscarded(meta->value());
-    if (j.is_discarded() || !j.contains("format") || j["format"] != 1) {
-        fail<ValueError>("rockpile: unreadable tile set description (format 1 expected)");
+    if (j.is_discarded()) c.fail("", "is not JSON");
+    if (c.integer(c.at(j, "", "format"), "format", 0, INT32_MAX) != 1) {
+        c.fail("format", "is " + j["format"].dump() + " (this build reads format 1)");
     }
     TileSet set;
-    // Format 1 files written before the parameter tables spelt keys with '_'.
-    nlohmann::json params = nlohmann::json::object();
-    for (auto it = j.at("params").begin(); it != j.at("params").end(); ++it) {
-        std::string key = it.key();
-        std::replace(key.begin(), key.end(), '_', '-');
-        params[key] = it.value();
+    try {
+        // Format 1 files written before the parameter tables spelt keys with '_'.
+        nlohmann::json params = nlohmann::json::object();
+        const nlohmann::json& jp = c.at(j, "", "params");
+        if (!jp.is_object()) c.fail("params", "is not an object");
+        for (auto it = jp.begin(); it != jp.end(); ++it) {
+            std::string key = it.key();
+            std::replace(key.begin(), key.end(), '_', '-');
+            params[key] = it.value();
+        }
+        set.params = RockTileParams::fromJson(params);
+    } catch (const ValueError& e) {
+        c.fail("params", std::string("are not a tile set's: ") + e.what());
     }
-    set.params = RockTileParams::fromJson(params);
     // The description and the grid must agree: an edited n, voxels-per-cell or cube-size
     // would otherwise silently rescale every rock.
     const double dx = rho.voxelSize()[0], expected = set.params.voxelSize();
     if (!(std::abs(dx - expected) <= 1e-6 * expected)) {
-        fail<ValueError>("rockpile: grid '", rho.getName(), "' has voxels of ", dx, " m but its tile set "
-                         "description (n = ", set.params.n, ", voxels-per-cell = ", set.params.voxelsPerCell,
-                         ", cube-size = ", set.params.cubeSize, " m) means ", expected,
-                         " m: the metadata was edited or belongs to another grid");
+        fail<IoError>("corrupt ", what, ": the grid has voxels of ", dx, " m but its tile set "
+                      "description (n = ", set.params.n, ", voxels-per-cell = ", set.params.voxelsPerCell,
+                      ", cube-size = ", set.params.cubeSize, " m) means ", expected,
+                      " m: the metadata was edited or belongs to another grid");
     }
+    // Rock boxes against the grid they are read from: each lies in the grid's active box
+    // (within 4 voxels: a box keeps the empty voxels around its rock), in its own atlas slot
+    // (their volumes sum to at most the box's), so no size here exceeds what the grid holds.
+    const openvdb::CoordBBox active = rho.evalActiveVoxelBoundingBox();
+    openvdb::CoordBBox room = active;
+    if (!room.empty()) room.expand(4);
+    const double roomVolume = room.empty() ? 0.0 : double(room.volume());
+    const nlohmann::json& rocks = c.array(c.at(j, "", "rocks"), "rocks", 0,
+                                          size_t(std::min<openvdb::Index64>(rho.activeVoxelCount(), 1u << 24)));
+    const double n = set.params.n;
+    double volume = 0;
     auto acc = rho.getConstAccessor();
-    for (const auto& rj : j.at("rocks")) {
+    for (size_t i = 0; i < rocks.size(); ++i) {
+        const std::string k = Corrupt::item("rocks", i);
+        const nlohmann::json& rj = rocks[i];
         Rock r;
-        r.seed.key = std::stoull(rj.at("key").get<std::string>(), nullptr, 16);
-        for (int a = 0; a < 3; ++a) {
-            r.seed.p[a] = rj.at("seed").at(a).get<double>();
-            r.origin[a] = rj.at("origin").at(a).get<int>();
-            r.dims[a] = rj.at("dims").at(a).get<int>();
+        const std::string key = c.string(c.at(rj, k, "key"), k + ".key");
+        if (key.empty() || key.size() > 16 || key.find_first_not_of("0123456789abcdefABCDEF") != std::string::npos) {
+            c.fail(k + ".key", "is '" + key.substr(0, 20) + "' (expected up to 16 hex digits)");
         }
-        if (r.dims[0] < 0 || r.dims[1] < 0 || r.dims[2] < 0 ||
-            double(r.dims[0]) * r.dims[1] * r.dims[2] > 1e7) {
-            fail<ValueError>("rockpile: tile set rock box out of range");
+        r.seed.key = std::stoull(key, nullptr, 16);
+        const nlohmann::json& seed = c.array(c.at(rj, k, "seed"), k + ".seed", 3, 3);
+        const nlohmann::json& origin = c.array(c.at(rj, k, "origin"), k + ".origin", 3, 3);
+        const nlohmann::json& dims = c.array(c.at(rj, k, "dims"), k + ".dims", 3, 3);
+        const nlohmann::json& offset = c.array(c.at(rj, k, "offset"), k + ".offset", 3, 3);
+        openvdb::Coord off;
+        for (size_t a = 0; a < 3; ++a) {
+            r.seed.p[int(a)] = c.number(seed[a], Corrupt::item(k + ".seed", a), -2 * n, 3 * n);
+            r.origin[int(a)] = int(c.integer(origin[a], Corrupt::item(k + ".origin", a), -(1 << 24), 1 << 24));
+            r.dims[int(a)] = int(c.integer(dims[a], Corrupt::item(k + ".dims", a), 1, 1 << 16));
+            off[int(a)] = int(c.integer(offset[a], Corrupt::item(k + ".offset", a), -(1 << 24), 1 << 24));
         }
-        const Coord off(rj.at("offset").at(0).get<int>(), rj.at("offset").at(1).get<int>(),
-                        rj.at("offset").at(2).get<int>());
-        r.voronoiVoxels = rj.value("voronoi", size_t(0));
+        const openvdb::CoordBBox box(r.origin + off, r.origin + off + r.dims - openvdb::Coord(1));
+        if (!room.isInside(box)) {
+            auto str = [](const openvdb::Coord& q) {
+                return "(" + std::to_string(q[0]) + ", " + std::to_string(q[1]) + ", " + std::to_string(q[2]) + ")";
+            };
+            c.fail(k, "has a box " + str(box.min()) + ".." + str(box.max()) +
+                          " outside the grid's voxels " + str(active.min()) + ".." + str(active.max()));
+        }
+        volume += double(box.volume());
+        if (volume > roomVolume) {
+            c.fail("rocks", "boxes hold more voxels than the grid's box (" + std::to_string(size_t(roomVolume)) + ")");
+        }
+        if (rj.contains("voronoi")) r.voronoiVoxels = size_t(c.integer(rj["voronoi"], k + ".voronoi", 0, int64_t(1) << 40));
         r.rho.resize(size_t(r.dims[0]) * r.dims[1] * r.dims[2]);
         for (int x = 0; x < r.dims[0]; ++x)
             for (int y = 0; y < r.dims[1]; ++y)
@@ -381,22 +423,33 @@ TileSet tilesFromGrid(const openvdb::FloatGrid& rho)
                 }
         set.rocks.push_back(std::move(r));
     }
-    for (const auto& gj : j.at("regions")) {
+    const nlohmann::json& regions = c.array(c.at(j, "", "regions"), "regions", 0, 1u << 16);
+    for (size_t i = 0; i < regions.size(); ++i) {
+        const std::string k = Corrupt::item("regions", i);
+        const nlohmann::json& gj = regions[i];
         Region g;
-        g.type = gj.at("type").get<int>();
-        g.axes = gj.at("axes").get<std::array<int, 3>>();
-        g.colours = gj.at("colours").get<std::vector<int>>();
-        g.rocks = gj.at("rocks").get<std::vector<size_t>>();
-        for (size_t i : g.rocks) {
-            if (i >= set.rocks.size()) fail<ValueError>("rockpile: tile set region names rock ", i, " of ", set.rocks.size());
+        g.type = int(c.integer(c.at(gj, k, "type"), k + ".type", 0, 3));
+        const nlohmann::json& axes = c.array(c.at(gj, k, "axes"), k + ".axes", 3, 3);
+        for (size_t a = 0; a < 3; ++a) g.axes[a] = int(c.integer(axes[a], Corrupt::item(k + ".axes", a), 0, 1));
+        const nlohmann::json& colours = c.array(c.at(gj, k, "colours"), k + ".colours", 0, 64);
+        for (size_t m = 0; m < colours.size(); ++m) {
+            g.colours.push_back(int(c.integer(colours[m], Corrupt::item(k + ".colours", m), 0, 63)));
+        }
+        const nlohmann::json& rr = c.array(c.at(gj, k, "rocks"), k + ".rocks", 0, set.rocks.size());
+        for (size_t m = 0; m < rr.size(); ++m) {
+            g.rocks.push_back(size_t(c.integer(rr[m], Corrupt::item(k + ".rocks", m), 0,
+                                               int64_t(set.rocks.size()) - 1)));
         }
         set.regions.push_back(std::move(g));
     }
-    const auto& st = j.at("stats");
-    set.stats.stones = st.value("stones", size_t(0));
+    const nlohmann::json& st = c.at(j, "", "stats");
+    auto count = [&](const char* name) {
+        return st.contains(name) ? size_t(c.integer(st[name], std::string("stats.") + name, 0, int64_t(1) << 40)) : size_t(0);
+    };
+    set.stats.stones = count("stones");
     set.stats.regions = set.regions.size();
     set.stats.seeds = set.rocks.size();
-    set.stats.contacts = st.value("contacts", size_t(0));
+    set.stats.contacts = count("contacts");
     return set;
 }
 

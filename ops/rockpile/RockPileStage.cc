@@ -205,7 +205,7 @@ TileSet readTileSet(const std::string& path)
     const openvdb::GridPtrVecPtr grids = readGrids(path);
     for (const auto& g : *grids) {
         auto rho = openvdb::gridPtrCast<openvdb::FloatGrid>(g);
-        if (rho && rho->getName() == "rho") return tilesFromGrid(*rho);
+        if (rho && rho->getName() == "rho") return tilesFromGrid(*rho, path);
     }
     fail<ValueError>("rockpile: ", path, " holds no tile set (grid 'rho')");
 }

@@ -188,9 +188,12 @@ openvdb::FloatGrid::Ptr rockLevelSet(const Rock& rock, double voxelSize,
 openvdb::FloatGrid::Ptr tileGrid(const TileSet& set, Task& task);
 openvdb::FloatGrid::Ptr tileGrid(const TileSet& set);
 
-/// @brief The tile set back from a grid written by tileGrid (params validated).
-/// @throw ValueError when the grid holds no (readable) tile set.
-TileSet tilesFromGrid(const openvdb::FloatGrid& rho);
+/// @brief The tile set back from a grid written by tileGrid, every value of its metadata
+/// checked before anything is sized from it: each rock's box inside the grid's voxels.
+/// @a file names it in errors (else the grid's name).
+/// @throw ValueError when the grid holds no tile set; IoError "corrupt rock tile set 'f':
+/// rockvdb:tiles.rocks[3].dims[0] has value ..." for a wrong value.
+TileSet tilesFromGrid(const openvdb::FloatGrid& rho, const std::string& file = "");
 
 /// @brief Every rock's narrow-band level set in its own atlas slot of one level set
 /// `library` (metadata `rockvdb:library_offsets`: the slot offsets, rock order), built in

@@ -264,9 +264,7 @@ void bindArches(py::module_& m)
     m.def("arches_load", [](const std::string& path) {
         StackFile f = readStackFile(path);
         PyStacks s;
-        s.params = parseJsonOrDiscarded(f.params);
-        if (!s.params.is_object()) fail<IoError>("arches: ", path, " holds no scene parameters");
-        s.params = archesSchema().toJson(paramsOf(s.params)); // validated, every row present
+        s.params = archesSchema().toJson(paramsOf(savedScene(f.params, path))); // every row present
         s.stacks = std::move(f.stacks);
         return s;
     }, py::arg("path"));

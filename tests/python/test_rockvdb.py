@@ -267,7 +267,7 @@ def test_block_tile_errors_are_exceptions(tmp_path):
     with pytest.raises(IOError):
         rockvdb.load_tile(tmp_path / "missing.tile")
     (tmp_path / "bad.tile").write_text("{}")
-    with pytest.raises(ValueError, match="tile file"):
+    with pytest.raises(IOError, match="tile file .*bad.tile.: not a rockvdb tile"):
         rockvdb.load_tile(tmp_path / "bad.tile")
 
 

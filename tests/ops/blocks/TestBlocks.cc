@@ -769,7 +769,7 @@ TEST(Blocks, BadParametersAreClearErrors)
     EXPECT_THROW(BlockTileParams::fromJson(nlohmann::json::parse(R"({"fractures": [{"center": [1,2]}]})")),
                  ValueError);
     EXPECT_THROW(BlockTileParams::fromJson(nlohmann::json::parse(R"({"colour": 3})")), ValueError);
-    EXPECT_THROW(tileFromJson(nlohmann::json::parse(R"({"format": "other"})")), ValueError);
+    EXPECT_THROW(tileFromJson(nlohmann::json::parse(R"({"format": "other"})")), IoError);
 }
 
 TEST(Blocks, DegenerateClustersBecomePointsSegmentsAndThickPolygons)
