@@ -894,8 +894,12 @@ BakeEstimate checkedEstimate(const Field& field, const BakeSettings& s)
     const BakeEstimate est = estimateBake(field, s);
     const double limit = memoryLimitBytes(s.maxMemoryBytes);
     if (est.bytes > limit) {
+        // The extent too: a size read from an input file shows there, not as the user's voxel size.
+        const openvdb::Coord dim = est.indexBox.dim();
         fail<ValueError>("bake: refusing to bake: about ", formatBytes(est.bytes), " needed (~",
                          est.activeVoxels, " active voxels at voxel size ", s.voxelSize,
+                         " m over the input's ", double(dim.x()) * s.voxelSize, " x ",
+                         double(dim.y()) * s.voxelSize, " x ", double(dim.z()) * s.voxelSize,
                          " m) exceeds the ", formatBytes(limit), " limit");
     }
     return est;
