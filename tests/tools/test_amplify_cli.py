@@ -102,7 +102,7 @@ def test_bad_input(inputs, tmp_path):
     bad = tmp_path / "bad.tile"
     bad.write_text('{"format": "other"}')
     one_line_error(run([tool("vdb_amplify"), "--terrain", str(inputs["cliff"]), "--tiles",
-                        str(bad), "-o", str(out)]), 2, "tile file")
+                        str(bad), "-o", str(out)]), 1, "tile file", "bad.tile")
     one_line_error(amplify(inputs, inputs["cliff"], out, "--distance-range", "1,0"), 2,
                    "amplify: distance-range needs va <= vb (got 1, 0)")
     one_line_error(amplify(inputs, inputs["cliff"], out, "--max-slope", "2"), 2,

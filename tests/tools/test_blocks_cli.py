@@ -143,7 +143,7 @@ def test_bad_input(tmp_path):
     rgb = tmp_path / "rgb.png"
     write_png8_rgb(rgb, 8, 8)
     one_line_error(run(base + ["--warp-relief", str(rgb)]), 2, "rgb.png")
-    one_line_error(run(base + ["--from-tile", str(bad)]), 2, "tile file")
+    one_line_error(run(base + ["--from-tile", str(bad)]), 1, "tile file", "f.json")  # a bad file: exit 1
     one_line_error(run(base + ["--tile", "/nonexistent/dir/t.tile"]), 1, "does not exist")
     assert not out.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f.json", "rgb.png"]
