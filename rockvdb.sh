@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # rockvdb set-up, build and run.
 #   ./rockvdb.sh demo [--quality preview|draft|default|high]
 #                       install missing Debian packages, build (Release, -j2), bake the demo

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Issue 14: how much of an amplified cliff is made of blocks (implicit-blocks §5).
 
 Four heightfield cliffs (the sea cliff of samples/03_amplify.sh, a straight 10 m cliff, a

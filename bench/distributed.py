@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Issue 20: the cost of baking in chunks on Dask distributed, beside one process.
 
 Scene: samples/data/canyon.exr amplified with a 10 m equidimensional tile (seed 0) at

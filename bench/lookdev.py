@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Issue 35: look-dev speed of the demo's cliff at each quality, beside a plain bake.
 
 Runs samples/01_demo.sh at each quality (default: preview, draft, default) and reads the

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Visible repetition of block tiles on a flat wall parallel to the tiling axes (implicit
 blocks §6.4; issue 38 item 3's criterion, measured before aperiodic block tiles exist).
 

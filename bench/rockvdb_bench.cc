@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb_bench — each issue's numbers beside a reference run in the same process.
 // usage: rockvdb_bench [--quick] [foundation] [blocks] [amplify] [detail] [rockpile] [fill]
 //        [fractal] [arches] [samples] [asset]   (no group: all of them)

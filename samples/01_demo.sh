@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The flagship scene: a sea cliff of fractured rock with a scree of boulders at its foot,
 # every method of the suite joined in one pipeline of vdb_* tools, from procedural inputs only.
 #   1. two block tiles (implicit-blocks §4): equidimensional and tabular

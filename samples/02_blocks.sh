@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Fractured block tiles (implicit-blocks §4): a tabular tile at 10 cm with its tile file and a
 # preview tinted by block id. Prints the Table-1 statistics and the generation time.
 # usage: samples/02_blocks.sh BUILD_DIR OUT_DIR [TYPE]

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Terrain amplification (implicit-blocks §5): a 60 m sea-cliff heightfield, two block tiles
 # (equidimensional below a tilted, noise-warped stratum boundary, tabular above) and the
 # amplified cliff at VOXEL metres, with a preview tinted by material.

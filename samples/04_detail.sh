@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Surface detail (implicit-blocks §4.2, Gabor details): a tabular block tile without relief,
 # then the gradient warp and anisotropic Gabor ridges following the curvature, with a preview.
 # usage: samples/04_detail.sh BUILD_DIR OUT_DIR [VOXEL]

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Rock piles (aperiodic-rock-piles §2–§6): an aperiodic corner-cube tile set of eroded Voronoi
 # rocks, then a scree mound filled with them (union level set + rock ids, instances as points),
 # with a preview tinted by rock id.

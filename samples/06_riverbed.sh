@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Periodic against aperiodic tiling (arches §5 against aperiodic-rock-piles §2–§3): the same
 # pebbles (α = β = 2, γ = 1: flattish) from a periodic tile — Poisson-sphere seeds in one
 # cube — and from 2-colour corner cubes, each filling the same river bed (6 × 3 m, 30 cm deep).

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Fractal rocks (fractal-rocks-midpoint-displacement): boulders and pebbles scattered on the
 # canyon heightfield by an fBm density map (§1), each resting on the terrain with a sixth of
 # it sunk, united with the terrain's level set; a preview tinted by material (

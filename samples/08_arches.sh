@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Material-stack terrain (arches-material-stacks-terrain §3, §6): two scenes, each saved as
 # stacks and baked as level sets, with previews tinted by material (sand 2, bedrock 3,
 # rocks 4), and the strata textured by their weight grids (§6, vdb_preview --texture).

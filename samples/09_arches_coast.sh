@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Stone arches, sea caves and a tunnel network (arches §4.2, §4.4, §4.3; Fig. 1 / 20 / 23 kind):
 # a sea cliff (plateau 22 m over a sand floor) whose stacks are edited by the scene's edits —
 #  - a tunnel along the coast just inside the wavy face: where the bays cut into it the roof

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # A deep ravine swept with a non-convex profile, with eroded rocks at its bottom (arches §4.2,
 # §4.4; Fig. 11): strata under a gently rolling top; a crack along a bent path, its profile a
 # wide mouth over a ledge and undercut walls (overhangs inside the ravine), projected on the

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # A canyon whose cliffs shed rocks and sand (arches §4.4; Fig. 22): the canyon heightfield under
 # a thin sand cover; collapse erosion bites into its cliffs in four places, turning the bedrock
 # there into rocks (75%) and sand that the stabilisation carries down into piles at the cliffs'

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Gabor details along a skeleton (Gabor details §3 and its future work; Fig. 2 kind): a ring
 # made of 24 capsules (a skeleton-based implicit), detailed with frames from a closed polyline
 # along its core and detail parameters stored along that polyline: the ridges follow the ring,

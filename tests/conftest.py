@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Shared fixtures: where the built tools are, and a helper to run them."""
 import os
 import subprocess

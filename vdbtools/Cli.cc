@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "Cli.h"
 #include "CliDetail.h"
 
@@ -14,6 +15,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -42,9 +44,12 @@ Tool::Tool(std::string name, std::string description)
     mApp.fallthrough(); // parent options may follow a subcommand
 }
 
-CLI::Option* Tool::addOutput(CLI::App& where, const std::string& help)
+CLI::Option* Tool::addOutput(CLI::App& where, const std::string& help,
+                             std::vector<std::string> extensions)
 {
-    mOutputOption = where.add_option("-o,--output", mOutput, help)->required();
+    const bool vdb = extensions.size() == 1 && extensions[0] == ".vdb";
+    mOutputOption = where.add_option("-o,--output", mOutput, help)->required()->check(
+        writes(std::move(extensions), vdb ? "vdb_mesh turns a .vdb into .obj / .ply" : ""));
     return mOutputOption;
 }
 
@@ -282,6 +287,29 @@ bool hasExtension(const std::string& path, std::initializer_list<const char*> ex
         }
     }
     return false;
+}
+
+CLI::Validator writes(std::vector<std::string> extensions, const std::string& hint)
+{
+    std::string list;
+    for (const auto& e : extensions) list += (list.empty() ? "" : " or ") + e;
+    return CLI::Validator(
+        [extensions, hint, list](std::string& path) -> std::string {
+            if (path.empty() || path == "-") return {};
+            std::error_code ec;
+            const auto st = std::filesystem::status(path, ec);
+            if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st)) {
+                return {}; // a device or a fifo is written through; a folder is refused later
+            }
+            std::string ext = std::filesystem::path(path).extension().string();
+            for (auto& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+            // A name without an extension promises no format (a pipeline's scratch file).
+            if (ext.empty()) return {};
+            for (const auto& e : extensions) if (ext == e) return {};
+            return "'" + path + "' ends in " + ext + ", but this writes " + list +
+                   (hint.empty() ? "" : " (" + hint + ")");
+        },
+        "", "writes " + list);
 }
 
 Vec3d toVec3(const std::vector<double>& v, const char* what)

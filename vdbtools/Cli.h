@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the command-line conventions every vdb_* tool follows.
 //
 //   GNU long options (CLI11), --help with defaults and units, --version, -o/--output
@@ -57,7 +58,9 @@ public:
 
     /// @name Shared options (call the ones the tool needs before run()).
     /// @{
-    CLI::Option* addOutput(CLI::App& where, const std::string& help);
+    /// @brief -o: required, its path ending in one of @a extensions (writes()).
+    CLI::Option* addOutput(CLI::App& where, const std::string& help,
+                           std::vector<std::string> extensions = {".vdb"});
     /// @brief --seed: the seed row (Schema.h seedRow) of a tool without a stage table.
     void addSeed(CLI::App& where);
     /// @brief An up-axis option for a mesh file a tool writes, its default and values from
@@ -161,6 +164,13 @@ void refuseEmpty(const openvdb::GridBase& grid, const std::string& why);
 
 /// @brief True when @a path ends in one of @a extensions (as given, e.g. ".obj").
 bool hasExtension(const std::string& path, std::initializer_list<const char*> extensions);
+
+/// @brief The check of an option that writes one kind of file: its path must end in one of
+/// @a extensions (any case), unless it has none, is '-' (stdout) or an existing device or
+/// fifo. A name
+/// that promises another format (`-o rock.obj` on a tool that writes a .vdb) is refused
+/// before any work: one line naming the option, the path and what it writes, exit 2.
+CLI::Validator writes(std::vector<std::string> extensions, const std::string& hint = "");
 
 /// @brief Parse "x,y,z" style option values already split by CLI11 into a Vec3d.
 Vec3d toVec3(const std::vector<double>& v, const char* what);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — what the vdb_* conventions' own files share (not for the tools: they use Cli.h).
 // Cli.cc: Tool, run() and the small helpers; Signals.cc: Ctrl-C, SIGTERM and the watchdog;
 // Options.cc: a table's rows as CLI11 options and --params JSON; Distribute.cc: chunked and

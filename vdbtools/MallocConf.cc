@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Linked into every rockvdb executable (see the top-level CMakeLists.txt).
 //
 // jemalloc reads this symbol once at start-up (jemalloc(3), "malloc_conf"): back the arenas

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_amplify — terrain amplification by block replication (implicit-blocks §5). Options from
 // the stage's table, work in runAmplify (AmplifyStage.h).
 #include "Cli.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_arches — material-stack terrain with overhangs, arches and caves ("Arches: a Framework
 // for Modeling Complex Terrains", §3, §6). Options from the stage's table (ArchesStage.h): a
 // scene is that table's JSON, given as the first argument (or --params); its "terrain" is the
@@ -29,13 +30,15 @@ int main(int argc, char** argv)
     std::string scene, stacksOut, stacksIn, pointsOut;
     app.add_option("scene", scene, "Scene .json: the table's keys (command-line options win)");
     tool.addParams(app, archesSchema());
-    app.add_option("--stacks", stacksOut, "Also save the stacks (after stabilisation and the edits) to this .stacks file");
+    app.add_option("--stacks", stacksOut, "Also save the stacks (after stabilisation and the edits) to this .stacks file")
+        ->check(cli::writes({".stacks"}));
     app.add_option("--from-stacks", stacksIn,
                    "Start from these saved stacks (their scene's parameters) instead of building the terrain: "
                    "--edits adds edits after theirs; only the bake's rows (" + bakeOnlyRowsText() + ") may change");
     app.add_option("--points", pointsOut,
                    "With --rock-tiles: also write the instanced rocks as a VDB points grid 'rocks' (P, rock, tile, "
-                   "instance; as vdb_rockpile pile --points) to this .vdb");
+                   "instance; as vdb_rockpile pile --points) to this .vdb")
+        ->check(cli::writes({".vdb"}));
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
     tool.addDistribution(app);
 
@@ -43,9 +46,6 @@ int main(int argc, char** argv)
 
     return tool.run(argc, argv, [&] {
         if (!stacksOut.empty()) {
-            if (std::filesystem::path(stacksOut).extension() != ".stacks") {
-                fail<ValueError>("arches: --stacks must end in .stacks (got '", stacksOut, "')");
-            }
             requireWritable(stacksOut);
         }
         cli::distinctOutputs({{"-o", tool.output()}, {"--stacks", stacksOut}, {"--points", pointsOut}});

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_asset — a level set as a game asset: one GLB with levels of detail (meshoptimizer), a UV
 // atlas, normal and occlusion maps per LOD baked from the level set, and a convex collision
 // hull (ops/asset, runAsset); one block or rock by --id, or every one by --each-id.
@@ -45,7 +46,7 @@ int main(int argc, char** argv)
                    "The tile set (vdb_rockpile tiles) of a pile whose points are the input: its "
                    "unique rocks as assets <name>_<rock>, instanced (EXT_mesh_gpu_instancing)");
     tool.addParams(app, assetSchema());
-    tool.addOutput(app, "Output .glb ('-' = stdout; with --each-id a path holding '{id}')");
+    tool.addOutput(app, "Output .glb ('-' = stdout; with --each-id a path holding '{id}')", {".glb"});
     tool.addStats(app);
 
     return tool.run(argc, argv, [&] {

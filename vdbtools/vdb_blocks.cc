@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_blocks — fractured block tiles (implicit-blocks-rocky-scenery.txt §4). Options from the
 // stage's table, the work in runBlocks (BlocksStage.h), which rockvdb.block_tile runs too.
 #include "Cli.h"
@@ -21,11 +22,13 @@ int main(int argc, char** argv)
     CLI::App& app = tool.app();
     tool.addParams(app, blocksSchema());
     std::string tileOut, fromTile, meshes, up;
-    app.add_option("--tile", tileOut, "Also write the tile description to this .tile file");
+    app.add_option("--tile", tileOut, "Also write the tile description to this .tile file")
+        ->check(cli::writes({".tile", ".json"}));
     app.add_option("--from-tile", fromTile,
                    "Bake an existing tile (.tile or a vdb_blocks .vdb) instead of generating one "
                    "(the tile's own parameters replace the tile options)");
-    app.add_option("--meshes", meshes, "Write one mesh per block (home frame) to .obj or .ply");
+    app.add_option("--meshes", meshes, "Write one mesh per block (home frame) to .obj or .ply")
+        ->check(cli::writes({".obj", ".ply"}));
     tool.addUpAxis(app, "--up", up, "the --meshes file");
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
     tool.addStats(app);

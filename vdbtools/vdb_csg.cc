@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_csg — union / intersection / difference of level-set files: options from the stage's
 // table, work in runCsg (core/CsgStage.h), which rockvdb.csg runs too.
 #include "Cli.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_detail — surface detail on any level set: gradient warp (implicit-blocks §4.2) and
 // Gabor details (gabor-details-implicit-surfaces §3–§4). Options from the stage's table,
 // work in runDetail (DetailStage.h).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_fractal_rock — fractal rocks from an icosahedron (fractal-rocks-midpoint-displacement.txt):
 // options from the stage's table, the work in runFractal (FractalStage.h), which
 // rockvdb.fractal_rock / fractal_scatter / fractal_carve run too.
@@ -15,15 +16,10 @@ using namespace rockvdb::fractal;
 
 namespace {
 
-// Wrong extensions are refused before any work, so no output is written half.
+// Each path's extension is checked as the options are parsed (cli::writes); a normal map
+// needs the OBJ's UVs, refused before any work too.
 void checkExtensions(const std::string& meshPath, const std::string& mapPath)
 {
-if (!mapPath.empty() && !cli::hasExtension(mapPath, {".exr"})) {
-    fail<ValueError>("fractal: --normal-map '", mapPath, "' must end in .exr");
-}
-if (!meshPath.empty() && meshPath != "-" && !cli::hasExtension(meshPath, {".obj", ".ply"})) {
-    fail<ValueError>("fractal: --mesh '", meshPath, "' must end in .obj or .ply");
-}
 if (!mapPath.empty() && cli::hasExtension(meshPath, {".ply"})) {
     fail<ValueError>("fractal: a normal map needs the OBJ's UVs; write --mesh as .obj");
 }
@@ -53,9 +49,11 @@ int main(int argc, char** argv)
     CLI::App& app = tool.app();
     tool.addParams(app, rockSchema());
     std::string meshPath, mapPath, up;
-    app.add_option("--mesh", meshPath, "Also write the mesh: .obj (normals, UVs) or .ply (normals)");
+    app.add_option("--mesh", meshPath, "Also write the mesh: .obj (normals, UVs) or .ply (normals)")
+        ->check(cli::writes({".obj", ".ply"}));
     tool.addUpAxis(app, "--mesh-up", up, "the mesh file");
-    app.add_option("--normal-map", mapPath, "Also write the normal map (.exr; layout above; one rock)");
+    app.add_option("--normal-map", mapPath, "Also write the normal map (.exr; layout above; one rock)")
+        ->check(cli::writes({".exr"}));
     std::string groundPath, pointsPath;
     app.add_option("--ground", groundPath, "Scatter ground: a heightfield image (.exr, .png; "
                                            "--ground-cell-size, --ground-height-scale) or a level "
@@ -65,7 +63,8 @@ int main(int argc, char** argv)
                                          "solid (a level set .vdb: 'surface' or its only one), "
                                          "on its voxels; writes the carved solid and 'cave'");
     app.add_option("--points", pointsPath, "Scatter: also write the instances as a VDB points "
-                                           "grid 'rocks' (P, orient, pscale, rock) to this .vdb");
+                                           "grid 'rocks' (P, orient, pscale, rock) to this .vdb")
+        ->check(cli::writes({".vdb"}));
     tool.addOutput(app, "Output .vdb: level set 'surface' ('-' = stdout)");
     tool.addStats(app);
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_heightfield — a heightfield image to a narrow-band level set of the terrain solid.
 // Options from the table, the work in runHeightfield (HeightfieldStage.h), which
 // rockvdb.heightfield runs too.

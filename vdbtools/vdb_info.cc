@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_info — what is in a .vdb: grids, voxel size, active voxels, bounds, memory, provenance.
 #include "Cli.h"
 

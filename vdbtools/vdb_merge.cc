@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_merge — merge the chunks of one bake (--region or --chunk, leaf aligned) into one file:
 // the work is mergeChunkFiles (core/MergeFiles.h).
 #include "Cli.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_mesh — level set to an OBJ or PLY mesh (tools::volumeToMesh).
 #include "Cli.h"
 
@@ -14,7 +15,7 @@ int main(int argc, char** argv)
     app.add_option("input", input, "Input .vdb ('-' = stdin)")->required();
     app.add_option("--grid", gridName, "Level-set grid to mesh")->capture_default_str();
     tool.addParams(app, meshSchema());
-    tool.addOutput(app, "Output .obj or .ply ('-' = OBJ on stdout)");
+    tool.addOutput(app, "Output .obj or .ply ('-' = OBJ on stdout)", {".obj", ".ply"});
 
     return tool.run(argc, argv, [&] {
         const MeshParams p = meshSchema().fromJson(tool.givenParams(meshSchema()));

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_preview — a shaded PNG of a level set, camera framing its bounding box.
 #include "Cli.h"
 
@@ -23,7 +24,7 @@ int main(int argc, char** argv)
     app.add_option("--palette", palette,
                    "Colours per id for --ids, ID=#rrggbb[,ID=#rrggbb...] (sRGB); other ids get "
                    "a colour hashed from the id");
-    tool.addOutput(app, "Output .png");
+    tool.addOutput(app, "Output .png", {".png"});
 
     return tool.run(argc, argv, [&] {
         PreviewSettings s = previewSchema().fromJson(tool.givenParams(previewSchema()));

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_primitive — bake a primitive or a CSG expression of primitives into a level set.
 #include "Cli.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // vdb_rockpile — rock tiles in contact (aperiodic corner cubes or one periodic cube) and rock
 // piles: options from the stage's tables, work in runTiles / runPile (RockPileStage.h).
 #include "Cli.h"
@@ -65,12 +66,14 @@ int main(int argc, char** argv)
     std::string library;
     tiles->add_option("--library", library,
                       "Also write every rock's level set, each in its own slot of level set "
-                      "'library', to this .vdb");
+                      "'library', to this .vdb")
+        ->check(cli::writes({".vdb"}));
     double tilesMaxMemoryGB = 0;
     tiles->add_option("--max-memory", tilesMaxMemoryGB,
                       "Refuse a tile set estimated above this before any work (GB; 0 = 75% of RAM)")
         ->capture_default_str();
-    tool.addOutput(*tiles, "Output tile set (.vdb; '-' = stdout)");
+    tool.addOutput(*tiles, "Output tile set (.vdb, or .tiles: a .vdb by another name; '-' = stdout)",
+                   {".vdb", ".tiles"});
     tool.addStats(*tiles);
 
     auto* pile = app.add_subcommand("pile", pileSchema().summary());
@@ -83,9 +86,11 @@ int main(int argc, char** argv)
     tool.addParams(*pile, pileSchema());
     pile->add_option("--points", pointsPath,
                      "Also write the instances as a VDB points grid 'rocks' (P, rock, tile, "
-                     "instance) to this .vdb");
+                     "instance) to this .vdb")
+        ->check(cli::writes({".vdb"}));
     pile->add_option("--library", pileLibrary,
-                     "Also write every library rock's level set (slot offsets in metadata)");
+                     "Also write every library rock's level set (slot offsets in metadata) to this .vdb")
+        ->check(cli::writes({".vdb"}));
     tool.addOutput(*pile, "Output .vdb: surface (union of the rocks) and rock_id ('-' = stdout)");
     tool.addStats(*pile);
     tool.addDistribution(*pile);

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — terrain amplification by block replication (implicit-blocks-rocky-scenery.txt §5).
 //
 // The tile of blocks virtually tiles space; copy (cell c, block i) exists when its presence

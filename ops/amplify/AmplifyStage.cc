@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "AmplifyStage.h"
 
 #include <rockvdb/blocks/BlocksStage.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the amplification stage's front door: its parameter table and its one entry
 // point, runAmplify (vdb_amplify and rockvdb.amplify are thin wrappers over it).
 #pragma once

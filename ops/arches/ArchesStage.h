@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the material-stack stage's front door ("Arches: a Framework for Modeling Complex
 // Terrains", §3, §6): its parameter table and entry point.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Editing material stacks (see Edits.h).
 #include "Edits.h"
 #include "Sweep.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — editing material stacks ("Arches: a Framework for Modeling Complex Terrains", §4):
 // bedrock sculpting with a point primitive (§4.1), granular deposits (§4.3) and erosion
 // (§4.4). An edit is a JSON object, {"tool": ..., keys}, as a scene's "edits" list holds them

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Stabilisation of material stacks (see Stabilize.h).
 #include "Stabilize.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — stabilisation of material stacks ("Arches: a Framework for Modeling Complex
 // Terrains", §3.4, Figures 6–8).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Level sets of material stacks (see StackBake.h).
 #include "StackBake.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — level sets of material stacks: the convolution surface of §3.3 ("Arches: a Framework
 // for Modeling Complex Terrains"), baked as a true narrow-band level set.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Initial material stacks (see StackBuild.h).
 #include "StackBuild.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — initial material stacks: from a heightfield, or from any solid (a level set, a JSON
 // expression) by the roots of f = 0 along each stack's axis, so overhangs in the input survive
 // ("Arches: a Framework for Modeling Complex Terrains", §3.2, §4.1: stacks are re-split into

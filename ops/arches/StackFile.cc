@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The .stacks file (see StackFile.h).
 #include "StackFile.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the .stacks file: material stacks saved with their parameters, so editing can
 // continue later (`vdb_arches --stacks` writes it, `--from-stacks` reads it back).
 //

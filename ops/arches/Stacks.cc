@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Material stacks and their skeletons (see Stacks.h).
 #include "Stacks.h"
 

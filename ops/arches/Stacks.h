@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — material stacks (Arches: "Arches: a Framework for Modeling Complex Terrains", §3.2).
 //
 // A terrain is a 2D grid of stacks, cell size s; each stack is an ordered list of layers

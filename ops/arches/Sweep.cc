@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Swept volumes for cracks and tunnels (see Sweep.h).
 #include "Sweep.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — swept volumes for cracks, ravines and tunnels ("Arches: a Framework for Modeling
 // Complex Terrains", §4.2, after [DGA05]): a graph G whose nodes carry profile curves
 // (closed piecewise cubic curves, non-convex allowed) interpolated along its arcs and oriented

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Texture weights from the stacks' exposed faces (see Weights.h).
 #include "Weights.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — texture weights of material stacks ("Arches: a Framework for Modeling Complex
 // Terrains", §6, Figure 21): "for every vertex p of the mesh, we evaluate the ratio of visible
 // materials in a cubic box domain Ω centered at p ... by computing the visible surface of the

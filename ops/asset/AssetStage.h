@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the asset stage (issue 37): a level set (or one block / rock of it, by id) to a
 // game asset, one GLB with its LODs, UV atlases, normal and occlusion maps baked from the level
 // set, and a convex collision hull. The table drives vdb_asset's options and rockvdb.asset's

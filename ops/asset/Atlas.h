@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — a UV atlas for asset meshes (issue 37): charts by box projection, packed on shelves.
 //
 // Each triangle goes to the axis its normal points along most (±x, ±y, ±z); connected

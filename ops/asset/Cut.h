@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — one block or rock cut out of a level set by its id (issue 37): a block of a
 // `vdb_blocks` tile, a rock of a `vdb_rockpile tiles` set, a block of an amplified cliff, each
 // as its own asset.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — glTF 2.0 binary (GLB) assets (issue 37): one node per LOD, named <name>_LOD0,
 // <name>_LOD1, ... as Unreal's and Unity's importers group them; each a mesh with POSITION,
 // NORMAL, TANGENT and TEXCOORD_0 and its own PBR material, whose normalTexture (and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — a rock pile's instances as glTF instancing (issue 37): the points of
 // `vdb_rockpile pile --points` (P = each instance's seed, rock = its library rock) and the tile
 // set the rocks come from. A pile instances the few unique rocks of a tile set many times,

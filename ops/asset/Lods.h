@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — game-asset meshes from a level set (issue 37, first part): the surface as a welded
 // triangle mesh, its levels of detail (meshoptimizer's topology-preserving simplifier), and
 // their geometric error measured against the level set itself.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "Maps.h"
 
 #include <rockvdb/asset/Cut.h>

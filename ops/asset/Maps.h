@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — texture maps baked from the level set, not from a mesh (issue 37): a tangent-space
 // normal map, so a low-poly LOD carries the high-resolution surface's normals (Gabor ridges,
 // erosion) in its texture, and ambient occlusion (asset/Occlusion.h) at the same points.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — ambient occlusion from a signed distance field, by cone tracing (issue 37).
 //
 // A game asset's occlusion map says how much of the sky each surface point sees, within a

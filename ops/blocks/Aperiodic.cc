@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Aperiodic block tiles: regions of corner-coloured lattice features (see Aperiodic.h).
 #include "Aperiodic.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — aperiodic block tiles on corner-coloured cubes (implicit-blocks-rocky-scenery.txt
 // §6.4: "Aperiodic tiling using Wang cubes or Corner Cubes would reduce visible artifacts";
 // the corner cubes of aperiodic-rock-piles.txt §2–§3, as ops/rockpile/RockTiles.h builds them).

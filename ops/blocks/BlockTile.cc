@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Tile generation (§4.1 fracturing, §4.2 convex bases): the phases in order. The phases'
 // pieces live in Fractures.cc, Clusters.cc and Fill.cc (TileBuild.h).
 #include "BlockTile.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — fractured block tiles (implicit-blocks-rocky-scenery.txt §4).
 //
 // A cubic tile of side s is sampled with Poisson-sphere points (periodic), the points are

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Block tiles: the parameters' derived defaults and rules, user fractures and authored blocks from JSON.
 #include <rockvdb/blocks/TileBuild.h>
 #include <rockvdb/blocks/BlocksStage.h>

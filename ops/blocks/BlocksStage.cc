@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "BlocksStage.h"
 
 #include <rockvdb/blocks/Aperiodic.h>

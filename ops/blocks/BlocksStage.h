@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the block-tile stage's front door: its parameter tables and its entry points
 // (vdb_blocks, rockvdb.block_tile and BlockTile.bake are thin wrappers over runBlocks).
 #pragma once

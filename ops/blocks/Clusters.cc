@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Block tiles: clusters of the fractured graph and their convex blocks (§4.1 visibility, §4.2 bases); authored blocks; the home frame.
 #include <rockvdb/blocks/TileBuild.h>
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Block tiles: blocks grown to their fractures (rockvdb's fill; the paper's blocks are the
 // hulls alone).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Block tiles: the fracture discs per block type (implicit-blocks-rocky-scenery.txt §4.1).
 #include <rockvdb/blocks/TileBuild.h>
 

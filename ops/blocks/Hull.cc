@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The only rockvdb file that includes CGAL (slow to compile): keep it small.
 #include "Hull.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — convex hulls of point clusters (the only translation unit that includes CGAL).
 #pragma once
 

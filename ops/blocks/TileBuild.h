@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — block tile generation, internals shared by its phases (not installed, not API):
 //   Fractures.cc  the fracture discs per block type (§4.1) and their periodic images;
 //   Clusters.cc   graph components, unwrapping, visibility splits, hull blocks (§4.2);

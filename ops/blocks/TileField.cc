@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The block fields b_i = c_i ∘ ω⁻¹ (§4.2) and the tile field (their union, culled by cells).
 #include <rockvdb/blocks/BlockTile.h>
 

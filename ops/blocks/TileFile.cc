@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Block tiles: the tile file (JSON "rockvdb-tile", version 1).
 #include <rockvdb/core/Json.h>
 #include <rockvdb/blocks/BlockTile.h>

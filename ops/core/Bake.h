@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the generic sparse narrow-band baker (one baker serves every stage).
 //
 // bake() turns a Field into a well-formed OpenVDB level set:

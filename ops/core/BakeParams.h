@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the bake's rows in every baking stage's table: voxel size, band, renormalisation,
 // tracker steps, region and memory limit, named and checked the same way in every tool.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — chunked bakes: one bake split into boxes on leaf faces, each baked alone (by
 // another process, another machine) and merged back bit for bit (core/Merge.h).
 //

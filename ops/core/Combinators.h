@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — combinators over fields: CSG (hard and smooth), affine transforms, domain warps
 // and id tags for attribute grids.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — reading rockvdb metadata back from a file (tile files, rock tile sets, chunk
 // manifests): every value is checked before anything is sized from it, and a wrong one is
 // named with its file and its key in one line,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the CSG of level-set files and grids as a stage: vdb_csg and rockvdb.csg run one
 // entry point (runCsg) over one table (csgSchema): the hard or smooth fold of GridCsg.h with
 // the inputs' id grids carried, stamped with one provenance.

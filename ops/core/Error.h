@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — error types shared by every op, tool and binding.
 //
 // ValueError    a parameter or input value is wrong      CLI exit 2, Python ValueError

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — fields from JSON expressions (vdb_primitive expr, samples, Python).
 //
 // A node is an object with a "type" and its parameters; any node may carry "id" (an integer

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — widen a level set's narrow band by whole voxel layers (a faster tools::dilateSdf).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the Field concept: a thread-safe p ↦ signed distance.
 //
 // A Field is a pure function of world position (metres, z up) returning a signed distance,

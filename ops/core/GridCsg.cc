@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "GridCsg.h"
 
 #include <rockvdb/core/Bake.h>

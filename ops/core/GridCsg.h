@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — CSG on baked level-set grids (hard: tools::csg*, smooth: the §4.2 operator).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — a baked level set as a Field (e.g. a 3D terrain with overhangs from Houdini).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — small helpers every stage needs when it builds grids by hand: integer floor
 // division for cell / tile indices, and the empty level-set and attribute grids a stage fills
 // (linear transform, grid class, name: the DESIGN.md conventions in one place).

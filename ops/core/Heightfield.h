@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — heightfield terrains as fields.
 //
 // Convention (DESIGN.md): pixel column i, row j (row 0 = first row stored in the file) sits at

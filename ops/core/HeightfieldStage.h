@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — vdb_heightfield and rockvdb.heightfield's front door: a heightfield image baked into
 // the level set of the terrain solid, with its parameter table (Heightfield.h gives the
 // convention: column i, row j at x = i·cell-size, y = j·cell-size, z = value·height-scale).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — single-channel images (heightfields, reliefs) and PNG output.
 #pragma once
 

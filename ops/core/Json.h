@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — JSON helpers every layer shares: bounded parsing with one-line messages, files,
 // text that should be JSON, and the one way JSON is written out (provenance, tile files, stats).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — merging the chunks of one bake (--region, leaf aligned) into the whole grid.
 #pragma once
 

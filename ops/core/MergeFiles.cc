@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Chunk files into the whole bake (see MergeFiles.h).
 #include "MergeFiles.h"
 

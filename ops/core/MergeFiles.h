@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — merging chunk files into the whole bake: the file side of Merge.h, shared by
 // vdb_merge and rockvdb.distributed (which checks its chunk records with the same checksum).
 #pragma once

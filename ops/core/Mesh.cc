@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "Mesh.h"
 
 #include <rockvdb/core/Error.h>
@@ -155,6 +156,9 @@ std::string toObj(const Mesh& m)
     }
     for (int g : groups) {
         if (grouped) os << "o " << m.groupName << '_' << g << '\n';
+        // One smoothing group: importers (Blender's) otherwise shade the faces flat and split
+        // every vertex per face on export (glTF: 15 360 instead of 3 060 for one rock).
+        os << "s 1\n";
         for (size_t i = 0; i < m.triangles.size(); ++i) {
             if (grouped && m.triangleGroups[i] != g) continue;
             const auto& t = m.triangles[i];

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — level set to polygon mesh (tools::volumeToMesh) and OBJ / PLY export.
 #pragma once
 

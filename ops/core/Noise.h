@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — deterministic gradient noise, fBm and turbulence in 2D and 3D.
 //
 // Lattice gradients are a counter-based hash of (seed, octave, lattice point), so noise is a

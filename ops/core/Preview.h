@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — shaded PNG previews of level sets (OpenVDB's LevelSetRayIntersector).
 #pragma once
 

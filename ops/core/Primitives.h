@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — analytic primitive fields (world units: metres; negative inside).
 #pragma once
 

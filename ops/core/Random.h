@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — counter-based random numbers.
 //
 // Every random quantity in rockvdb is a pure function of (seed, stream, index): no generator

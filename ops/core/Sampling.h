@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — point sampling in a periodic cube (the tiles of the block and rock stages).
 //
 // Every sampler is deterministic: its random numbers are (seed, stream, counter) hashes and

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — Schema: one table per stage's parameters, the single truth behind every interface.
 //
 // Each row names a parameter once: its name, type, unit, default, range and help, and the

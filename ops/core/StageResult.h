@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — what every stage's entry point returns, whichever front-end called it.
 //
 // A stage has one entry point, run<Stage>(params, inputs, task) -> <Stage>Result, a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — Task: the interrupt and the progress of one long call, passed to every stage.
 //
 // A stage's entry point takes a Task and splits its work into phases ("voronoi", "level

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the triplanar blend with Lp weights: the blocks paper's gradient-based warp
 // (implicit-blocks-rocky-scenery.txt §4.2, p = 1) and the arches paper's texture mapping of
 // terrains of any geometry (arches-material-stacks-terrain.txt §6, p = 8).

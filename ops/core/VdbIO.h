@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — .vdb input/output, provenance metadata and OpenVDB start-up.
 #pragma once
 

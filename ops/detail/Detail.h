@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — surface detail on any level set (issue 5):
 //  - the gradient-based triplanar warp of implicit-blocks-rocky-scenery.txt §4.2,
 //    ω⁻¹(p) = p + δ(p), δ(p) = g(p) Σ_i α_i(g(p)) d(γ_i(p)), g the normalised gradient;

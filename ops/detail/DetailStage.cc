@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "DetailStage.h"
 
 #include <rockvdb/core/Json.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the surface-detail stage's front door: its parameter table and its one entry
 // point, runDetail (vdb_detail and rockvdb.detail are thin wrappers over it).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — surface Gabor noise (gabor-details-implicit-surfaces.txt §2–§3, after Lagae et
 // al. 2009): n(x) = Σ_i w_i g(x - x_i), g(d) = exp(-π a² |d|²) cos(2π F0 d·o), impulses x_i
 // Poisson-distributed per cell with uniform weights w_i ∈ [-1, 1], kernels truncated at the

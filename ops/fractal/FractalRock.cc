@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fractal rocks: the icosahedron, deterministic midpoint displacement with up/down roughness,
 // and subdivision damping (fractal-rocks-midpoint-displacement.txt §2–§5).
 #include "FractalRock.h"

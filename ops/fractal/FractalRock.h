@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — fractal rocks from an icosahedron (fractal-rocks-midpoint-displacement.txt).
 //
 // A rock starts as the icosahedron on the unit sphere (§4, Fig. 5). Each level displaces the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "FractalStage.h"
 
 #include <rockvdb/core/BakeParams.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the fractal-rock stage's front door: its parameter table and entry point.
 //
 // vdb_fractal_rock and rockvdb.fractal_rock are thin wrappers over runFractal: the table gives

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Narrow-band level sets of closed triangle meshes (see MeshBake.h).
 #include "MeshBake.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — narrow-band level sets of closed triangle meshes, baked directly (fractal rocks).
 //
 // Each mesh ("part") is baked alone on a dense box around it, split along x into units for

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fractal rocks on a ground: grounds, the candidate sequence and the footprint test.
 #include "Scatter.h"
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — fractal rocks scattered on a ground (fractal-rocks-midpoint-displacement §1: "inserted
 // into an artificial landscape, spatially distributed by another fBm").
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the relief d : R² → [-A, A] and the triplanar weights of the gradient-based warp
 // (implicit-blocks-rocky-scenery.txt §4.2; sharper Lp weights from
 // arches-material-stacks-terrain.txt §6).

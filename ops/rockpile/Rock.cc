@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Rock tiles: one rock (rock-piles §4–§5) — the discrete anisotropic Voronoi cell of its seed
 // among the 27 cells around it (claiming only the halves of its neighbours that face it), its
 // contact points with the neighbouring cells, and the spheroidal erosion that rounds it

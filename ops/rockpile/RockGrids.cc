@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Rock tiles as grids: each rock's level set (from its density ρ), the library of every rock's
 // level set in its own slot, and the tile set file (the ρ atlas with its description).
 #include <rockvdb/core/Json.h>

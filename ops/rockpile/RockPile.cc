@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "RockPile.h"
 
 #include <rockvdb/core/Error.h>

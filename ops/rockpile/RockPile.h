@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — rock piles: instancing a tile set's rocks into a support object
 // (aperiodic-rock-piles.txt §6).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — the rock-pile stage's front door: its parameter tables and its two entry points,
 // `tiles` (a tile set, aperiodic-rock-piles §2–§5, arches §5) and `pile` (§6).
 //

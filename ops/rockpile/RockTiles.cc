@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Rock tiles: the tile set — its regions (corner cubes: vertex, edge, face and centre regions
 // for every colouring; periodic: one cube) and their rocks, made in parallel.
 #include "RockTiles.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb — rock tiles: Voronoi rocks in contact, periodic or on aperiodic corner cubes
 // (aperiodic-rock-piles.txt §2–§5; arches-material-stacks-terrain.txt §5).
 //

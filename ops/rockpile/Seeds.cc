@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Rock tiles: the seeds of a cell (arches-material-stacks-terrain.txt §5 periodic Poisson
 // seeds; rock-piles §3 corner cubes: a cell's seeds depend only on the feature owning it).
 #include <rockvdb/rockpile/RockTiles.h>

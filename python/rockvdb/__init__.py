@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """rockvdb: procedural rocks and rocky terrain as OpenVDB level sets.
 
 Fields compose like fogleman/sdf and bake to pyopenvdb grids:
@@ -197,6 +198,32 @@ def _shown(value):
     return repr(value)
 
 
+def _python_spelling(message, table):
+    """@a message with each of the table's CLI names (--tile-size, tile-size) in the Python
+    spelling (tile_size)."""
+    import re
+    for r in sorted(table["params"], key=lambda r: -len(r["name"])):
+        if "-" in r["name"]:
+            message = re.sub(r"(?<![\w-])(--)?" + re.escape(r["name"]) + r"(?![\w-])",
+                             r["python"], message)
+    return message
+
+
+class _spelt:
+    """A block whose ValueError speaks the Python spelling of @a table's rows."""
+
+    def __init__(self, table):
+        self.table = table
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, error, trace):
+        if kind is ValueError:
+            raise ValueError(_python_spelling(str(error), self.table)) from None
+        return False
+
+
 def _stage_function(table, impl, name, head, tail, before=(), after=(), exclude=()):
     """A public function over impl with the table's keywords in its signature (defaults as the
     table gives them) and a docstring listing each with its unit, default, range and help."""
@@ -225,9 +252,17 @@ def _stage_function(table, impl, name, head, tail, before=(), after=(), exclude=
     def call(*args, **kwargs):
         # Only what the caller gave goes on (left out, a row takes its table default in C++);
         # unknown keywords reach _stage_params, which names the closest one.
-        bound = sig.bind(*args, **{k: v for k, v in kwargs.items() if k in sig.parameters})
+        try:
+            bound = sig.bind(*args, **{k: v for k, v in kwargs.items() if k in sig.parameters})
+        except TypeError as e:  # "too many positional arguments": say whose
+            raise TypeError(f"rockvdb.{name}(): {e}") from None
         unknown = {k: v for k, v in kwargs.items() if k not in sig.parameters}
-        return impl(**bound.arguments, **unknown)
+        try:
+            return impl(**bound.arguments, **unknown)
+        except ValueError as e:
+            # The table's checks speak the CLI's spelling (tile-size); a Python caller wrote
+            # tile_size.
+            raise ValueError(_python_spelling(str(e), table)) from None
 
     sig = inspect.Signature(params)
     call.__signature__ = sig
@@ -570,8 +605,9 @@ class BlockTile:
                                 f"(it takes {', '.join(BlockTile.BAKE_ROWS)})")
         if stats is not None and not isinstance(stats, dict):
             raise _type_error(fn, "stats", "a dict", stats)
-        _, self.surface, self.block_id, st = _rockvdb.run_blocks(
-            _stage_params(_BLOCK_TILE, fn, params), self._tile, True)
+        with _spelt(_BLOCK_TILE):
+            _, self.surface, self.block_id, st = _rockvdb.run_blocks(
+                _stage_params(_BLOCK_TILE, fn, params), self._tile, True)
         if stats is not None:
             stats.update(st)
         return self.surface, self.block_id
@@ -1099,7 +1135,8 @@ class Stacks:
         options do); relative paths in its terrain resolve against its folder."""
         fn = "Stacks.from_scene"
         scene = _path(path, "path", fn)
-        native, stats, edits = _rockvdb.arches_build(_stage_params(_ARCHES, fn, params), scene, None)
+        with _spelt(_ARCHES):
+            native, stats, edits = _rockvdb.arches_build(_stage_params(_ARCHES, fn, params), scene, None)
         return cls._wrap(native, stats, edits)
 
     @classmethod
@@ -1168,7 +1205,8 @@ class Stacks:
         target = _opt(path, _path, "path", fn)
         points = _opt(points_path, _path, "points_path", fn)
         overrides = _stage_params(_ARCHES, fn, {k: v for k, v in rows.items() if v is not None})
-        grids = self._s.bake(material, overrides, points)
+        with _spelt(_ARCHES):
+            grids = self._s.bake(material, overrides, points)
         if target is not None:
             if material == "all":
                 ordered = list(grids.values())

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """rockvdb.distributed: bake one stage in chunks on a Dask distributed cluster, then merge.
 
 Every rockvdb field is a pure function of world position, and a bake splits into chunks on

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // pyopenvdb.FloatGrid <-> openvdb::FloatGrid::Ptr for pybind11 functions.
 // pyopenvdb 10 is a boost.python module: convert through boost::python's registry (which
 // `import pyopenvdb` populates). None is rejected, so pybind11 raises TypeError.

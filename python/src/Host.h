@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the rockvdb extension's translation units share: the Task host that turns Ctrl-C into
 // cancellation, parameter JSON from the Python wrappers, and how provenance names a grid input.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb.amplify's native half: the amplify stage's entry point, runAmplify (AmplifyStage.h),
 // with the table's JSON from the Python wrapper.
 #include "GridCaster.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb.Stacks' native half: material stacks (arches §3) built, stabilised, baked, saved and
 // read from Python through the arches stage (ArchesStage.h), so Python and vdb_arches make the
 // same stacks and grids from the same table JSON. The Python class (rockvdb/__init__.py) checks

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb.asset's native half: the asset stage's entry points, runAsset, runAssetEach and
 // runAssetInstances
 // (asset/AssetStage.h), and the GLB bytes written atomically like every rockvdb output.

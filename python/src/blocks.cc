@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb.block_tile, BlockTile.bake and load_tile's native half: the block-tile stage's one
 // entry point, runBlocks (BlocksStage.h), with the table's JSON from the Python wrapper. The
 // wrapper (rockvdb/__init__.py) checks types and spells keywords; values are checked here, by

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb.detail's native half: the detail stage's entry point, runDetail (DetailStage.h).
 #include "GridCaster.h"
 #include "Host.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb.Field's native half: fields built from JSON expressions (vdb_primitive expr's
 // language), combined and baked with the bake table's rows; heightfield images baked likewise.
 #include "GridCaster.h"

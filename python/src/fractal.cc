@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb.fractal_rock, fractal_scatter and fractal_carve's native half: the fractal-rock
 // stage's one entry point, runFractal (FractalStage.h), with the table's JSON from the Python
 // wrappers, which name the mode; the entry refuses what the mode does not read.

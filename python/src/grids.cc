@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The grid and file helpers of rockvdb: CSG of level-set grids, reading and writing .vdb files,
 // meshes, previews, heightfield and RGB images, provenance.
 #include "GridCaster.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The rockvdb Python module's init: error translation, the stage tables the Python wrappers
 // read, and one binding file per part (fields.cc, grids.cc, blocks.cc, amplify.cc, detail.cc,
 // rockpile.cc, fractal.cc, arches.cc), each converting types around one entry point.

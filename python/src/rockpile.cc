@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb.rock_tiles, rock_library and rock_pile's native half: the rock-pile stage's entry
 // points, runTiles and runPile (RockPileStage.h).
 #include "GridCaster.h"

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """docs/blender.md's pictures: each rockvdb operator run in headless Blender as an artist would
 (the same operators, mostly at their defaults) and its result rendered with Cycles (low
 samples), tinted by the add-on's own material.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Makes the small inputs the README's commands use (committed beside this script; run it
 again to rebuild them): a canyon heightfield and a rock relief image (float EXR), and a
 closed boulder mesh (OBJ). The JSON inputs next to them are written by hand.

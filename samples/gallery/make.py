@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """docs/gallery.md's scenes and renders (issue 38 item 5): for every figure of the five papers
 that shows a result, a scene of that kind made with the vdb_* tools (most through the numbered
 samples) and rendered in headless Blender with Cycles (render.py: the add-on's own import, a

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The gallery's renders (docs/gallery.md, issue 38 item 5): each listed .vdb imported in
 headless Blender through the add-on's own result builder (its 'surface' meshed by a Volume to
 Mesh modifier, tinted by its id grid), lit by a sun and a Nishita sky, rendered with Cycles at

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """A periodic tile of tabular blocks (implicit blocks §4), baked over 2 x 1 x 1 periods with its
 block ids, and a preview tinted by block.
 

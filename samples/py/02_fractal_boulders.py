@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Fractal rocks (fractal-rocks §1-§9): one rock with its mesh, boulders scattered on a
 heightfield, and a cave chain carved out of a block.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """A sea cliff amplified with block tiles (implicit blocks §5), then weathered by a gradient
 warp and Gabor ridges (gabor-details).
 

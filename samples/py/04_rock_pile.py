@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Rocks in contact without simulation (aperiodic rock piles): a tile set of corner cubes, a
 pile filling a mound, the instances as points.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """A material-stack terrain (arches §3) edited in Python (§4): a carved stroke, a sand deposit,
 a collapse, a crack and a tunnel, each stabilised locally; baked with its material grids.
 

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Run by headless Blender: the rockvdb add-on registered, every operator run, its results and
 properties reported as JSON for test_addon.py to judge against the C++ tables and the CLI.
 usage: blender -b --factory-startup --python addon_checks.py -- ADDON_DIR OUT_DIR SCENE.json

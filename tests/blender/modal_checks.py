@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Run by Blender with a window (under Xvfb, --enable-event-simulate): the operators as an
 artist starts them (INVOKE_DEFAULT: modal, the stage on a worker thread), Esc, and Ctrl-Z.
 Steps run from a timer, so Blender's event loop runs between them; the report goes to the

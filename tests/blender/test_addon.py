@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The Blender add-on (python/blender/rockvdb_blender) in headless Blender: addon_checks.py
 registers it, runs every operator and reports; these tests judge the report against the C++
 stage tables and the CLI tools, which run here, outside Blender."""

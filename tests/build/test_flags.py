@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Build flags that decide speed and determinism, read from the build's compile_commands.json:
 CGAL's -frounding-math stays on the hull's source (it slows every floating-point loop it
 reaches), and the ops sources keep the determinism flags (no FMA contraction)."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Run by headless Blender: import a .vdb, mesh grid 'surface' at threshold 0, report bounds,
 its Euler characteristic and, for each x,y given, how many times the vertical line there crosses the mesh.
 usage: blender --background --factory-startup --python blender_mesh.py -- in.vdb report.json [x,y ...]

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Real consumers read what we write: pyopenvdb, Debian's vdb_print / vdb_render, Blender."""
 import json
 import math
@@ -310,6 +311,10 @@ def test_blender_imports_the_fractal_rock_mesh_with_uvs_and_normals(fractal, tmp
     r = json.loads(report.read_text())
     assert r["vertices"] == 2562 and r["faces"] == 5120
     assert r["uv_layers"] and r["custom_normals"]
+    # One smoothing group (OBJ "s 1"): smooth faces, and a glTF export that splits vertices
+    # only along the UV seams (without it: 15 360, every triangle's own three).
+    assert r["smooth"] == 1.0, r
+    assert r["gltf_vertices"] < 1.3 * r["vertices"], r
     import pyopenvdb as vdb
     s = vdb.read(str(fractal / "rock.vdb"), "surface")
     lo, hi = s.evalActiveVoxelBoundingBox()

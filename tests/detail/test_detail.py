@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """vdb_detail / rockvdb.detail (issue 5): gradient warp and Gabor details on level sets.
 
 Properties: zero amplitude is the identity, the surface moves by at most the amplitude (+1

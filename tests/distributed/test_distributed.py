@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Chunked bakes on Dask distributed (rockvdb.distributed, issue 20), loopback only: a
 LocalCluster of 2 worker processes. Every distributed result is compared with the single-process
 bake of the same arguments: every grid, its leaves, active voxels, values over the active box

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Every command in the README and its pages (docs/*.md) runs as written: each ```sh and
 ```python block (except those marked `norun`, the two set-up commands and the install lines)
 runs in reading order (the README, then PAGES) from a scratch folder laid out like the

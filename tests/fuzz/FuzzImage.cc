@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: heightfield and relief images (PNG, EXR) through readGrayImage, as
 // vdb_heightfield, expressions and the relief maps read them.
 #include "FuzzUtil.h"

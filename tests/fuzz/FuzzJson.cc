@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: every JSON we read. The first byte picks the consumer, the rest is the text:
 // a stage's --params / provenance table (each stage), an expression (built and evaluated at a
 // few points), strata, fractures, authored blocks, a block tile file, a detail skeleton, an

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: OBJ / STL / PLY through readMesh, then the closed-surface check the mesh tools
 // make. The first byte picks the format (readMesh goes by extension); the rest is the file.
 #include "FuzzUtil.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // rockvdb fuzz targets: what every target shares.
 //
 // A target feeds its bytes to one of our parsers the way a tool does (through a file when the

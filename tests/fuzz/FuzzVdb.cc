@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fuzz target: .vdb bytes through rockvdb's reader (readGrids: the probe in a child process,
 // then the parse), then what the reading tools do next with the grids (find the level set,
 // read provenance).

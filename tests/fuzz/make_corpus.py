@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Writes the fuzz targets' seed corpora (corpus/<target>/), checked in beside this script;
 run it again to rebuild them. Small valid inputs of every format each target reads, so the
 fuzzer starts from the parsers' deep paths instead of their first check.

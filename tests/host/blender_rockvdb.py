@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Run by headless Blender: rockvdb's Python inside a host that loaded OpenVDB itself. Every
 grid call of host_calls.py, then the written .vdb imported as a volume object and its
 'surface' meshed, all in this one Blender process.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Every rockvdb call that takes or returns a grid, in one process: run by test_host.py inside
 hosts that loaded OpenVDB before rockvdb (LD_PRELOAD, Blender) and in a plain interpreter;
 the reports (voxel counts, hashes of the grids' values) must agree.

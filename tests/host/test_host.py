@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """rockvdb inside hosts that loaded OpenVDB first (DESIGN: "Hosts that already loaded OpenVDB").
 
 The extension used to crash (SIGSEGV) on any grid call in such a host: the static ops library

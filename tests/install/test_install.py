@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """cmake --install puts the tools and the Python package where the README says: the tools in
 PREFIX/bin, the package where /usr/bin/python3 finds it with PYTHONPATH=PREFIX/lib/python3.X/
 dist-packages (already on sys.path for the default prefix, /usr/local)."""
@@ -23,6 +24,15 @@ def test_install_prefix_tools_and_python_package(tmp_path):
     out = tmp_path / "s.vdb"
     subprocess.run([str(prefix / "bin" / "vdb_primitive"), "-q", "--voxel-size", "0.1", "-o",
                     str(out), "sphere", "--radius", "1"], check=True, timeout=120)
+    # The license and the tour beside the tools: README, docs and the samples with their data
+    # (the tour's commands read samples/data).
+    doc = prefix / "share" / "doc" / "rockvdb"
+    assert "Apache License" in (doc / "LICENSE").read_text()
+    assert (doc / "NOTICE").exists() and (doc / "README.md").exists()
+    assert (doc / "docs" / "blocks.md").exists() and (doc / "docs" / "blocks_authored.png").exists()
+    samples = prefix / "share" / "rockvdb" / "samples"
+    assert (samples / "data" / "boulder.json").exists() and (samples / "data" / "relief.exr").exists()
+    assert os.access(samples / "01_demo.sh", os.X_OK)
     site = prefix / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / "dist-packages"
     assert (site / "rockvdb" / "__init__.py").exists()
     # The one documented line, from a folder that is not the build tree.
@@ -80,6 +90,15 @@ def test_install_blender_addon_with_the_one_documented_setting(tmp_path):
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stdout + p.stderr
     scripts = prefix / "share" / "rockvdb" / "blender"
+    # The license and the tour beside the tools: README, docs and the samples with their data
+    # (the tour's commands read samples/data).
+    doc = prefix / "share" / "doc" / "rockvdb"
+    assert "Apache License" in (doc / "LICENSE").read_text()
+    assert (doc / "NOTICE").exists() and (doc / "README.md").exists()
+    assert (doc / "docs" / "blocks.md").exists() and (doc / "docs" / "blocks_authored.png").exists()
+    samples = prefix / "share" / "rockvdb" / "samples"
+    assert (samples / "data" / "boulder.json").exists() and (samples / "data" / "relief.exr").exists()
+    assert os.access(samples / "01_demo.sh", os.X_OK)
     site = prefix / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / "dist-packages"
     r = _blender(tmp_path, f"prefs.filepaths.script_directory = r'{scripts}'\n"
                            "bpy.utils.refresh_script_paths()")

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shared by the C++ tests: bitwise equality of two level-set grids.
 #pragma once
 

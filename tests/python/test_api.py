@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The public Python API as a user meets it: what help() lists, docstrings, clean TypeErrors,
 grids without names, the up axis of meshes, and material grids of rock piles."""
 import inspect

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """rockvdb.Job: a stage call on one thread, watched and cancelled from another (what the
 Blender add-on's modal operators do)."""
 import threading

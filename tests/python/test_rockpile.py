@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """rockvdb.rock_tiles / rock_library / rock_pile (issue 6): the same tile sets and piles as
 vdb_rockpile, supports given as Fields, grids or paths, and bad input as Python errors."""
 import json

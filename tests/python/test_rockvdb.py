@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The rockvdb Python module: pyopenvdb grids in and out, analytic checks, errors."""
 import json
 import math
@@ -146,7 +147,7 @@ def test_heightfield_exact_band_follows_the_bake(tmp_path):
 def test_errors_are_python_exceptions(tmp_path):
     with pytest.raises(ValueError, match="sphere: radius must be > 0"):
         rockvdb.sphere(-1)
-    with pytest.raises(ValueError, match="bake: voxel-size must be in"):
+    with pytest.raises(ValueError, match="bake: voxel_size must be in"):  # Python's spelling
         rockvdb.sphere(1).bake(voxel_size=0)
     with pytest.raises(ValueError, match="voxel_size must be finite"):
         rockvdb.sphere(1).bake(voxel_size=float("nan"))
@@ -258,12 +259,15 @@ def test_authored_expression_block_cli_python_and_replay_agree(tmp_path):
 def test_block_tile_errors_are_exceptions(tmp_path):
     with pytest.raises(ValueError, match="type must be one of"):
         rockvdb.block_tile(type="granite", bake=False)
-    with pytest.raises(ValueError, match="point-radius must be in"):
+    with pytest.raises(ValueError, match=r"point_radius must be in \(0, tile_size / 2\)"):
         rockvdb.block_tile(tile_size=10, point_radius=6, bake=False)
     with pytest.raises(ValueError, match="fractures"):
         rockvdb.block_tile(fractures=[{"center": [1, 2, 3]}], bake=False, **SMALL_TILE)
     with pytest.raises(TypeError):
         rockvdb.block_tile(colour="red", bake=False)
+    # A positional argument names the function it was given to.
+    with pytest.raises(TypeError, match=r"rockvdb\.block_tile\(\): too many positional arguments"):
+        rockvdb.block_tile(10)
     with pytest.raises(IOError):
         rockvdb.load_tile(tmp_path / "missing.tile")
     (tmp_path / "bad.tile").write_text("{}")

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """rockvdb.Stacks: material stacks from Python (arches §3, §6) - the same stacks and grids as
 vdb_arches for the same scene, stabilisation that conserves every material, numpy views that
 agree with the stacks, files that round-trip, and bad input refused with one clear error."""
@@ -220,7 +221,7 @@ def test_the_kernel_is_a_bake_row_and_cli_and_python_agree_on_it(tmp_path, cliff
      ValueError, ["terrain.layers[0].thickness", ">= 0"]),
     (lambda d: rockvdb.Stacks({"type": "strata", "samples": [200000, 200000],
                                "layers": [{"material": "sand", "thickness": 1}]}),
-     ValueError, ["GB", "max-memory"]),
+     ValueError, ["GB", "max_memory"]),
     (lambda d: rockvdb.Stacks.from_scene(d / "missing.json"), IOError, ["missing.json"]),
     (lambda d: rockvdb.Stacks.from_scene(d / "bad.json"), ValueError, ["bad.json"]),
     (lambda d: rockvdb.Stacks.from_scene(d / "scene.json", sigma=0), ValueError, ["sigma"]),
@@ -268,9 +269,9 @@ def test_a_sand_map_sets_the_sand_per_stack_and_bad_maps_are_refused(tmp_path):
     assert s.thickness("sand")[3, 5] == pytest.approx(1.0, abs=0.001)  # pixel row = stack row j
     assert np.allclose(s.top(), 5 + 0.1 * x[None, :], atol=0.001)  # the top stays the heightfield
     rockvdb.write_heightfield(str(tmp_path / "small.exr"), ramp[:8])
-    with pytest.raises(ValueError, match="sand-map .* 24 x 8 pixels; the heightfield has 24 x 16"):
+    with pytest.raises(ValueError, match="sand_map .* 24 x 8 pixels; the heightfield has 24 x 16"):
         rockvdb.Stacks(tmp_path / "h.exr", sand_depth=2.0, sand_map=str(tmp_path / "small.exr"))
-    with pytest.raises(ValueError, match="sand-map needs a heightfield terrain"):
+    with pytest.raises(ValueError, match="sand_map needs a heightfield terrain"):
         rockvdb.Stacks({"type": "strata", "samples": [4, 4], "layers": [{"material": "sand", "thickness": 1}]},
                        sand_map=str(tmp_path / "sand.exr"))
     with pytest.raises(IOError, match="nothing.exr"):
@@ -343,7 +344,7 @@ def test_bad_edits_are_one_line_naming_the_edit_and_change_nothing(tmp_path):
     assert s.params["edits"] == []
     with pytest.raises(TypeError, match="radius"):
         s.sculpt([(1, 1, 5)])
-    with pytest.raises(ValueError, match="sigma made the stacks; a bake of them may change only kernel, reach, voxel-size"):
+    with pytest.raises(ValueError, match="sigma made the stacks; a bake of them may change only kernel, reach, voxel_size"):
         s.bake("surface", sigma=1.0)
 
 
@@ -446,11 +447,11 @@ def test_rock_instances_as_points_and_material_ids_agree_between_cli_and_python(
     assert default.activeVoxelCount() == grids["material"].activeVoxelCount()
     # Bad uses: points without rock tiles, a material that instances nothing, an id out of range.
     bare = rockvdb.Stacks(terrain, cell_size=0.25, quantum=0.005)
-    with pytest.raises(ValueError, match="points need rock-tiles"):
+    with pytest.raises(ValueError, match="points need rock_tiles"):
         bare.bake(points_path=tmp_path / "x.vdb")
     with pytest.raises(ValueError, match="instances the rocks"):
         s.bake("sand", points_path=tmp_path / "x.vdb")
-    with pytest.raises(ValueError, match="material-ids"):
+    with pytest.raises(ValueError, match="material_ids"):
         s.bake(material_ids=(1, 2, -1))
     assert not (tmp_path / "x.vdb").exists()
     r = run([AR, str(tmp_path / "scene.json"), "--rock-tiles", "", "--points", str(tmp_path / "x.vdb"),

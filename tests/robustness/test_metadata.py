@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Hostile metadata inside valid files (issue 40): a flipped bit in rockvdb's own metadata of a
 tile file, a rock tile set, a .stacks file or a chunk manifest, against every tool and Python
 reader that reads it. Each run reads the file or refuses it in one line naming the file; never

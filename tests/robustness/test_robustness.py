@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Hostile inputs (issue 19): one row per class of bad input, each run against the tools it
 reaches. Every row must end with one readable error line (or a clean success), a non-zero exit
 code when it fails, no crash, no hang, and nothing written or replaced.

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The flagship demo (samples/01_demo.sh) at draft quality: every method's part is in the one
 file, where the scene puts it, with consistent id grids, visible in the preview, summarised."""
 import os

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """docs/gallery.md (issue 38 item 5): every gallery scene made at a small size and rendered in
 headless Blender with Cycles, as samples/gallery/make.py does for the docs; each render shows
 its object (not an empty frame, not a flat one), and docs/gallery.md lists every entry with

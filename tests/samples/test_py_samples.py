@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The numbered Python samples (samples/py/NN_*.py), each run as a user runs it (a fresh
 /usr/bin/python3, PYTHONPATH on the build, from the repository root), and what each wrote
 checked: the grids a wrong stage would get wrong, and round trips through the CLI."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Run by headless Blender: import a .glb with Blender's own glTF importer and report each
 mesh object: triangles, uv range, world z and y range, images, normal-map nodes, whether its
 material's occlusion reaches Blender (the importer keeps glTF occlusion in a 'glTF Settings'

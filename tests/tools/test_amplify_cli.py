@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """vdb_amplify (heightfield terrains, one tile or several by strata; slope / distance /
 anchor rules): grids, the slope rule on a plateau-and-cliff, flat terrain, bad input."""
 import json

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """vdb_arches: material-stack terrain from a scene file (arches §3, §6)."""
 import json
 import os

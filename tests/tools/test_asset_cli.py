@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """vdb_asset: a level set as a GLB that Blender's own glTF importer loads (LOD objects, their
 triangles, uvs, normal and occlusion maps, the collision hull, y up converted back to Blender's
 z up), with its provenance in the asset's extras, the same bytes at any thread count; one block

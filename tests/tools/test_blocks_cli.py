@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """vdb_blocks: Table-1 statistics, grids and tile metadata, the tile file round trip, per-block
 meshes, periods, and bad input (one line, right exit code, nothing written)."""
 import json

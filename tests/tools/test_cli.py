@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Every vdb_* tool: conventions, pipelines, provenance and bad input (one line, right exit
 code, nothing left behind)."""
 import json
@@ -279,3 +280,42 @@ def test_a_csg_file_replays_from_its_own_provenance(tmp_path, sphere_vdb):
     p.write_text(json.dumps(params))
     run([tool("vdb_csg"), "--params", str(p)], check=True)
     assert_bitwise_equal(vdb.read(str(out), "surface"), vdb.read(str(again), "surface"))
+
+
+# (tool and arguments around the output option, the option, a wrong name, the right name)
+WRONG_EXTENSIONS = [
+    (["vdb_primitive", "sphere"], "-o", "rock.obj", "ROCK.VDB"),
+    (["vdb_blocks", "--tile-size", "6", "--point-radius", "0.5"], "-o", "tile.ply", "tile.vdb"),
+    (["vdb_blocks", "--tile-size", "6", "--point-radius", "0.5", "-o", "t.vdb"], "--meshes", "m.stl", "m.ply"),
+    (["vdb_blocks", "--tile-size", "6", "--point-radius", "0.5", "-o", "t.vdb"], "--tile", "t2.vdb", "t.tile"),
+    (["vdb_mesh", "SPHERE"], "-o", "s.vdb", "s.obj"),
+    (["vdb_preview", "SPHERE", "--width", "32", "--height", "24"], "-o", "s.jpg", "s.png"),
+    (["vdb_fractal_rock", "--levels", "1", "--voxel-size", "0.05", "-o", "f.vdb"], "--mesh", "f.glb", "f.obj"),
+    (["vdb_fractal_rock", "--levels", "1", "--voxel-size", "0.05", "-o", "f.vdb", "--mesh", "f.obj"],
+     "--normal-map", "n.png", "n.exr"),
+    (["vdb_rockpile", "tiles", "--tiling", "periodic", "--n", "3", "--voxels-per-cell", "4"], "-o", "r.obj", "r.vdb"),
+]
+
+
+@pytest.mark.parametrize("before, option, wrong, right", WRONG_EXTENSIONS,
+                         ids=[f"{w[0][0]} {w[1]} {w[2]}" for w in WRONG_EXTENSIONS])
+def test_an_output_name_that_promises_another_format_is_refused(tmp_path, sphere_vdb, before,
+                                                                 option, wrong, right):
+    """`-o rock.obj` on a tool that writes a .vdb wrote a VDB by that name (Blender then
+    imported a 2-vertex mesh): every output path's extension is checked before any work: one
+    line naming the path and what the option writes, exit 2, nothing written. The right
+    extension, in any case, runs."""
+    work = tmp_path / "work"
+    work.mkdir()
+    args = [tool(before[0])] + [str(sphere_vdb) if a == "SPHERE" else a for a in before[1:]]
+
+    def go(name):
+        p = subprocess.run(args + ["-q", option, name], cwd=work, capture_output=True,
+                           text=True, timeout=600)
+        return p
+
+    one_line_error(go(wrong), 2, wrong, "this writes")
+    assert os.listdir(work) == []
+    p = go(right)
+    assert p.returncode == 0, p.stderr
+    assert (work / right).exists()

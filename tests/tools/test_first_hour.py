@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """What a new user trips on in the first hour (issue 13): quiet means quiet, level-set supports
 from any tool, a Gabor amplitude alone, provenance of what was used, vdb_tool's defaults, CSG
 that carries id grids, samples that keep their own outputs, y-up meshes from Blender."""

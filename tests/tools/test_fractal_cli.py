@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """vdb_fractal_rock and rockvdb.fractal_rock (issue 16): the CLI and Python give the same grid
 and mesh, a file replays from its own provenance, the mesh and the normal map files are what
 they claim (closed OBJ with normals and UVs in the stated layout, PLY with normals, RGB EXR),

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """vdb_rockpile tiles (issue 6): a tile set file that real clients read, its stone count and
 phases on stderr, periodic and aperiodic sets, determinism across threads, and bad input (one
 line, exit 2, no file)."""

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The stage contract (issue 15): one parameter table per stage drives the CLI and Python, so
 both give the same grids for the same call (and for no call at all beyond the required
 inputs); a file's own rockvdb:params replays it bit for bit; unknown keys are errors naming

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // TSan builds only (ROCKVDB_SANITIZE=thread puts .ci/tsan-include first on the include path).
 // Debian's libopenvdb is built without TSan and with explicit template instantiation, so the
 // parallel tree operations it instantiates (signedFloodFill, NodeManager, LeafManager...) run

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """rockvdb for Blender: the rockvdb stages as operators (Add > rockvdb, and the N-panel's
 rockvdb tab), their properties made from the stage tables, results as meshed level sets with
 their ids.

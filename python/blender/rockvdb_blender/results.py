@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """A stage's grids as Blender objects.
 
 One result is three objects, the first the one an artist handles:

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The stages the add-on offers: which table rows each operator shows (those its rockvdb
 function takes), what it reads from the scene (main thread, bpy) and how it calls rockvdb
 (worker thread, no bpy)."""

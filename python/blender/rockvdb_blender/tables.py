@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """Blender properties made from the stage tables (rockvdb's C++ tables, through
 rockvdb._rockvdb.schema): each row's name, type, unit, default, range and help become one
 operator property. Nothing here restates a default or a range: a row's default is the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Terrain amplification (implicit-blocks §5): slope rule, union property, chunks,
 // determinism, and a flat terrain that qualifies nowhere.
 #include <rockvdb/amplify/Amplify.h>

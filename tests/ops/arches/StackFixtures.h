@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shared by the material-stack tests (TestArches.cc, TestArchesEdits.cc): a stack geometry and
 // random stacks of every material.
 #pragma once

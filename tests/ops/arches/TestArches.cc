@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Material stacks (arches/): encoding, the convolution of §3.3, the level set, building from
 // heightfields and solids.
 #include <rockvdb/arches/ArchesStage.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Editing material stacks (arches §4): local rewrites of the encoding, local stabilisation,
 // sculpting, deposits and erosion.
 #include <rockvdb/arches/ArchesStage.h>

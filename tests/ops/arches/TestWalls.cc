@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The look of material-stack walls (issue 38 item 1, arches Fig. 11 / 20 / 22): a wall at any
 // angle to the stack grid is planar, and the features the paper keeps (overhang lips, tunnel
 // roofs) stay where its box puts them.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The asset stage's entry points (asset/AssetStage.h): every id as its own asset, a rock
 // smaller than LOD 0's budget fitted (LOD 0 = its whole surface) with the budgets it used in
 // its provenance, so that the same cut by --id replays it byte for byte; the same budgets

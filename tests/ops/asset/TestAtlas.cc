@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // UV atlas (asset/Atlas.h): every uv in the texture, no texel covered twice (charts apart by
 // their padding, no chart folded onto itself), no flipped triangle, an even texel density.
 #include <rockvdb/asset/Atlas.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One block or rock cut out by its id (asset/Cut.h): a rock standing apart keeps its band
 // bit for bit; two blocks fused without a gap are parted at the face where their ids meet;
 // a thin layer between two big blocks keeps its inside; an id that is not there is named

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // GLB assets (asset/Gltf.h), read back with tinygltf: LOD nodes and their triangles, every
 // attribute, y up, v flipped, the normal and occlusion textures embedded (8 and 16 bits), a
 // convex collision node, provenance in extras; the same asset gives the same bytes.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Asset meshes (asset/Lods.h): the level set's surface as a closed, outward, welded triangle
 // mesh; LODs under their triangle budgets that keep the topology and stay near the surface.
 #include <rockvdb/asset/Lods.h>

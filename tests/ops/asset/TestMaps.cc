@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Maps baked from the level set (asset/Maps.h): normal maps decoded through the LOD's own
 // tangent frames give the high-resolution surface's normals, which the LOD's interpolated
 // normals miss; normal and occlusion maps have the same bits at any thread count.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Ambient occlusion by cone tracing (asset/Occlusion.h): open sky on a sphere and on a flat
 // top, dark at the bottom of a narrow slot and deep on its wall, lighter near its rim, as the cosine-weighted
 // view of the sky says; the baked grid agrees with the traced value at surface points.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Aperiodic block tiles (implicit-blocks §6.4; the corner cubes of aperiodic-rock-piles §2–3):
 // a region is a function of its colours alone, blocks cross tile faces whole, the tiling fills
 // its volume, regions barely overlap, and block ids do not recur with the tile period.

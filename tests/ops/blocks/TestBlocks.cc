@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Block tiles (implicit-blocks §4): periodicity, disjoint convex blocks, visibility, type
 // signatures, user control, the warp's bounds, determinism and the tile file.
 #include <rockvdb/blocks/BlockTile.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Convex hulls (blocks/Hull.h, CGAL): planes, areas and vertices of known polytopes, every
 // point inside, and the degenerate dimensions callers branch on.
 #include <rockvdb/blocks/Hull.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The generic baker against OpenVDB's own sphere, analytic measures, determinism, chunking.
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Combinators.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Smooth operator of implicit-blocks §4.2, primitives' analytic distances, transforms, warps,
 // noise bounds, CSG identities on grids.
 #include <rockvdb/core/Bake.h>

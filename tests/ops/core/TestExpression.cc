@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // JSON expressions (core/Expression.h): each node's field against its analytic distance, CSG
 // and transforms as identities, id tags reaching the attribute, and errors naming the JSON path.
 #include <rockvdb/core/Error.h>

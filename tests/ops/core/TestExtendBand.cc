@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Band extension (core/ExtendBand.h): whole voxel layers of first-order upwind distances, the
 // topology of tools::dilateSdf and its values to within rounding.
 #include <rockvdb/core/Error.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A baked level set as a field (core/GridField.h): values inside the band, and the band
 // widened (extendBand) to true distances as far as callers read them.
 #include <rockvdb/core/Bake.h>

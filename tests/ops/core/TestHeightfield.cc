@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Heightfields: exact distance to tilted planes (also at 60°), image round trips, errors.
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Merging the leaf-aligned chunks of one bake (core/Merge.h): bit-identical to the whole bake,
 // inside tiles restored by the flood fill, and chunks that do not belong together refused.
 #include "GridCompare.h"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Previews (core/Preview.h): the framing follows the grid's bounds, ids tint what they cover,
 // the same call gives the same pixels, and bad settings or palettes are refused.
 #include <rockvdb/core/Bake.h>

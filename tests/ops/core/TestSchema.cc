@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // core/Schema and core/Task: the parameter tables every stage is built on, and the task that
 // carries progress and the cancel.
 #include <rockvdb/core/Error.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // .vdb I/O: round trips with provenance, atomic writes, and every kind of bad input.
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Surface detail (issue 5): the re-baked result is a valid narrow-band level set whose band
 // satisfies the Eikonal equation, the candidate mask changes nothing, and the Gabor noise is
 // normalised as its analytic variance says.

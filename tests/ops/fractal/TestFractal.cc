@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Fractal rocks (fractal/FractalRock.h, FractalStage.h; fractal-rocks-midpoint-displacement.txt):
 // closed crack-free meshes with the paper's triangle counts, determinism across threads, rough
 // tops and smooth bottoms, the level set's volume, the normal map of the finer model, and

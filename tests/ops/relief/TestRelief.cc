@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The relief of the gradient-based warp (relief/Relief.h, implicit-blocks §4.2): bounded by
 // its amplitude, the tabulated turbulence equal to the direct one, its slope under the bound
 // the bake's culling trusts, images tiled with bright = bump, and the triplanar weights.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Rock tiles (issue 6, aperiodic-rock-piles.txt §3–§5): corner-cube consistency across
 // compatible neighbours, contacts on both rocks' surfaces, no voxel in two rocks, erosion,
 // anisotropic (flat, not needle) rocks, determinism across threads, level-set distances and
