@@ -10,7 +10,10 @@
 #include <rockvdb/core/Image.h>
 #include <rockvdb/core/VdbIO.h>
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cstdio>
 #include <sstream>
 
@@ -291,16 +294,23 @@ BakeResult bakeTile(const std::shared_ptr<const BlockTile>& tile, const BlocksPa
     return r;
 }
 
-// Every block's own level set, meshed in its home frame: one triangle group per block.
+// Every block's own level set, meshed in its home frame: one triangle group per block, its
+// points carrying block_id. The blocks are baked and meshed in parallel (each bake is
+// parallel too) and appended in block order, so the file is the same whatever the threads.
 Mesh blockMeshes(const std::shared_ptr<const BlockTile>& tile, const BakeSettings& one, Task& task)
 {
+    const size_t n = tile->blocks.size();
+    std::vector<Mesh> parts(n);
+    std::atomic<size_t> done{0};
+    tbb::parallel_for(size_t(0), n, [&](size_t j) {
+        task.check();
+        parts[j] = meshLevelSet(*bake(*blockField(tile, j), one).surface);
+        parts[j].pointIds.emplace_back("block_id", std::vector<int>(parts[j].points.size(), int(j)));
+        task.advance(double(++done) / double(std::max<size_t>(n, 1)));
+    });
     Mesh all;
     all.groupName = "block";
-    const size_t n = tile->blocks.size();
-    for (size_t j = 0; j < n; ++j) {
-        task.step(double(j) / double(std::max<size_t>(n, 1)));
-        appendMesh(all, meshLevelSet(*bake(*blockField(tile, j), one).surface), int(j));
-    }
+    for (size_t j = 0; j < n; ++j) appendMesh(all, parts[j], int(j));
     return all;
 }
 

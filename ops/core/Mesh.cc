@@ -7,8 +7,13 @@
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/VolumeToMesh.h>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <limits>
 #include <cctype>
 #include <cstring>
 #include <fstream>
@@ -65,6 +70,34 @@ Mesh meshGrid(const openvdb::FloatGrid& grid, const MeshParams& p)
     return mesh;
 }
 
+void attachIds(Mesh& mesh, const openvdb::FloatGrid& surface, const openvdb::FloatGrid& ids,
+               const std::string& name)
+{
+    const openvdb::math::Transform& xf = surface.transform();
+    if (ids.transform() != xf) {
+        fail<ValueError>("mesh: id grid '", ids.getName(), "' is not on the voxels of '",
+                         surface.getName(), "' (its transform differs)");
+    }
+    std::vector<int> out(mesh.points.size(), -1);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.points.size()), [&](const auto& r) {
+        auto sa = surface.getConstAccessor();
+        auto ia = ids.getConstAccessor();
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+            const openvdb::Vec3d q = xf.worldToIndex(openvdb::Vec3d(mesh.points[i]));
+            const openvdb::Coord base(int(std::floor(q[0])), int(std::floor(q[1])), int(std::floor(q[2])));
+            float best = std::numeric_limits<float>::infinity();
+            for (int k = 0; k < 8; ++k) {
+                const openvdb::Coord c = base.offsetBy(k & 1, (k >> 1) & 1, (k >> 2) & 1);
+                const float id = ia.getValue(c);
+                if (!(id >= 0)) continue;
+                const float d = std::abs(sa.getValue(c));
+                if (d < best) { best = d; out[i] = int(std::lround(id)); }
+            }
+        }
+    });
+    mesh.pointIds.emplace_back(name, std::move(out));
+}
+
 double signedVolume(const Mesh& m)
 {
     double v = 0;
@@ -98,6 +131,21 @@ void appendMesh(Mesh& mesh, const Mesh& other, int group)
     } else {
         mesh.uvs.clear();
         mesh.triangleUvs.clear();
+    }
+    // Point ids stay when both meshes carry the same names (the first mesh sets them).
+    bool sameIds = off == 0 || mesh.pointIds.size() == other.pointIds.size();
+    for (size_t k = 0; sameIds && off > 0 && k < other.pointIds.size(); ++k) {
+        sameIds = mesh.pointIds[k].first == other.pointIds[k].first;
+    }
+    if (off == 0) {
+        mesh.pointIds = other.pointIds;
+    } else if (sameIds) {
+        for (size_t k = 0; k < other.pointIds.size(); ++k) {
+            auto& v = mesh.pointIds[k].second;
+            v.insert(v.end(), other.pointIds[k].second.begin(), other.pointIds[k].second.end());
+        }
+    } else {
+        mesh.pointIds.clear();
     }
     mesh.points.insert(mesh.points.end(), other.points.begin(), other.points.end());
     for (auto t : other.triangles) mesh.triangles.push_back(t + openvdb::Vec3I(off));
@@ -154,28 +202,73 @@ std::string toObj(const Mesh& m)
         std::sort(groups.begin(), groups.end());
         groups.erase(std::unique(groups.begin(), groups.end()), groups.end());
     }
+    // Faces under `usemtl <name>_<id>` of the first id attribute (its first corner's id).
+    const std::vector<int>* faceIds = nullptr;
+    std::string idName;
+    if (!m.pointIds.empty() && m.pointIds[0].second.size() == m.points.size()) {
+        faceIds = &m.pointIds[0].second;
+        idName = m.pointIds[0].first;
+    }
+    long current = LONG_MIN;
+    auto material = [&](long id) {
+        if (!faceIds) return;
+        if (id == current) return;
+        current = id;
+        os << "usemtl " << idName << '_' << (id < 0 ? std::string("none") : std::to_string(id)) << '\n';
+    };
     for (int g : groups) {
         if (grouped) os << "o " << m.groupName << '_' << g << '\n';
         // One smoothing group: importers (Blender's) otherwise shade the faces flat and split
         // every vertex per face on export (glTF: 15 360 instead of 3 060 for one rock).
         os << "s 1\n";
+        current = LONG_MIN;
+        // The group's faces (quads after triangles), by id when there are ids: one usemtl
+        // each, not one per change along volumeToMesh's order.
+        std::vector<std::pair<long, long>> faces; // (id, index; quads as -1 - index)
+        // A face's id: the one most of its corners hold (the first corner's on a tie).
+        auto faceId = [&](const unsigned* v, int n) -> long {
+            if (!faceIds) return 0L;
+            long best = (*faceIds)[v[0]];
+            int bestCount = 0;
+            for (int a = 0; a < n; ++a) {
+                int c = 0;
+                for (int b = 0; b < n; ++b) c += (*faceIds)[v[b]] == (*faceIds)[v[a]];
+                if (c > bestCount) { bestCount = c; best = (*faceIds)[v[a]]; }
+            }
+            return best;
+        };
         for (size_t i = 0; i < m.triangles.size(); ++i) {
             if (grouped && m.triangleGroups[i] != g) continue;
-            const auto& t = m.triangles[i];
-            os << 'f';
-            for (int k = 0; k < 3; ++k) {
-                os << ' ';
-                corner(t[k], uvs ? long(m.triangleUvs[i][k]) : -1L);
-            }
-            os << '\n';
+            const unsigned v[3] = {m.triangles[i][0], m.triangles[i][1], m.triangles[i][2]};
+            faces.emplace_back(faceId(v, 3), long(i));
         }
         for (size_t i = 0; i < m.quads.size(); ++i) {
             if (grouped && m.quadGroups[i] != g) continue;
-            const auto& q = m.quads[i];
-            os << 'f';
-            for (int k = 0; k < 4; ++k) {
-                os << ' ';
-                corner(q[k], -1L);
+            const unsigned v[4] = {m.quads[i][0], m.quads[i][1], m.quads[i][2], m.quads[i][3]};
+            faces.emplace_back(faceId(v, 4), -1L - long(i));
+        }
+        if (faceIds) {
+            std::stable_sort(faces.begin(), faces.end(),
+                             [](const auto& a, const auto& b) { return a.first < b.first; });
+        }
+        for (const auto& [id, f] : faces) {
+            if (f >= 0) {
+                const size_t i = size_t(f);
+                const auto& t = m.triangles[i];
+                material(id);
+                os << 'f';
+                for (int k = 0; k < 3; ++k) {
+                    os << ' ';
+                    corner(t[k], uvs ? long(m.triangleUvs[i][k]) : -1L);
+                }
+            } else {
+                const auto& q = m.quads[size_t(-1L - f)];
+                material(id);
+                os << 'f';
+                for (int k = 0; k < 4; ++k) {
+                    os << ' ';
+                    corner(q[k], -1L);
+                }
             }
             os << '\n';
         }
@@ -196,8 +289,14 @@ std::string toPly(const Mesh& m)
     h << "ply\nformat binary_little_endian 1.0\ncomment rockvdb " << version() << "\n"
       << "element vertex " << m.points.size() << "\nproperty float x\nproperty float y\n"
       << "property float z\n"
-      << (normals ? "property float nx\nproperty float ny\nproperty float nz\n" : "")
-      << "element face " << m.triangles.size() + m.quads.size()
+      << (normals ? "property float nx\nproperty float ny\nproperty float nz\n" : "");
+    std::vector<const std::vector<int>*> ids;
+    for (const auto& [name, v] : m.pointIds) {
+        if (v.size() != m.points.size()) continue;
+        h << "property int " << name << "\n";
+        ids.push_back(&v);
+    }
+    h << "element face " << m.triangles.size() + m.quads.size()
       << "\nproperty list uchar int vertex_indices\n";
     const bool grouped = m.triangleGroups.size() == m.triangles.size() &&
                          m.quadGroups.size() == m.quads.size() &&
@@ -210,6 +309,7 @@ std::string toPly(const Mesh& m)
         const auto& p = m.points[i];
         put(s, p[0]); put(s, p[1]); put(s, p[2]);
         if (normals) { put(s, m.normals[i][0]); put(s, m.normals[i][1]); put(s, m.normals[i][2]); }
+        for (const auto* v : ids) put(s, int32_t((*v)[i]));
     }
     for (size_t i = 0; i < m.triangles.size(); ++i) {
         put(s, uint8_t(3));

@@ -26,7 +26,18 @@ struct Mesh
     /// uvs (faces v/vt/vn): a point on a UV seam has a uv per side. Triangle meshes only.
     std::vector<openvdb::Vec2s> uvs;
     std::vector<openvdb::Vec3I> triangleUvs;
+    /// Optional integer ids per point, by name (block_id, rock_id, material): PLY writes a
+    /// vertex property each; OBJ, which has no vertex attributes, puts each face under
+    /// `usemtl <name>_<id>` of the first one (the id most of its corners hold): Blender makes a
+    /// material slot per id, Houdini a shop_materialpath primitive attribute.
+    std::vector<std::pair<std::string, std::vector<int>>> pointIds;
 };
+
+/// @brief Ids for @a mesh's points from the id grid @a ids (same index space as the level set
+/// @a surface it was meshed from): per point, the id of the nearest of its cell's 8 voxels that
+/// holds one (>= 0), nearest to the surface first. Stored as pointIds[name].
+void attachIds(Mesh& mesh, const openvdb::FloatGrid& surface, const openvdb::FloatGrid& ids,
+               const std::string& name);
 
 /// Up axis of a mesh file. rockvdb's world is z up; Blender's OBJ exporter (default settings:
 /// forward −Z, up Y) and Houdini are y up. A y-up file point (X, Y, Z) is our (X, −Z, Y), a

@@ -525,9 +525,12 @@ def write(path, grids):
     _rockvdb.write(_path(path, "path", "write"), _grids(grids, "grids", "write"))
 
 
-def _mesh(grid, path, **params):
+def _mesh(grid, path, ids=(), **params):
     fn = "mesh"
-    _rockvdb.mesh(_grid(grid, "grid", fn), _path(path, "path", fn), _stage_params(_MESH, fn, params))
+    if isinstance(ids, pyopenvdb.FloatGrid) or not hasattr(ids, "__iter__"):
+        raise _type_error(fn, "ids", "a list of id grids (pyopenvdb.FloatGrid)", ids)
+    _rockvdb.mesh(_grid(grid, "grid", fn), _path(path, "path", fn), _stage_params(_MESH, fn, params),
+                  [_grid(g, "ids", fn) for g in ids])
 
 
 _MESH = _table("mesh")
@@ -535,9 +538,11 @@ mesh = _stage_function(
     _MESH, _mesh, "mesh",
     "Mesh a level set (tools::volumeToMesh; vdb_mesh from Python) to an .obj or .ply file "
     "with outward faces.",
-    "up 'y' writes what Blender's OBJ import expects by default (and Houdini). An isovalue "
-    "outside the level set's band (an empty mesh) raises ValueError.",
-    before=["grid", "path"])
+    "up 'y' writes what Blender's OBJ import expects by default (and Houdini). ids: id grids "
+    "on the level set's voxels (block_id, rock_id, material) written per vertex under their "
+    "names, as vdb_mesh --ids does (PLY vertex properties; OBJ faces under usemtl NAME_ID). "
+    "An isovalue outside the level set's band (an empty mesh) raises ValueError.",
+    before=["grid", "path"], after=[("ids", ())])
 
 
 def _preview(grid, path, ids=None, palette=None, weights=None, **params):

@@ -165,12 +165,15 @@ void bindGrids(py::module_& m)
         writeGrids(path, v);
     }, py::arg("path"), py::arg("grids"), "Write grids atomically (Blosc compressed); grids "
        "without rockvdb provenance are stamped generator 'rockvdb.write'");
-    m.def("mesh", [](Grid grid, const std::string& path, const std::string& params) {
+    m.def("mesh", [](Grid grid, const std::string& path, const std::string& params,
+                     const std::vector<Grid>& ids) {
         const MeshParams p = meshSchema().fromJson(parseParams(params, "mesh"));
         const UpAxis axis = upAxisFromString(p.up, "mesh: up");
-        const Mesh mesh = withTask([&](Task&) { return meshGrid(*grid, p); });
+        Mesh mesh = withTask([&](Task&) { return meshGrid(*grid, p); });
+        for (const auto& g : ids) attachIds(mesh, *grid, *g, g->getName());
         writeMesh(mesh, path, axis);
-    }, py::arg("grid"), py::arg("path"), py::arg("params"), "vdb_mesh (the table's JSON)");
+    }, py::arg("grid"), py::arg("path"), py::arg("params"), py::arg("ids") = std::vector<Grid>(),
+       "vdb_mesh (the table's JSON); ids: id grids written per vertex under their names");
     m.def("preview", [](Grid grid, const std::string& path, const std::string& params,
                         std::optional<Grid> ids, const std::string& palette, const std::vector<Grid>& weights) {
         PreviewSettings s = previewSchema().fromJson(parseParams(params, "preview"));

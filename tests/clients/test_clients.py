@@ -333,3 +333,59 @@ def test_vdb_print_reads_the_fractal_outputs(fractal):
     p = subprocess.run(["vdb_print", "-l", str(fractal / "points.vdb")], capture_output=True,
                        text=True, check=True)
     assert "Name: rocks" in p.stdout and "Number of active voxels" in p.stdout
+
+
+@pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
+def test_block_ids_reach_blender_and_ply_from_vdb_mesh(tmp_path):
+    """Ids on meshes (issue 41): vdb_mesh writes block_id per vertex — a PLY vertex property,
+    and in the OBJ each face under `usemtl block_id_<id>` — so Blender's importer gives every
+    face a material slot named by its block. Checked against the .vdb's own block_id grid at
+    the faces' centres."""
+    import numpy as np
+    import pyopenvdb as vdb
+    src = tmp_path / "b.vdb"
+    subprocess.run([tool("vdb_blocks"), "-q", "--tile-size", "8", "--point-radius", "0.5",
+                    "--voxel-size", "0.1", "-o", str(src)], check=True)
+    subprocess.run([tool("vdb_mesh"), "-q", str(src), "--up", "y", "-o", str(tmp_path / "b.obj")],
+                   check=True)
+    subprocess.run([tool("vdb_mesh"), "-q", str(src), "-o", str(tmp_path / "b.ply")], check=True)
+    report = tmp_path / "ids.json"
+    p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
+                        os.path.join(HERE, "blender_ids.py"), "--", str(tmp_path / "b.obj"),
+                        str(report)], capture_output=True, text=True, timeout=600)
+    assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
+    r = json.loads(report.read_text())
+    surface, ids = vdb.read(str(src), "surface"), vdb.read(str(src), "block_id")
+    sa, ia = surface.getConstAccessor(), ids.getConstAccessor()
+    dx = surface.transform.voxelSize()[0]
+    present = set()
+    for it in ids.citerOnValues():
+        if it.value >= 0:
+            present.add(int(it.value))
+    assert {f"block_id_{i}" for i in present} == set(r["slots"])
+    agree = wrong = 0
+    for x, y, z, name in r["polygons"]:
+        # The voxel nearest the surface among the 8 around the face's centre holds its block;
+        # where two blocks' surfaces meet within a voxel (gaps of w < dx) either may.
+        base = [int(np.floor(v / dx)) for v in (x, y, z)]
+        best, got = 1e9, None
+        for k in range(8):
+            c = (base[0] + (k & 1), base[1] + (k >> 1 & 1), base[2] + (k >> 2 & 1))
+            if ia.getValue(c) >= 0 and abs(sa.getValue(c)) < best:
+                best, got = abs(sa.getValue(c)), int(ia.getValue(c))
+        agree += name == f"block_id_{got}"
+        near = {f"block_id_{int(ia.getValue((base[0] + i, base[1] + j, base[2] + k)))}"
+                for i in range(-1, 3) for j in range(-1, 3) for k in range(-1, 3)}
+        wrong += name not in near
+    n = len(r["polygons"])
+    assert n > 1000 and agree / n > 0.9 and wrong / n < 0.002, (agree / n, wrong / n)
+    # The PLY: a vertex property block_id holding the same ids.
+    data = (tmp_path / "b.ply").read_bytes()
+    header = data[:data.index(b"end_header\n")].decode()
+    assert "property int block_id" in header
+    n = int(header.split("element vertex ")[1].split()[0])
+    start = data.index(b"end_header\n") + len(b"end_header\n")
+    verts = np.frombuffer(data[start:start + n * 16], dtype=np.dtype(
+        [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("block_id", "<i4")]))
+    assert set(np.unique(verts["block_id"]).tolist()) <= present | {-1}
+    assert (verts["block_id"] >= 0).mean() > 0.99

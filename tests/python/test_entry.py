@@ -42,7 +42,7 @@ TABLE_FUNCTIONS = [
     (rockvdb.Stacks, "arches", ["terrain"], {"terrain"}),
     (rockvdb.Field.bake, "bake", [], {"self", "attribute"}),
     (rockvdb.heightfield, "heightfield", [], {"path", "stats"}),
-    (rockvdb.mesh, "mesh", [], {"grid", "path"}),
+    (rockvdb.mesh, "mesh", [], {"grid", "path", "ids"}),
     (rockvdb.preview, "preview", [], {"grid", "path", "ids", "palette", "weights"}),
     (rockvdb.csg, "csg", ["ids"], {"op", "grids", "ids"}),
     (rockvdb.asset, "asset", [], {"grid", "path", "ids", "mask", "stats"}),

@@ -256,6 +256,20 @@ def test_authored_expression_block_cli_python_and_replay_agree(tmp_path):
         rockvdb.block_tile(authored=[{"type": "warp", "child": expr}], bake=False, **SMALL_TILE)
 
 
+def test_mesh_ids_from_python_are_the_clis(tmp_path):
+    """rockvdb.mesh(ids=[...]) writes the ids per vertex as vdb_mesh does: the same bytes."""
+    t = rockvdb.block_tile(voxel_size=0.2, seed=4, tile_size=8, point_radius=0.5)
+    rockvdb.write(str(tmp_path / "t.vdb"), [t.surface, t.block_id])
+    for ext in ("ply", "obj"):
+        run([tool("vdb_mesh"), "-q", str(tmp_path / "t.vdb"), "-o", str(tmp_path / f"cli.{ext}")],
+            check=True)
+        rockvdb.mesh(t.surface, tmp_path / f"py.{ext}", ids=[t.block_id])
+        assert (tmp_path / f"cli.{ext}").read_bytes() == (tmp_path / f"py.{ext}").read_bytes()
+    assert b"property int block_id" in (tmp_path / "py.ply").read_bytes()[:400]
+    with pytest.raises(TypeError, match="ids"):
+        rockvdb.mesh(t.surface, tmp_path / "x.obj", ids=t.block_id)
+
+
 def test_block_tile_errors_are_exceptions(tmp_path):
     with pytest.raises(ValueError, match="type must be one of"):
         rockvdb.block_tile(type="granite", bake=False)

@@ -66,10 +66,25 @@ def test_from_tile_reproduces_the_grid_bitwise(tile, source, tmp_path):
     assert_bitwise_equal(vdb.read(str(tile["vdb"]), "surface"), vdb.read(str(out), "surface"))
 
 
-def test_one_mesh_per_block(tile):
+def test_one_mesh_per_block(tile, tmp_path):
     blocks = int(re.search(r"#B (\d+) blocks", tile["stderr"])[1])
-    objects = [l for l in tile["obj"].read_text().splitlines() if l.startswith("o block_")]
+    lines = tile["obj"].read_text().splitlines()
+    objects = [l for l in lines if l.startswith("o block_")]
     assert len(objects) == blocks
+    # Each block's faces carry its id (usemtl block_id_<i>, one per object), as the PLY's
+    # vertex property block_id does.
+    current = None
+    for l in lines:
+        if l.startswith("o block_"):
+            current = l.split("_")[1]
+        elif l.startswith("usemtl "):
+            assert l == f"usemtl block_id_{current}", l
+    assert sum(l.startswith("usemtl ") for l in lines) == blocks
+    # Meshed in parallel, written in block order: the same bytes on one thread.
+    one = tmp_path / "one.obj"
+    run([tool("vdb_blocks"), "-q", "--threads", "1", "--from-tile", str(tile["tile"]),
+         "--voxel-size", "0.1", "-o", str(tmp_path / "o.vdb"), "--meshes", str(one)], check=True)
+    assert one.read_bytes() == tile["obj"].read_bytes()
 
 
 def test_periods_repeat_the_tile(tmp_path):
