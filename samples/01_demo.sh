@@ -113,10 +113,10 @@ cliff() {
 }
 rocks() {
     "$B/vdb_rockpile" -q tiles --n 5 --cube-size 5 --voxels-per-cell "$CELLS" \
-        --seeds-per-cell 1,3 --anisotropy 1.6,1.3,1 --seed 5 -o "$OUT/demo_rocks.tiles"
+        --seeds-per-cell 1,3 --anisotropy 1.6,1.3,1 --seed 5 -o "$OUT/demo_rocks.tiles.vdb"
 }
 scree() {
-    "$B/vdb_rockpile" -q pile --tiles "$OUT/demo_rocks.tiles" --support "$OUT/demo_scree.json" \
+    "$B/vdb_rockpile" -q pile --tiles "$OUT/demo_rocks.tiles.vdb" --support "$OUT/demo_scree.json" \
         --material 3 -o - |
     "$B/vdb_csg" -q union "$OUT/demo_cliff.vdb" - -o "$OUT/demo_scree.vdb"
 }
@@ -128,7 +128,7 @@ boulders() {
     "$B/vdb_csg" -q union "$OUT/demo_scree.vdb" - -o "$OUT/demo_boulders.vdb"
 }
 arch() {
-    "$B/vdb_arches" -q "$OUT/demo_arch.json" --rock-tiles "$OUT/demo_rocks.tiles" \
+    "$B/vdb_arches" -q "$OUT/demo_arch.json" --rock-tiles "$OUT/demo_rocks.tiles.vdb" \
         --voxel-size "$VOXEL" -o - |
     "$B/vdb_csg" -q union "$OUT/demo_boulders.vdb" - -o "$OUT/demo.vdb"
 }
@@ -144,7 +144,7 @@ stage "block tiles (vdb_blocks x2)" "$OUT/demo_tabular.vdb" tiles
 CLIFF_STAGE="cliff (vdb_amplify | detail)"
 if [ "$DETAIL" = 0 ]; then CLIFF_STAGE="cliff (vdb_amplify)"; fi
 stage "$CLIFF_STAGE" "$OUT/demo_cliff.vdb" cliff
-stage "rock tiles (vdb_rockpile)" "$OUT/demo_rocks.tiles" rocks
+stage "rock tiles (vdb_rockpile)" "$OUT/demo_rocks.tiles.vdb" rocks
 stage "scree (rockpile pile | csg)" "$OUT/demo_scree.vdb" scree
 stage "boulders (fractal_rock | csg)" "$OUT/demo_boulders.vdb" boulders
 stage "sea arch (vdb_arches | csg)" "$OUT/demo.vdb" arch

@@ -120,7 +120,7 @@ def arches(script, stem):
 
 def rockpile(name, tiles_args, support):
     def make():
-        tiles = scene(f"{name}.tiles")
+        tiles = scene(f"{name}.tiles.vdb")
         tool("vdb_rockpile", "tiles", *tiles_args, "-o", tiles)
         sup = support() if callable(support) else support
         out = scene(f"{name}.vdb")

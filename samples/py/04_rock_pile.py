@@ -11,7 +11,7 @@ import rockvdb
 
 out = sys.argv[1] if len(sys.argv) > 1 else "out"
 os.makedirs(out, exist_ok=True)
-tiles = rockvdb.rock_tiles(n=4, cube_size=1, seed=7, path=os.path.join(out, "py_rocks.tiles"))
+tiles = rockvdb.rock_tiles(n=4, cube_size=1, seed=7, path=os.path.join(out, "py_rocks.tiles.vdb"))
 # A flattened dome: a sphere squashed to 45% in z, cut at the ground.
 mound = rockvdb.sphere(2.0).transform(scale=(1, 1, 0.45)) & rockvdb.box((6, 6, 2), center=(0, 0, 1))
 stats = {}

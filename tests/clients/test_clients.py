@@ -68,11 +68,11 @@ def piled(tmp_path_factory):
     """vdb_rockpile: a corner-cube tile set (5 cm voxels) piled into a ball."""
     d = tmp_path_factory.mktemp("piled")
     run([tool("vdb_rockpile"), "-q", "tiles", "--n", "4", "--voxels-per-cell", "5",
-         "-o", str(d / "rocks.tiles")], check=True)
+         "-o", str(d / "rocks.tiles.vdb")], check=True)
     (d / "ball.json").write_text(json.dumps({"type": "sphere", "center": [0.2, 0, 0],
                                              "radius": 1.1}))
     out = d / "pile.vdb"
-    run([tool("vdb_rockpile"), "-q", "pile", "--tiles", str(d / "rocks.tiles"), "--support",
+    run([tool("vdb_rockpile"), "-q", "pile", "--tiles", str(d / "rocks.tiles.vdb"), "--support",
          str(d / "ball.json"), "-o", str(out)], check=True)
     return out
 
@@ -389,3 +389,35 @@ def test_block_ids_reach_blender_and_ply_from_vdb_mesh(tmp_path):
         [("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("block_id", "<i4")]))
     assert set(np.unique(verts["block_id"]).tolist()) <= present | {-1}
     assert (verts["block_id"] >= 0).mean() > 0.99
+
+
+@pytest.mark.skipif(not (shutil.which("vdb_tool") and shutil.which("vdb_render")),
+                    reason="libopenvdb-tools not installed")
+def test_the_grid_order_and_names_serve_vdb_tool_and_vdb_render(blocks, piled, tmp_path):
+    """Files with ids hold them before the level set: vdb_tool's default (the last grid read)
+    meshes `surface`; vdb_render's default is the first float grid, an id grid, so the docs
+    give it `-name surface`, which renders the blocks. A rock tile set is named `.tiles.vdb`:
+    vdb_tool refuses any other extension ('invalid extension' for the `.tiles` of old)."""
+    obj = tmp_path / "b.obj"
+    p = subprocess.run(["vdb_tool", "-read", str(blocks), "-ls2mesh", "-write", str(obj)],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0 and "Fatal" not in p.stderr, p.stderr
+    theirs = sum(1 for l in obj.read_text().splitlines() if l.startswith("v "))
+    run([tool("vdb_mesh"), "-q", str(blocks), "-o", str(tmp_path / "ours.obj")], check=True)
+    mine = sum(1 for l in (tmp_path / "ours.obj").read_text().splitlines() if l.startswith("v "))
+    assert theirs > 1000 and abs(theirs - mine) <= 0.02 * mine, (theirs, mine)
+    out = tmp_path / "r.ppm"
+    subprocess.run(["vdb_render", str(blocks), str(out), "-res", "120x90", "-name", "surface",
+                    "-lookat", "3,3,3", "-translate", "14,-10,12", "-up", "0,0,1"],
+                   capture_output=True, text=True, check=True, timeout=300)
+    body = out.read_bytes()
+    body = body[body.index(b"255\n") + 4:]
+    assert len(set(body[i:i + 3] for i in range(0, len(body), 3))) > 20  # shaded, not blank
+    tiles = piled.parent / "rocks.tiles.vdb"
+    p = subprocess.run(["vdb_tool", "-read", str(tiles), "-print"], capture_output=True,
+                       text=True, timeout=300)
+    assert p.returncode == 0 and 'name = "rho"' in p.stdout + p.stderr, p.stdout + p.stderr
+    shutil.copy(tiles, tmp_path / "rocks.tiles")
+    p = subprocess.run(["vdb_tool", "-read", str(tmp_path / "rocks.tiles"), "-print"],
+                       capture_output=True, text=True, timeout=300)
+    assert "invalid extension" in p.stdout + p.stderr

@@ -49,7 +49,7 @@ def scene(tmp_path_factory):
                str(tile), "--distance-range=-1.5,1", "--voxel-size", "0.2"]
     whole = d / "amplify_whole.vdb"
     run([tool("vdb_amplify"), "-q", *amplify, "-o", str(whole)], check=True)
-    tiles = d / "rocks.tiles"
+    tiles = d / "rocks.tiles.vdb"
     run([tool("vdb_rockpile"), "tiles", "-q", "--n", "4", "--voxels-per-cell", "6", "--seed", "3",
          "-o", str(tiles)], check=True)
     support = d / "mound.json"
@@ -314,7 +314,7 @@ def test_every_baking_stage_chunks_to_its_single_bake(scene, tmp_path, stage):
 def test_arches_with_rock_tiles_refuses_a_chunk(scene, tmp_path):
     """Rocks are chosen over the whole rock layers: a chunk of them is refused in one line."""
     from conftest import arches_small_scene
-    path = arches_small_scene(tmp_path, **{"rock-tiles": str(scene["dir"] / "rocks.tiles")})
+    path = arches_small_scene(tmp_path, **{"rock-tiles": str(scene["dir"] / "rocks.tiles.vdb")})
     out = tmp_path / "o.vdb"
     p = run([tool("vdb_arches"), "-q", str(path), "--chunk", "0/2", "-o", str(out)])
     one_line_error(p, 2, "rock tiles", "without --chunk")

@@ -24,14 +24,14 @@ def tiles():
 
 
 def test_python_tiles_equal_the_cli(tmp_path, tiles):
-    out = tmp_path / "cli.tiles"
+    out = tmp_path / "cli.tiles.vdb"
     r = run([tool("vdb_rockpile"), "tiles", "--n", "4", "--voxels-per-cell", "5", "--seed", "3",
              "-o", str(out)])
     assert r.returncode == 0, r.stderr
     cli = vdb.read(str(out), "rho")
     # Through a file both ways (the tile set is saved as half floats).
-    rockvdb.rock_tiles(n=4, voxels_per_cell=5, seed=3, path=tmp_path / "py.tiles")
-    tiles = vdb.read(str(tmp_path / "py.tiles"), "rho")
+    rockvdb.rock_tiles(n=4, voxels_per_cell=5, seed=3, path=tmp_path / "py.tiles.vdb")
+    tiles = vdb.read(str(tmp_path / "py.tiles.vdb"), "rho")
     a, b = json.loads(tiles.metadata["rockvdb:tiles"]), json.loads(cli.metadata["rockvdb:tiles"])
     assert a["rocks"] == b["rocks"] and a["params"] == b["params"]
     la, da = dense(tiles)

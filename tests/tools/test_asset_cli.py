@@ -233,12 +233,12 @@ def test_ids_need_an_id_grid_and_a_slot(rock, tmp_path):
 def pile(tmp_path_factory):
     d = tmp_path_factory.mktemp("asset_pile")
     run([tool("vdb_rockpile"), "-q", "tiles", "--tiling", "periodic", "--n", "3", "--cube-size", "0.5",
-         "--seed", "2", "-o", str(d / "rocks.tiles")], check=True)
+         "--seed", "2", "-o", str(d / "rocks.tiles.vdb")], check=True)
     (d / "ball.json").write_text(json.dumps({"type": "sphere", "radius": 0.6}))
-    run([tool("vdb_rockpile"), "-q", "pile", "--tiles", str(d / "rocks.tiles"), "--support",
+    run([tool("vdb_rockpile"), "-q", "pile", "--tiles", str(d / "rocks.tiles.vdb"), "--support",
          str(d / "ball.json"), "--points", str(d / "points.vdb"), "--stats", str(d / "pile.json"),
          "-o", str(d / "pile.vdb")], check=True)
-    run([tool("vdb_asset"), "-q", str(d / "points.vdb"), "--tiles", str(d / "rocks.tiles"),
+    run([tool("vdb_asset"), "-q", str(d / "points.vdb"), "--tiles", str(d / "rocks.tiles.vdb"),
          *SMALL_ASSET, "--name", "pebble", "--collision", "--stats", str(d / "asset.json"),
          "-o", str(d / "pile.glb")], check=True)
     return d
@@ -330,23 +330,23 @@ def test_a_pile_replays_from_its_provenance_and_python_gives_the_same_bytes(pile
     import rockvdb
     j, _ = glb_chunks(pile / "pile.glb")
     params = j["asset"]["extras"]["rockvdb"]["params"]
-    assert params["input"] == str(pile / "points.vdb") and params["tiles"] == str(pile / "rocks.tiles")
+    assert params["input"] == str(pile / "points.vdb") and params["tiles"] == str(pile / "rocks.tiles.vdb")
     (tmp_path / "p.json").write_text(json.dumps(params))
     run([tool("vdb_asset"), "-q", "--params", str(tmp_path / "p.json"), "-o", str(tmp_path / "again.glb")],
         check=True)
     assert (tmp_path / "again.glb").read_bytes() == (pile / "pile.glb").read_bytes()
-    data = rockvdb.asset_instances(str(pile / "points.vdb"), str(pile / "rocks.tiles"), lods="300,80",
+    data = rockvdb.asset_instances(str(pile / "points.vdb"), str(pile / "rocks.tiles.vdb"), lods="300,80",
                                    texture_size=64, padding=2, name="pebble", collision=True)
     assert data == (pile / "pile.glb").read_bytes()
 
 
 def test_bad_pile_inputs_are_one_line_and_write_nothing(pile, tmp_path):
     out = tmp_path / "bad.glb"
-    pts, tiles = str(pile / "points.vdb"), str(pile / "rocks.tiles")
+    pts, tiles = str(pile / "points.vdb"), str(pile / "rocks.tiles.vdb")
     # points of another tile set: not on its rocks' lattice
     run([tool("vdb_rockpile"), "-q", "tiles", "--tiling", "periodic", "--n", "3", "--cube-size", "0.5",
-         "--seed", "9", "-o", str(tmp_path / "other.tiles")], check=True)
-    one_line_error(run([tool("vdb_asset"), pts, "--tiles", str(tmp_path / "other.tiles"), "-o", str(out)]),
+         "--seed", "9", "-o", str(tmp_path / "other.tiles.vdb")], check=True)
+    one_line_error(run([tool("vdb_asset"), pts, "--tiles", str(tmp_path / "other.tiles.vdb"), "-o", str(out)]),
                    2, "do not belong together")
     one_line_error(run([tool("vdb_asset"), str(pile / "pile.vdb"), "--tiles", tiles, "-o", str(out)]),
                    2, "has no points grid")

@@ -22,8 +22,8 @@ SAMPLES = os.path.join(HERE, "..", "..", "samples")
 def rocks(tmp_path_factory):
     d = tmp_path_factory.mktemp("rocks")
     run([tool("vdb_rockpile"), "-q", "tiles", "--n", "4", "--voxels-per-cell", "4",
-         "-o", str(d / "rocks.tiles")], check=True)
-    return d / "rocks.tiles"
+         "-o", str(d / "rocks.tiles.vdb")], check=True)
+    return d / "rocks.tiles.vdb"
 
 
 def test_quiet_prints_nothing_on_success(tmp_path, rocks, heightfield_png):

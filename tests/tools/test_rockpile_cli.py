@@ -30,7 +30,7 @@ def box_values(acc, lo, dims):
 
 
 def test_aperiodic_tile_set_file(tmp_path):
-    out, lib = tmp_path / "rocks.tiles", tmp_path / "library.vdb"
+    out, lib = tmp_path / "rocks.tiles.vdb", tmp_path / "library.vdb"
     r = tiles(out, "--library", str(lib))
     assert r.returncode == 0, r.stderr
     g, meta = read(out)
@@ -61,7 +61,7 @@ def test_aperiodic_tile_set_file(tmp_path):
 
 
 def test_periodic_tile_set(tmp_path):
-    out = tmp_path / "p.tiles"
+    out = tmp_path / "p.tiles.vdb"
     r = tiles(out, "--tiling", "periodic", n=3)
     assert r.returncode == 0, r.stderr
     _, meta = read(out)
@@ -70,7 +70,7 @@ def test_periodic_tile_set(tmp_path):
 
 
 def test_tile_sets_are_deterministic_across_threads(tmp_path):
-    a, b = tmp_path / "a.tiles", tmp_path / "b.tiles"
+    a, b = tmp_path / "a.tiles.vdb", tmp_path / "b.tiles.vdb"
     assert tiles(a, threads=1).returncode == 0
     assert tiles(b, threads=2).returncode == 0
     ga, ma = read(a)
@@ -94,7 +94,7 @@ def test_tile_sets_are_deterministic_across_threads(tmp_path):
     (["--tiling", "hexagonal"], "rockpile: tiling must be one of aperiodic, periodic (got 'hexagonal')"),
 ])
 def test_bad_parameters(tmp_path, args, needle):
-    out = tmp_path / "o.tiles"
+    out = tmp_path / "o.tiles.vdb"
     one_line_error(run([tool("vdb_rockpile"), "tiles", *args, "-o", str(out)]), 2, needle)
     assert not out.exists()
 
@@ -120,7 +120,7 @@ f 4 1 5 8
 
 @pytest.fixture(scope="module")
 def tile_set(tmp_path_factory):
-    out = tmp_path_factory.mktemp("tiles") / "rocks.tiles"
+    out = tmp_path_factory.mktemp("tiles") / "rocks.tiles.vdb"
     r = tiles(out)
     assert r.returncode == 0, r.stderr
     return out
@@ -182,7 +182,7 @@ def test_pile_supports_agree(tmp_path, tile_set):
 
 @pytest.mark.parametrize("case,code,needle", [
     ("open", 2, "not closed"),
-    ("missing_tiles", 1, "none.tiles"),
+    ("missing_tiles", 1, "none.tiles.vdb"),
     ("extension", 2, "support must be a .vdb"),
     ("threshold", 2, "threshold must be in (0, 1]"),
 ])
@@ -192,7 +192,7 @@ def test_pile_bad_input(tmp_path, tile_set, case, code, needle):
     out = tmp_path / "o.vdb"
     args, tiles_path, support = [], tile_set, mesh
     if case == "missing_tiles":
-        tiles_path = tmp_path / "none.tiles"
+        tiles_path = tmp_path / "none.tiles.vdb"
     if case == "extension":
         support = tmp_path / "cube.txt"
         support.write_text("x")

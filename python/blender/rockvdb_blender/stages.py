@@ -227,7 +227,7 @@ def _gather_support(op, context):
     _write_obj(path, pts, tris)
     # The tile set is saved beside it too, and the pile reads it from there: the pile's
     # provenance then names both files, and vdb_rockpile --params replays it.
-    tiles = results.cache_path(obj.name + "_rocks")[:-4] + ".tiles"
+    tiles = results.cache_path(obj.name + "_rocks")[:-4] + ".tiles.vdb"
     return {"support": path, "tiles": tiles, "source": obj.name, "instances": op.instances}
 
 
