@@ -36,8 +36,8 @@ int main(int argc, char** argv)
                    "Start from these saved stacks (their scene's parameters) instead of building the terrain: "
                    "--edits adds edits after theirs; only the bake's rows (" + bakeOnlyRowsText() + ") may change");
     app.add_option("--points", pointsOut,
-                   "With --rock-tiles: also write the instanced rocks as a VDB points grid 'rocks' (P, rock, tile, "
-                   "instance; as vdb_rockpile pile --points) to this .vdb")
+                   "With --rock-tiles: also write the instanced rocks as a VDB points grid 'rocks' (P, orient, "
+                   "pscale, variant, pivot, id, rock, tile; as vdb_rockpile pile --points) to this .vdb")
         ->check(cli::writes({".vdb"}));
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
     tool.addDistribution(app);

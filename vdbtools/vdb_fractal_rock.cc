@@ -42,7 +42,7 @@ int main(int argc, char** argv)
         "rocks of jittered sizes are scattered on --ground (a heightfield image, a level set "
         ".vdb, or the plane z = 0) where an fBm density map allows, partly sunk (--embed), no "
         "two interpenetrating: 'surface' (their union) and 'rock_id', with --points the "
-        "instances (P, orient, pscale, rock) as a VDB points grid 'rocks' in its own file. ") +
+        "instances (P, orient, pscale, scale, variant, id, rock) as a VDB points grid 'rocks' in its own file. ") +
         normalMapHelp() +
         " With --carve SOLID.vdb --count N, a chain of N rocks is subtracted from the solid (§9: "
         "caves). The output's rockvdb:params replays it: vdb_fractal_rock --params FILE -o OUT.");
@@ -63,7 +63,8 @@ int main(int argc, char** argv)
                                          "solid (a level set .vdb: 'surface' or its only one), "
                                          "on its voxels; writes the carved solid and 'cave'");
     app.add_option("--points", pointsPath, "Scatter: also write the instances as a VDB points "
-                                           "grid 'rocks' (P, orient, pscale, rock) to this .vdb")
+                                           "grid 'rocks' (P, orient, pscale, scale: a radius-1 piece copied by Houdini's "
+                                           "Copy to Points lands on each rock's ellipsoid; variant 0, id, rock) to this .vdb")
         ->check(cli::writes({".vdb"}));
     tool.addOutput(app, "Output .vdb: level set 'surface' ('-' = stdout)");
     tool.addStats(app);

@@ -21,7 +21,7 @@ void tilesCommand(cli::Tool& tool, const std::string& library, double maxMemoryG
     const TilesResult r = tool.stage([&](Task& task) {
         return runTiles(p, !library.empty(), task, maxMemoryGB * 1e9);
     });
-    if (r.library) writeGrids(library, {r.library});
+    if (r.library) writeGrids(library, {r.libraryIds, r.library});
     writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
 }
 
@@ -37,7 +37,7 @@ void pileCommand(cli::Tool& tool, PileInputs in, const std::string& pointsPath,
     in.library = !library.empty();
     const PileResult r = tool.stage([&](Task& task) { return runPile(p, in, task); });
     if (r.points) writeGrids(pointsPath, {r.points});
-    if (r.library) writeGrids(library, {r.library});
+    if (r.library) writeGrids(library, {r.libraryIds, r.library});
     writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
 }
 
@@ -66,7 +66,7 @@ int main(int argc, char** argv)
     std::string library;
     tiles->add_option("--library", library,
                       "Also write every rock's level set, each in its own slot of level set "
-                      "'library', to this .vdb")
+                      "'library', with 'rock_id' (the rock's index on its voxels), to this .vdb")
         ->check(cli::writes({".vdb"}));
     double tilesMaxMemoryGB = 0;
     tiles->add_option("--max-memory", tilesMaxMemoryGB,
@@ -85,11 +85,13 @@ int main(int argc, char** argv)
         ->required();
     tool.addParams(*pile, pileSchema());
     pile->add_option("--points", pointsPath,
-                     "Also write the instances as a VDB points grid 'rocks' (P, rock, tile, "
-                     "instance) to this .vdb")
+                     "Also write the instances as a VDB points grid 'rocks' for Houdini's Copy to "
+                     "Points (P, orient, pscale, variant = the library's rock_id, pivot = that "
+                     "rock's seed in the library, id, rock, tile) to this .vdb")
         ->check(cli::writes({".vdb"}));
     pile->add_option("--library", pileLibrary,
-                     "Also write every library rock's level set (slot offsets in metadata) to this .vdb")
+                     "Also write every library rock's level set (slot offsets in metadata) and "
+                     "'rock_id' to this .vdb")
         ->check(cli::writes({".vdb"}));
     tool.addOutput(*pile, "Output .vdb: surface (union of the rocks) and rock_id ('-' = stdout)");
     tool.addStats(*pile);

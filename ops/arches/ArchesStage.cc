@@ -2,6 +2,7 @@
 // The material-stack stage (see ArchesStage.h).
 #include "ArchesStage.h"
 
+#include <rockvdb/core/Points.h>
 #include <rockvdb/core/Json.h>
 #include <rockvdb/arches/StackBuild.h>
 #include <rockvdb/arches/StackFile.h>
@@ -471,7 +472,7 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
         const FieldPtr support = rockpile::levelSetSupport(rockLayers, *tiles);
         rockpile::PileResult pile = rockpile::pileRocks(*tiles, *support, pp, json::object(), false, false, task);
         r.rocksPlaced = pile.pile.instances.size();
-        r.points = rockpile::instancePoints(pile.pile.instances, tiles->params.voxelSize());
+        r.points = rockpile::instancePoints(pile.pile.instances, *tiles);
         openvdb::FloatGrid::Ptr rocks = pile.pile.surface;
         rocks->setName("rocks");
         // 'rocks' is now the instanced rocks' level set (the loop left the rock layers out of
@@ -494,7 +495,8 @@ ArchesResult bakeStacks(const ArchesParams& p, const Stacks& stacks, ArchesOutpu
     }
     // Rock tiles but no rock layers: no rocks, and points that say so.
     if (!p.rockTiles.empty() && (needGround || output == ArchesOutput::Rocks) && !r.points) {
-        r.points = rockpile::instancePoints({}, b.voxelSize);
+        r.points = tiles ? rockpile::instancePoints({}, *tiles)
+                         : instancePointsGrid(InstancePoints(), b.voxelSize, "rocks");
     }
     if ((all && p.weights) || output == ArchesOutput::Weights) {
         std::vector<Material> present;

@@ -7,11 +7,11 @@
 
 #include <rockvdb/core/Bake.h>
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Points.h>
 #include <rockvdb/core/Heightfield.h>
 #include <rockvdb/core/Random.h>
 #include <rockvdb/core/VdbIO.h>
 
-#include <openvdb/points/PointConversion.h>
 #include <openvdb/tools/GridTransformer.h>
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tools/SignedFloodFill.h>
@@ -470,33 +470,24 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, bool 
         });
     }
     if (points) {
-        std::vector<openvdb::Vec3R> positions(n);
-        std::vector<openvdb::math::Quats> orient(n);
-        std::vector<float> pscale(n);
+        InstancePoints ip;
         std::vector<int32_t> rock(n);
         for (size_t i = 0; i < n; ++i) {
-            positions[i] = r.rocks[i].position;
+            ip.positions.push_back(r.rocks[i].position);
             const auto q = quaternionOf(r.rocks[i].rotation);
-            orient[i] = openvdb::math::Quats(float(q[0]), float(q[1]), float(q[2]), float(q[3]));
-            pscale[i] = float(std::max({r.rocks[i].extent[0], r.rocks[i].extent[1], r.rocks[i].extent[2]}));
+            ip.orient.emplace_back(float(q[0]), float(q[1]), float(q[2]), float(q[3]));
+            // pscale · scale = the rock's semi-axes: a piece of radius 1 about the origin (any
+            // rock of the artist's, or vdb_fractal_rock --size 1,1,1) copies onto the rock's
+            // ellipsoid, x ↦ P + orient·(pscale·scale·x); one piece, variant 0.
+            const Vec3d e = r.rocks[i].extent;
+            const double ps = std::max({e[0], e[1], e[2]});
+            ip.pscale.push_back(float(ps));
+            ip.scale.emplace_back(float(e[0] / ps), float(e[1] / ps), float(e[2] / ps));
+            ip.variant.push_back(0);
             rock[i] = int32_t(i);
         }
-        using namespace openvdb::points;
-        auto pxf = openvdb::math::Transform::createLinearTransform(std::max(p.voxelSize, 0.5 * p.size[0]));
-        PointAttributeVector<openvdb::Vec3R> wrapper(positions);
-        auto idx = openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(wrapper, *pxf);
-        auto pts = createPointDataGrid<NullCodec, PointDataGrid>(*idx, wrapper, *pxf);
-        appendAttribute<openvdb::math::Quats>(pts->tree(), "orient");
-        populateAttribute<PointDataTree, openvdb::tools::PointIndexTree, PointAttributeVector<openvdb::math::Quats>>(
-            pts->tree(), idx->tree(), "orient", PointAttributeVector<openvdb::math::Quats>(orient));
-        appendAttribute<float>(pts->tree(), "pscale");
-        populateAttribute<PointDataTree, openvdb::tools::PointIndexTree, PointAttributeVector<float>>(
-            pts->tree(), idx->tree(), "pscale", PointAttributeVector<float>(pscale));
-        appendAttribute<int32_t>(pts->tree(), "rock");
-        populateAttribute<PointDataTree, openvdb::tools::PointIndexTree, PointAttributeVector<int32_t>>(
-            pts->tree(), idx->tree(), "rock", PointAttributeVector<int32_t>(rock));
-        pts->setName("rocks");
-        r.points = pts;
+        ip.ints = {{"rock", std::move(rock)}};
+        r.points = instancePointsGrid(ip, std::max(p.voxelSize, 0.5 * p.size[0]), "rocks");
     }
     if (withMesh) {
         for (size_t i = 0; i < n; ++i) appendMesh(r.mesh, rockMesh(meshes[i], world[i], false), int(i));

@@ -3,6 +3,7 @@
 // level set in its own slot, and the tile set file (the ρ atlas with its description).
 #include <rockvdb/core/Json.h>
 #include <rockvdb/rockpile/RockTiles.h>
+#include <rockvdb/rockpile/RockPile.h>
 
 #include <rockvdb/core/Corrupt.h>
 #include <rockvdb/core/Error.h>
@@ -241,14 +242,23 @@ constexpr int kRhoPad = 1;
 
 } // namespace
 
-openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth, double* seconds)
+openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth, double* seconds,
+                                    openvdb::FloatGrid::Ptr* ids)
 {
     Task task;
-    return libraryGrid(set, task, halfWidth, seconds);
+    return libraryGrid(set, task, halfWidth, seconds, ids);
+}
+
+std::vector<Vec3d> librarySeeds(const TileSet& set, double halfWidth)
+{
+    const std::vector<Coord> offsets = atlasOffsets(set, int(std::ceil(halfWidth)) + 1);
+    std::vector<Vec3d> seeds(offsets.size());
+    for (size_t i = 0; i < offsets.size(); ++i) seeds[i] = seedWorld(set, set.rocks[i], offsets[i]);
+    return seeds;
 }
 
 openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, Task& task, double halfWidth,
-                                    double* seconds)
+                                    double* seconds, openvdb::FloatGrid::Ptr* ids)
 {
     using Clock = std::chrono::steady_clock;
     const auto t0 = Clock::now();
@@ -267,6 +277,20 @@ openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, Task& task, double halfW
         throw;
     }
     auto library = emptyLevelSet("library", dx, float(halfWidth * dx));
+    if (ids) {
+        // Rocks never share a leaf (atlasOffsets): each leaf's voxels carry its rock's index.
+        *ids = openvdb::FloatGrid::create(-1.0f);
+        (*ids)->setTransform(library->transform().copy());
+        (*ids)->setName("rock_id");
+        (*ids)->setGridClass(openvdb::GRID_UNKNOWN);
+        for (size_t i = 0; i < count; ++i) {
+            for (const LeafT* leaf : leaves[i]) {
+                auto* id = new LeafT(leaf->origin(), -1.0f);
+                for (auto it = leaf->cbeginValueOn(); it; ++it) id->setValueOn(it.pos(), float(i));
+                (*ids)->tree().addLeaf(id);
+            }
+        }
+    }
     for (auto& list : leaves)
         for (LeafT* leaf : list) library->tree().addLeaf(leaf);
     nlohmann::json slots = nlohmann::json::array();

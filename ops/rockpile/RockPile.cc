@@ -2,6 +2,7 @@
 #include "RockPile.h"
 
 #include <rockvdb/core/Error.h>
+#include <rockvdb/core/Points.h>
 #include <rockvdb/core/Expression.h>
 #include <rockvdb/core/GridField.h>
 #include <rockvdb/core/GridUtil.h>
@@ -10,7 +11,6 @@
 #include <rockvdb/core/VdbIO.h>
 
 #include <nlohmann/json.hpp>
-#include <openvdb/points/PointConversion.h>
 #include <openvdb/tools/SignedFloodFill.h>
 #include <openvdb/tree/LeafManager.h>
 #include <tbb/parallel_for.h>
@@ -397,31 +397,25 @@ Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PilePa
     return pile;
 }
 
-openvdb::GridBase::Ptr instancePoints(const std::vector<Instance>& instances, double voxelSize)
+openvdb::GridBase::Ptr instancePoints(const std::vector<Instance>& instances, const TileSet& set)
 {
-    std::vector<openvdb::Vec3R> positions;
-    std::vector<int32_t> rock, tile, instance;
-    for (size_t i = 0; i < instances.size(); ++i) {
-        positions.push_back(instances[i].position);
-        rock.push_back(int32_t(instances[i].rock));
-        tile.push_back(int32_t(instances[i].region));
-        instance.push_back(int32_t(i));
+    // Library rocks are instanced by translation at library scale: orient is the identity,
+    // pscale 1, variant the library rock (Houdini's Copy to Points picks piece `variant`) and
+    // pivot its seed in the library, so a piece lands at P + (x − pivot).
+    const std::vector<Vec3d> seeds = librarySeeds(set);
+    InstancePoints p;
+    std::vector<int32_t> rock, tile;
+    for (const Instance& in : instances) {
+        p.positions.push_back(in.position);
+        p.orient.emplace_back(0.0f, 0.0f, 0.0f, 1.0f);
+        p.pscale.push_back(1.0f);
+        p.variant.push_back(int32_t(in.rock));
+        p.pivot.emplace_back(seeds.at(in.rock));
+        rock.push_back(int32_t(in.rock));
+        tile.push_back(int32_t(in.region));
     }
-    auto xf = openvdb::math::Transform::createLinearTransform(voxelSize);
-    openvdb::points::PointAttributeVector<openvdb::Vec3R> wrapper(positions);
-    auto index = openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(wrapper, *xf);
-    auto points = openvdb::points::createPointDataGrid<openvdb::points::NullCodec,
-                                                       openvdb::points::PointDataGrid>(*index, wrapper, *xf);
-    using namespace openvdb::points;
-    for (auto [name, values] : {std::make_pair("rock", &rock), std::make_pair("tile", &tile),
-                                std::make_pair("instance", &instance)}) {
-        appendAttribute<int32_t>(points->tree(), name);
-        populateAttribute<PointDataTree, openvdb::tools::PointIndexTree,
-                          PointAttributeVector<int32_t>>(points->tree(), index->tree(), name,
-                                                         PointAttributeVector<int32_t>(*values));
-    }
-    points->setName("rocks");
-    return points;
+    p.ints = {{"rock", std::move(rock)}, {"tile", std::move(tile)}};
+    return instancePointsGrid(p, set.params.voxelSize(), "rocks");
 }
 
 } // namespace rockpile

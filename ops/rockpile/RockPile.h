@@ -112,9 +112,10 @@ Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PilePa
                Task& task);
 Pile buildPile(const TileSet& set, std::vector<Instance> instances, const PileParams& p);
 
-/// @brief The instances as a VDB points grid "rocks" (attributes P, rock, tile, instance) for
-/// copying library rocks in Houdini; voxel size @a voxelSize.
-openvdb::GridBase::Ptr instancePoints(const std::vector<Instance>& instances, double voxelSize);
+/// @brief The instances as a VDB points grid "rocks" for copying the library's rocks
+/// (libraryGrid) in Houdini: P (the seed), orient (identity), pscale 1, variant = rock (the
+/// library's `rock_id`), pivot (that rock's seed in the library), id, rock, tile = region.
+openvdb::GridBase::Ptr instancePoints(const std::vector<Instance>& instances, const TileSet& set);
 
 } // namespace rockpile
 } // namespace rockvdb

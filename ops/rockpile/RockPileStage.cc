@@ -178,8 +178,8 @@ TilesResult runTiles(const RockTileParams& params, bool library, Task& task, dou
     r.report.push_back(line);
     if (library) {
         task.phase("level sets", 0.5);
-        r.library = libraryGrid(r.set, task, 3.0, &r.librarySeconds);
-        stampExtras(r, kToolName, {r.library});
+        r.library = libraryGrid(r.set, task, 3.0, &r.librarySeconds, &r.libraryIds);
+        stampExtras(r, kToolName, {r.libraryIds, r.library});
         std::snprintf(line, sizeof line, "level sets %.3f s", r.librarySeconds);
         r.report.push_back(line);
     }
@@ -195,7 +195,9 @@ StageResult runLibrary(const TileSet& set, Task& task)
 {
     StageResult r;
     task.phase("level sets", 1.0);
-    stampResult(r, kToolName, {libraryGrid(set, task)}, {{"tiles", set.params.toJson()}});
+    openvdb::FloatGrid::Ptr ids;
+    auto library = libraryGrid(set, task, 3.0, nullptr, &ids);
+    stampResult(r, kToolName, {ids, library}, {{"tiles", set.params.toJson()}});
     task.done();
     r.stats = {{"phases", phasesJson(task)}};
     return r;
@@ -230,13 +232,13 @@ PileResult pileRocks(const TileSet& tiles, const Field& support, const PileParam
     if (r.pile.material) grids.push_back(r.pile.material);
     stampResult(r, kToolName, grids, prov);
     if (points) {
-        r.points = instancePoints(r.pile.instances, tiles.params.voxelSize());
+        r.points = instancePoints(r.pile.instances, tiles);
     }
     if (library) {
         task.phase("library", 0.2);
-        r.library = libraryGrid(tiles, task);
+        r.library = libraryGrid(tiles, task, 3.0, nullptr, &r.libraryIds);
     }
-    stampExtras(r, kToolName, {r.points, r.library});
+    stampExtras(r, kToolName, {r.points, r.libraryIds, r.library});
     task.done();
     return r;
 }

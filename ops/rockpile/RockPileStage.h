@@ -33,6 +33,7 @@ struct TilesResult : StageResult
     TileSet set;
     openvdb::FloatGrid::Ptr rho;     ///< the tile set grid (tileGrid)
     openvdb::FloatGrid::Ptr library; ///< every rock's level set (when asked), else null
+    openvdb::FloatGrid::Ptr libraryIds; ///< the library's rock_id (with library)
     double librarySeconds = 0;
 };
 
@@ -44,7 +45,7 @@ TilesResult runTiles(const RockTileParams& params, bool library, Task& task,
                      double maxMemoryBytes = 0);
 
 /// @brief The library of a tile set made before (rockvdb.rock_library): every rock's level
-/// set, grids = {library}, stamped as runTiles stamps its own library ({"tiles": params}).
+/// set, grids = {rock_id, library}, stamped as runTiles stamps its own library ({"tiles": params}).
 StageResult runLibrary(const TileSet& set, Task& task);
 
 /// @brief Peak memory of runTiles, estimated from the parameters alone: the cells of every
@@ -63,6 +64,7 @@ struct PileResult : StageResult
     PileStats counts;                ///< as StageResult::stats (JSON) holds them
     openvdb::GridBase::Ptr points;   ///< instance points 'rocks' (when asked), else null
     openvdb::FloatGrid::Ptr library; ///< the tile set's library (when asked), else null
+    openvdb::FloatGrid::Ptr libraryIds; ///< the library's rock_id (with library)
 };
 
 /// @brief Fill @a support with the rocks of @a tiles (phases: select, level sets), every

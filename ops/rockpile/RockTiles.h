@@ -198,11 +198,17 @@ TileSet tilesFromGrid(const openvdb::FloatGrid& rho, const std::string& file = "
 
 /// @brief Every rock's narrow-band level set in its own atlas slot of one level set
 /// `library` (metadata `rockvdb:library_offsets`: the slot offsets, rock order), built in
-/// parallel; @a seconds (optional) receives the time taken.
+/// parallel; @a seconds (optional) receives the time taken; @a ids (optional) the grid
+/// `rock_id` (class unknown, background −1): the library rock's index on each of its voxels,
+/// the piece attribute a DCC copies by (points' `variant`).
 openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, Task& task, double halfWidth = 3.0,
-                                    double* seconds = nullptr);
+                                    double* seconds = nullptr, openvdb::FloatGrid::Ptr* ids = nullptr);
 openvdb::FloatGrid::Ptr libraryGrid(const TileSet& set, double halfWidth = 3.0,
-                                    double* seconds = nullptr);
+                                    double* seconds = nullptr, openvdb::FloatGrid::Ptr* ids = nullptr);
+
+/// @brief Where each rock's seed sits in the library (world, m; rock order): the pivot that
+/// copies library rock i onto an instance, x ↦ P + (x − pivot_i).
+std::vector<Vec3d> librarySeeds(const TileSet& set, double halfWidth = 3.0);
 
 /// @brief A rock's level-set leaves shifted by @a offset voxels (what rockLevelSet holds;
 /// the caller owns them). Piles assemble these.

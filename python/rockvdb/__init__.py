@@ -1204,7 +1204,7 @@ class Stacks:
         path also writes the grids (atomically) in vdb_arches' order: ids, weights and material
         level sets, the ground last (vdb_tool acts on the last grid). points_path (with
         rock_tiles) writes the rocks instanced in rock layers as a VDB points grid 'rocks' (P,
-        rock, tile, instance), as vdb_arches --points."""
+        orient, pscale, variant, pivot, id, rock, tile), as vdb_arches --points."""
         fn = "Stacks.bake"
         _str(material, "material", fn)
         target = _opt(path, _path, "path", fn)

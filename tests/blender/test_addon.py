@@ -384,7 +384,7 @@ def test_bad_input_is_a_one_line_report_and_adds_nothing(report):
     assert "select a mesh object" in bad["pile_no_mesh"]
     assert "select a rockvdb result" in bad["detail_no_result"]
     assert "fractures: not valid JSON" in bad["bad_choice_json"]
-    assert "h-up must be in (0, 1)" in bad["open_bound"]
+    assert "h_up must be in (0, 1)" in bad["open_bound"]
     assert "select a mesh object" in bad["stacks_no_terrain"]
     assert "a heightfield starts at the world origin" in bad["amplify_heightfield_origin"]
     assert "'Nope' is neither a Block Tile result nor a .tile file" in bad["amplify_unknown_tile"]

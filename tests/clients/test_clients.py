@@ -3,6 +3,7 @@
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 
@@ -421,3 +422,26 @@ def test_the_grid_order_and_names_serve_vdb_tool_and_vdb_render(blocks, piled, t
     p = subprocess.run(["vdb_tool", "-read", str(tmp_path / "rocks.tiles"), "-print"],
                        capture_output=True, text=True, timeout=300)
     assert "invalid extension" in p.stdout + p.stderr
+
+
+def test_points_files_hold_houdinis_attributes_and_blender_refuses_them(piled, tmp_path):
+    """docs/tools.md: Blender's OpenVDB import cancels on a points file, naming the reason; the
+    file is a points grid to OpenVDB's vdb_print, its attribute descriptor names what Houdini's
+    Copy to Points reads (values: RockPile.InstancePointsCopyTheLibraryOntoThePile)."""
+    d = piled.parent
+    pts = tmp_path / "pts.vdb"
+    run([tool("vdb_rockpile"), "-q", "pile", "--tiles", str(d / "rocks.tiles.vdb"), "--support",
+         str(d / "ball.json"), "--points", str(pts), "-o", str(tmp_path / "pile.vdb")], check=True)
+    listing = run(["vdb_print", str(pts)], check=True).stdout.decode()
+    assert re.search(r"rocks\s+ptdataidx32", listing), listing
+    data = pts.read_bytes()  # (the descriptor's names are stored uncompressed)
+    for attr in (b"orient", b"pscale", b"pivot", b"variant", b"rock", b"tile"):
+        assert attr in data, attr
+    assert b"instance" not in data
+    script = ("import bpy, sys\n"
+              "r = bpy.ops.object.volume_import(filepath=sys.argv[-1])\n"
+              "print('RESULT', sorted(r), len([o for o in bpy.data.objects if o.type == 'VOLUME']))\n")
+    p = subprocess.run(["blender", "--background", "--factory-startup", "--python-expr", script,
+                        "--", str(pts)], capture_output=True, text=True, timeout=300)
+    assert "RESULT ['CANCELLED'] 0" in p.stdout, p.stdout[-2000:] + p.stderr[-2000:]
+    assert "contains points, only voxel grids are supported" in p.stdout + p.stderr

@@ -149,19 +149,18 @@ READERS = {
 CASES = [(kind, name) for kind in READERS for name in READERS[kind]]
 
 
-def measured(cmd):
-    """Run @a cmd: (exit code or -signal, stderr text, seconds, peak resident MB)."""
+PEAK = os.path.join(os.path.dirname(os.path.abspath(__file__)), "peak.py")
+
+
+def measured(cmd, report):
+    """Run @a cmd through peak.py: (exit code or -signal, stderr text, seconds, peak resident
+    MB of the command alone), @a report the scratch file for peak.py's numbers."""
     t0 = time.monotonic()
-    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    err = b""
-    try:
-        err = p.stderr.read()  # until the tool closes it (it exits)
-        _, status, usage = os.wait4(p.pid, 0)
-    finally:
-        if p.poll() is None and p.returncode is None:
-            p.kill()
-    p.returncode = os.waitstatus_to_exitcode(status)
-    return p.returncode, err.decode(errors="replace"), time.monotonic() - t0, usage.ru_maxrss / 1024
+    p = subprocess.run([sys.executable, PEAK, str(report), *cmd], stdout=subprocess.DEVNULL,
+                       stderr=subprocess.PIPE, timeout=600)
+    seconds = time.monotonic() - t0
+    r = json.loads(report.read_text())
+    return r["rc"], p.stderr.decode(errors="replace"), seconds, r["mb"]
 
 
 @pytest.mark.parametrize("kind, name", CASES, ids=[f"{k}: {n}" for k, n in CASES])
@@ -170,7 +169,8 @@ def test_a_flipped_bit_in_metadata_is_read_or_refused_in_one_line(kind, name, fi
     for k, f in flipped_copies(kind, files, tmp_path):
         out = tmp_path / "out.vdb"
         out.write_bytes(SENTINEL)
-        rc, err, seconds, mb = measured(READERS[kind][name](str(f), str(out), files))
+        rc, err, seconds, mb = measured(READERS[kind][name](str(f), str(out), files),
+                                        tmp_path / "peak.json")
         what = f"{name} on {kind} byte {k}"
         assert rc >= 0, f"{what}: killed by signal {-rc}: {err[-300:]}"
         assert seconds <= SECONDS, f"{what}: {seconds:.1f} s"
@@ -202,7 +202,7 @@ def test_python_readers_survive_flipped_metadata(kind, files, tmp_path):
     IOError / ValueError in one line, within 5 s; the interpreter stays under 512 MB."""
     paths = [str(p) for _, p in flipped_copies(kind, files, tmp_path)]
     script = f"""
-import json, resource, sys, time
+import json, sys, time
 import pyopenvdb as vdb
 import rockvdb
 read = refused = 0
@@ -215,13 +215,15 @@ for path in {paths!r}:
         assert '\\n' not in str(e) and str(e).isprintable(), str(e)
         refused += 1
     assert time.monotonic() - t0 <= {SECONDS}, (path, time.monotonic() - t0)
-print(json.dumps({{"read": read, "refused": refused,
-                  "mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}}))
+print(json.dumps({{"read": read, "refused": refused}}))
 """
-    p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600)
-    assert p.returncode == 0, p.stderr[-2000:]
+    report = tmp_path / "peak.json"
+    p = subprocess.run([sys.executable, PEAK, str(report), sys.executable, "-c", script],
+                       capture_output=True, text=True, timeout=600)
+    peak = json.loads(report.read_text())
+    assert peak["rc"] == 0, p.stderr[-2000:]
     r = json.loads(p.stdout.splitlines()[-1])
-    assert r["refused"] >= 3 and r["mb"] <= MEGABYTES, r
+    assert r["refused"] >= 3 and peak["mb"] <= MEGABYTES, (r, peak)
 
 
 def test_a_corrupt_tile_names_the_file_the_key_and_the_value(files, tmp_path):

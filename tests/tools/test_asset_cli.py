@@ -112,7 +112,7 @@ def test_bad_input_is_one_line_and_writes_nothing(rock, tmp_path, args, message)
 
 def test_the_output_must_be_a_glb(rock, tmp_path):
     one_line_error(run([tool("vdb_asset"), str(rock / "rock.vdb"), "-o", str(tmp_path / "x.obj")]),
-                   2, "must be a .glb")
+                   2, "but this writes .glb")
     assert not (tmp_path / "x.obj").exists()
 
 

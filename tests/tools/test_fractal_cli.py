@@ -126,7 +126,7 @@ def test_python_returns_the_mesh_and_the_normal_map(tmp_path):
         rockvdb.fractal_rock(levels="2")
     with pytest.raises(TypeError, match="did you mean 'levels'"):
         rockvdb.fractal_rock(level=2)
-    with pytest.raises(ValueError, match="h-up"):
+    with pytest.raises(ValueError, match="h_up"):
         rockvdb.fractal_rock(h_up=1.5)
 
 

@@ -140,7 +140,7 @@ def test_python_keywords_are_the_tables_and_misspellings_name_the_key():
         rockvdb.rock_tiles(voxel_per_cell=4)
     with pytest.raises(TypeError, match=r"rock_tiles\(\): n must be an integer, got str"):
         rockvdb.rock_tiles(n="5")
-    with pytest.raises(ValueError, match=r"rockpile: erosion-rate must be in \(0, 1\] \(got 0.0\)"):
+    with pytest.raises(ValueError, match=r"rockpile: erosion_rate must be in \(0, 1\] \(got 0.0\)"):
         rockvdb.rock_tiles(erosion_rate=0.0)
     with pytest.raises(TypeError, match="unexpected keyword argument 'treshold'"):
         rockvdb.rock_pile("t.vdb", rockvdb.sphere(1), treshold=0.4)
@@ -211,7 +211,7 @@ def test_detail_keywords_are_the_tables():
     with pytest.raises(TypeError, match=r"unexpected keyword argument 'gabor_amplitde' "
                                         r"\(did you mean 'gabor_amplitude'\?\)"):
         rockvdb.detail(vdb.FloatGrid(), gabor_amplitde=0.1)
-    with pytest.raises(ValueError, match="give one of direction-axis"):
+    with pytest.raises(ValueError, match="give one of direction_axis"):
         rockvdb.detail(rockvdb.sphere(1).bake(voxel_size=0.1), direction_axis=(1, 0, 0),
                        direction_curvature=True)
 

@@ -475,3 +475,56 @@ TEST(MeshBake, OverlappingPartsUniteByTheirFullValuesAtAnyThreadCount)
     auto serial = bakeAll(1);
     EXPECT_TRUE(test::bitwiseEqual(*serial, *both));
 }
+
+#include <openvdb/points/AttributeArray.h>
+#include <openvdb/points/PointCount.h>
+#include <openvdb/points/PointDataGrid.h>
+
+TEST(FractalScatter, PointsCopyARadiusOnePieceOntoEachRock)
+{
+    // Houdini's Copy to Points puts piece point x at P + orient·(pscale·scale·x): with the
+    // rock's own unit-extent mesh as the piece, that is the scattered rock, vertex for vertex.
+    initialize();
+    FractalRockParams p;
+    p.count = 8;
+    p.shape.levels = 1;
+    p.size = Vec3d(0.6, 0.5, 0.35);
+    p.tilt = 40.0;
+    p.voxelSize = 0.05;
+    p.area = std::array<double, 4>{-2.0, -2.0, 2.0, 2.0};
+    Task task;
+    const ScatterResult r = runScatter(p, *planeGround(), true, false, task);
+    ASSERT_GE(r.rocks.size(), size_t(4));
+    auto points = openvdb::gridPtrCast<openvdb::points::PointDataGrid>(r.points);
+    ASSERT_TRUE(points);
+    ASSERT_EQ(openvdb::points::pointCount(points->tree()), r.rocks.size());
+    size_t vertices = 0;
+    for (auto leaf = points->tree().cbeginLeaf(); leaf; ++leaf) {
+        using namespace openvdb::points;
+        AttributeHandle<openvdb::Vec3f> P(leaf->constAttributeArray("P"));
+        AttributeHandle<openvdb::math::Quats> orient(leaf->constAttributeArray("orient"));
+        AttributeHandle<float> pscale(leaf->constAttributeArray("pscale"));
+        AttributeHandle<openvdb::Vec3f> scale(leaf->constAttributeArray("scale"));
+        AttributeHandle<int32_t> id(leaf->constAttributeArray("id"));
+        AttributeHandle<int32_t> variant(leaf->constAttributeArray("variant"));
+        for (auto idx = leaf->beginIndexOn(); idx; ++idx) {
+            const Placed& rock = r.rocks.at(size_t(id.get(*idx)));
+            EXPECT_EQ(variant.get(*idx), 0);
+            const Vec3d at = points->transform().indexToWorld(P.get(*idx) + idx.getCoord().asVec3d());
+            RockShape shape = p.shape;
+            shape.seed = rock.seed;
+            Task quiet;
+            const RockMesh mesh = buildRock(shape, rock.extent, rock.rotation, quiet);
+            const std::vector<Vec3d> world = toWorld(mesh, rock.extent, rock.rotation, rock.position);
+            const openvdb::Vec3f s = scale.get(*idx) * pscale.get(*idx);
+            for (size_t k = 0; k < mesh.points.size(); ++k) {
+                const Vec3d x = mesh.points[k];
+                const openvdb::Vec3f local(float(x[0]) * s[0], float(x[1]) * s[1], float(x[2]) * s[2]);
+                const Vec3d copied = at + Vec3d(orient.get(*idx).rotateVector(local));
+                ASSERT_LT((copied - world[k]).length(), 1e-4) << "rock " << id.get(*idx) << " vertex " << k;
+                ++vertices;
+            }
+        }
+    }
+    EXPECT_GT(vertices, size_t(100));
+}

@@ -523,35 +523,73 @@ TEST(RockPile, DeterministicAcrossThreads)
 #include <openvdb/points/PointCount.h>
 #include <openvdb/points/PointDataGrid.h>
 
-TEST(RockPile, InstancePointsCarryEveryRock)
+TEST(RockPile, InstancePointsCopyTheLibraryOntoThePile)
 {
     initialize();
     const TileSet set = generateTiles(small());
     PileParams pp;
-    const auto instances = selectRocks(set, *sphere(Vec3d(0.0), 0.9), pp);
+    const Pile pile = buildPile(set, selectRocks(set, *sphere(Vec3d(0.0), 0.9), pp), pp);
+    const auto& instances = pile.instances;
     ASSERT_GT(instances.size(), size_t(20));
-    auto base = instancePoints(instances, set.params.cubeSize / set.params.n);
-    auto points = openvdb::gridPtrCast<openvdb::points::PointDataGrid>(base);
+    auto points = openvdb::gridPtrCast<openvdb::points::PointDataGrid>(instancePoints(instances, set));
     ASSERT_TRUE(points);
     EXPECT_EQ(points->getName(), "rocks");
     EXPECT_EQ(openvdb::points::pointCount(points->tree()), instances.size());
-    // Every (instance, rock, tile, position) comes back, each once.
+    openvdb::FloatGrid::Ptr ids;
+    const auto library = libraryGrid(set, 3.0, nullptr, &ids);
+    ASSERT_TRUE(ids);
+    EXPECT_EQ(ids->getName(), "rock_id");
+    EXPECT_EQ(ids->activeVoxelCount(), library->activeVoxelCount());
+    // The library's voxels by rock (rock_id), as Houdini's piece attribute splits them.
+    std::vector<std::vector<std::pair<openvdb::Coord, float>>> pieces(set.rocks.size());
+    for (auto it = ids->cbeginValueOn(); it; ++it) {
+        ASSERT_GE(*it, 0.0f);
+        pieces.at(size_t(*it)).emplace_back(it.getCoord(), library->tree().getValue(it.getCoord()));
+    }
+    // Every (id, rock, tile, position) comes back, each once, with what Houdini's Copy to Points
+    // reads: the identity orient, pscale 1, variant = the library rock and pivot = its seed in
+    // the library; piece `variant` moved by P − pivot lands on the pile: where the pile holds
+    // that rock alone its values are the library's, and the union never lies above them.
     std::vector<int> seen(instances.size(), 0);
+    size_t same = 0, checked = 0;
+    const auto pileAcc = pile.surface->getConstAccessor();
+    const auto idAcc = pile.rockId->getConstAccessor();
     for (auto leaf = points->tree().cbeginLeaf(); leaf; ++leaf) {
         using namespace openvdb::points;
         AttributeHandle<openvdb::Vec3f> P(leaf->constAttributeArray("P"));
         AttributeHandle<int32_t> rock(leaf->constAttributeArray("rock"));
         AttributeHandle<int32_t> tile(leaf->constAttributeArray("tile"));
-        AttributeHandle<int32_t> inst(leaf->constAttributeArray("instance"));
+        AttributeHandle<int32_t> inst(leaf->constAttributeArray("id"));
+        AttributeHandle<int32_t> variant(leaf->constAttributeArray("variant"));
+        AttributeHandle<float> pscale(leaf->constAttributeArray("pscale"));
+        AttributeHandle<openvdb::math::Quats> orient(leaf->constAttributeArray("orient"));
+        AttributeHandle<openvdb::Vec3f> pivot(leaf->constAttributeArray("pivot"));
         for (auto idx = leaf->beginIndexOn(); idx; ++idx) {
             const size_t i = size_t(inst.get(*idx));
             ASSERT_LT(i, instances.size());
             ++seen[i];
             EXPECT_EQ(size_t(rock.get(*idx)), instances[i].rock);
             EXPECT_EQ(size_t(tile.get(*idx)), instances[i].region);
+            EXPECT_EQ(size_t(variant.get(*idx)), instances[i].rock);
+            EXPECT_EQ(pscale.get(*idx), 1.0f);
+            EXPECT_EQ(orient.get(*idx), openvdb::math::Quats(0, 0, 0, 1));
             const Vec3d w = points->transform().indexToWorld(P.get(*idx) + idx.getCoord().asVec3d());
             EXPECT_LT((w - instances[i].position).length(), 1e-4);
+            // P − pivot in voxels: a whole number of them.
+            const Vec3d shift = (w - Vec3d(pivot.get(*idx))) / library->voxelSize()[0];
+            const openvdb::Coord d(openvdb::Coord::round(shift));
+            ASSERT_LT((shift - d.asVec3d()).length(), 1e-3) << i;
+            for (const auto& [c, value] : pieces[size_t(variant.get(*idx))]) {
+                const openvdb::Coord q = c + d;
+                EXPECT_LE(pileAcc.getValue(q), value + 1e-6f);
+                if (idAcc.getValue(q) == float(i) && std::abs(value) < 0.5f * library->background()) {
+                    ++checked;
+                    same += pileAcc.getValue(q) == value;
+                }
+            }
         }
     }
     EXPECT_EQ(size_t(std::count(seen.begin(), seen.end(), 1)), instances.size());
+    ASSERT_GT(checked, size_t(1000));
+    EXPECT_GT(double(same) / double(checked), 0.9) << same << " of " << checked;
 }
