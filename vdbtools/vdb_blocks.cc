@@ -30,6 +30,11 @@ int main(int argc, char** argv)
     app.add_option("--meshes", meshes, "Write one mesh per block (home frame) to .obj or .ply")
         ->check(cli::writes({".obj", ".ply"}));
     tool.addUpAxis(app, "--up", up, "the --meshes file");
+    double meshAdaptivity = BlocksInputs().meshAdaptivity;
+    auto* adaptivityOpt = app.add_option("--mesh-adaptivity", meshAdaptivity,
+                   "The --meshes' adaptivity (OpenVDB's volumeToMesh): 0 = one quad per surface "
+                   "voxel .. 1 = fewest polygons; the default merges the blocks' flat faces")
+        ->capture_default_str();
     tool.addOutput(app, "Output .vdb ('-' = stdout)");
     tool.addStats(app);
     tool.addDistribution(app);
@@ -51,6 +56,10 @@ int main(int argc, char** argv)
             in.source = {{"from-tile", fromTile}};
         }
         in.meshes = !meshes.empty();
+        in.meshAdaptivity = meshAdaptivity;
+        if (adaptivityOpt->count() > 0 && meshes.empty()) {
+            fail<ValueError>("blocks: --mesh-adaptivity applies to --meshes");
+        }
         const BlocksResult r = tool.stage([&](Task& task) { return runBlocks(p, in, task); });
         writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});
         // The tile file after the grids: a failed bake leaves no file at all.

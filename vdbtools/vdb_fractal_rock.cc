@@ -87,7 +87,8 @@ int main(int argc, char** argv)
         const FractalResult r = tool.stage([&](Task& task) { return runFractal(p, in, task); });
         if (!meshPath.empty()) writeMesh(r.mesh(), meshPath, upAxis);
         if (!mapPath.empty()) {
-            writeRgbExr(mapPath, r.rock.normalMapWidth, r.rock.normalMapHeight, r.rock.normalMap);
+            writeNormalMap(mapPath, r.rock.normalMapWidth, r.rock.normalMapHeight, r.rock.normalMap,
+                           p.normalSpace, upAxis);
         }
         if (r.scatter.points) writeGrids(pointsPath, {r.scatter.points});
         writeGrids(tool.output(), {r.grids.begin(), r.grids.end()});

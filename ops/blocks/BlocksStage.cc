@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -297,14 +298,15 @@ BakeResult bakeTile(const std::shared_ptr<const BlockTile>& tile, const BlocksPa
 // Every block's own level set, meshed in its home frame: one triangle group per block, its
 // points carrying block_id. The blocks are baked and meshed in parallel (each bake is
 // parallel too) and appended in block order, so the file is the same whatever the threads.
-Mesh blockMeshes(const std::shared_ptr<const BlockTile>& tile, const BakeSettings& one, Task& task)
+Mesh blockMeshes(const std::shared_ptr<const BlockTile>& tile, const BakeSettings& one,
+                 double adaptivity, Task& task)
 {
     const size_t n = tile->blocks.size();
     std::vector<Mesh> parts(n);
     std::atomic<size_t> done{0};
     tbb::parallel_for(size_t(0), n, [&](size_t j) {
         task.check();
-        parts[j] = meshLevelSet(*bake(*blockField(tile, j), one).surface);
+        parts[j] = meshLevelSet(*bake(*blockField(tile, j), one).surface, 0.0, adaptivity);
         parts[j].pointIds.emplace_back("block_id", std::vector<int>(parts[j].points.size(), int(j)));
         task.advance(double(++done) / double(std::max<size_t>(n, 1)));
     });
@@ -352,6 +354,9 @@ BlocksResult runBlocks(const BlocksParams& params, const BlocksInputs& inputs, T
         fail<ValueError>("blocks: block meshes are the periodic tile's; mesh them from a run "
                          "without aperiodic");
     }
+    require(std::isfinite(inputs.meshAdaptivity) && inputs.meshAdaptivity >= 0 &&
+                inputs.meshAdaptivity <= 1, "blocks", "mesh-adaptivity", "in [0, 1]",
+            inputs.meshAdaptivity);
     if (inputs.meshes && !params.bake.chunking.chunk.empty()) {
         fail<ValueError>("blocks: block meshes describe the whole tile; mesh them from a run "
                          "without chunk");
@@ -387,7 +392,7 @@ BlocksResult runBlocks(const BlocksParams& params, const BlocksInputs& inputs, T
     }
     if (inputs.meshes) {
         task.phase("meshes", 0.2);
-        r.meshes = blockMeshes(r.tile, params.bake.settings(), task);
+        r.meshes = blockMeshes(r.tile, params.bake.settings(), inputs.meshAdaptivity, task);
         r.report.push_back("meshed " + std::to_string(r.tile->blocks.size()) + " blocks");
     }
     task.done();

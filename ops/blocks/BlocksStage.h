@@ -71,6 +71,10 @@ struct BlocksInputs
     nlohmann::json source = nlohmann::json::object();
     bool bake = true;    ///< false: generate (or take) the tile only, no grids
     bool meshes = false; ///< also mesh every block in its home frame (result.meshes)
+    /// tools::volumeToMesh's adaptivity for the meshes, in [0, 1]: 0 one quad per surface
+    /// voxel; the default merges coplanar voxels (blocks are mostly planes) into ~6x fewer
+    /// vertices, within a tenth of a voxel of the level set at the face centres (bench/meshes.py).
+    double meshAdaptivity = 0.5;
 };
 
 struct BlocksResult : StageResult

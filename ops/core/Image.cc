@@ -10,6 +10,7 @@
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStringAttribute.h>
 #include <OpenEXR/ImfIO.h>
 #include <png.h>
 
@@ -302,11 +303,15 @@ struct MemoryStream : Imf::OStream
 };
 
 std::string encodeExr(int width, int height, const std::vector<const char*>& channels,
-                      const float* data)
+                      const float* data,
+                      const std::vector<std::pair<std::string, std::string>>& attributes = {})
 {
     MemoryStream stream;
     try {
         Imf::Header header(width, height);
+        for (const auto& [name, value] : attributes) {
+            header.insert(name, Imf::StringAttribute(value));
+        }
         for (const char* c : channels) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
         Imf::FrameBuffer fb;
         const size_t px = sizeof(float) * channels.size();
@@ -324,13 +329,14 @@ std::string encodeExr(int width, int height, const std::vector<const char*>& cha
 
 } // namespace
 
-void writeRgbExr(const std::string& path, int width, int height, const std::vector<float>& rgb)
+void writeRgbExr(const std::string& path, int width, int height, const std::vector<float>& rgb,
+                 const std::vector<std::pair<std::string, std::string>>& attributes)
 {
     if (!endsWith(path, ".exr")) fail<ValueError>("image: '", path, "' must end in .exr");
     if (rgb.size() != size_t(width) * size_t(height) * 3) {
         fail<ValueError>("image: ", rgb.size(), " values for a ", width, "x", height, " RGB image");
     }
-    writeFileAtomic(path, encodeExr(width, height, {"R", "G", "B"}, rgb.data()));
+    writeFileAtomic(path, encodeExr(width, height, {"R", "G", "B"}, rgb.data(), attributes));
 }
 
 void writeGrayImage(const std::string& path, const GrayImage& image)

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <string>
 #include <vector>
+#include <utility>
 
 namespace rockvdb {
 
@@ -37,7 +38,9 @@ std::string encodePng(int width, int height, int channels, int bits, const std::
 void writeGrayImage(const std::string& path, const GrayImage& image);
 
 /// @brief Write an RGB float EXR (channels R, G, B; @a rgb interleaved, rows from the top)
-/// atomically. @throw ValueError unless @a path ends in ".exr".
-void writeRgbExr(const std::string& path, int width, int height, const std::vector<float>& rgb);
+/// atomically, with @a attributes as string attributes of its header (name, value).
+/// @throw ValueError unless @a path ends in ".exr".
+void writeRgbExr(const std::string& path, int width, int height, const std::vector<float>& rgb,
+                 const std::vector<std::pair<std::string, std::string>>& attributes = {});
 
 } // namespace rockvdb

@@ -93,6 +93,14 @@ Schema<FractalRockParams> makeRockSchema()
              &P::normalLevels);
     s.member(param("normal-map-size", ParamType::Int, "pixels", 256, Range::closed(16, 4096),
                    "Normal map: pixels per cell (the image is 5n × 2n)"), &P::normalMapSize);
+    {
+        ParamInfo space = param("normal-space", ParamType::Text, "", "object", Range::any(),
+                                "Normal map: 'object' (the mesh file's object space: turned with "
+                                "its up axis) or 'tangent' (the coarse mesh's tangent frames from "
+                                "its UVs, MikkTSpace-style: what glTF and game engines read)");
+        space.choices = {"object", "tangent"};
+        s.member(space, &P::normalSpace);
+    }
     s.member(maxMemoryRow(), &P::maxMemoryGB);
     // Scatter rows (§1: rocks "spatially distributed by another fBm").
     s.member(param("count", ParamType::Int, "", 0, Range::closed(0, 1000000),
@@ -158,65 +166,193 @@ double ellipsoidArea(const Vec3d& e)
     return 4 * M_PI * std::pow((std::pow(a * b, 1.6) + std::pow(a * c, 1.6) + std::pow(b * c, 1.6)) / 3, 1 / 1.6);
 }
 
-// Object-space normal map of the finer model, laid out as UvLayout (§7).
-void normalMap(const RockMesh& fine, const std::vector<Vec3d>& fineWorld, int cell,
+// Where the texel (u, v) of UvLayout falls: base face, and the barycentric (a, b) of the
+// point on it (the inverse of UvLayout::uv, gutter included, clamped onto the face).
+struct FacePoint
+{
+    int face;
+    double a, b;
+};
+
+FacePoint texelToFace(double u, double v, const UvLayout& layout)
+{
+    const double r = (2.0 - std::sqrt(2.0)) / 2.0, s = 1.0 - layout.gutter / r;
+    const int cx = std::min(4, int(u * 5)), cy = std::min(1, int(v * 2));
+    double x = u * 5 - cx, y = v * 2 - cy;
+    const bool lower = x + y <= 1.0;
+    const double ic = lower ? r : 1.0 - r;
+    x = ic + (x - ic) / s;
+    y = ic + (y - ic) / s;
+    double a = lower ? x : 1.0 - x, b = lower ? y : 1.0 - y;
+    a = std::max(0.0, a);
+    b = std::max(0.0, b);
+    if (a + b > 1.0) {
+        const double sum = a + b;
+        a /= sum;
+        b /= sum;
+    }
+    return {(cy * 5 + cx) * 2 + (lower ? 0 : 1), a, b};
+}
+
+// The lattice triangle of a base face of N steps holding (a, b): its three lattice points
+// (i, j) and their barycentric weights.
+struct LatticeHit
+{
+    std::array<std::pair<int, int>, 3> at;
+    std::array<double, 3> w;
+};
+
+LatticeHit latticeHit(uint32_t N, double a, double b)
+{
+    const double fa = a * N, fb = b * N;
+    int i = std::min(int(N) - 1, int(std::floor(fa))), j = std::min(int(N) - 1, int(std::floor(fb)));
+    if (i + j > int(N) - 1) {
+        // On the far edge: step back into the last row of upright triangles.
+        if (i > 0) --i; else --j;
+    }
+    const double da = fa - i, db = fb - j;
+    if (da + db <= 1.0 || i + j + 2 > int(N)) {
+        return {{{{i, j}, {i + 1, j}, {i, j + 1}}}, {1.0 - da - db, da, db}};
+    }
+    return {{{{i + 1, j + 1}, {i + 1, j}, {i, j + 1}}}, {da + db - 1.0, 1.0 - db, 1.0 - da}};
+}
+
+// Per base face, the vertex at each lattice point: index face · P + j(N + 1) − j(j − 1)/2 + i.
+std::vector<unsigned> latticeVertices(const RockMesh& m)
+{
+    const uint32_t N = m.lattice;
+    const size_t P = size_t(N + 1) * (N + 2) / 2;
+    std::vector<unsigned> at(20 * P, ~0u);
+    for (size_t t = 0; t < m.triangles.size(); ++t) {
+        const auto& c = m.corners[t];
+        for (int q = 0; q < 3; ++q) {
+            const size_t i = c[size_t(2 * q)], j = c[size_t(2 * q + 1)];
+            at[size_t(m.baseFace[t]) * P + j * (N + 1) - j * (j - 1) / 2 + i] = m.triangles[t][q];
+        }
+    }
+    return at;
+}
+
+size_t latticeIndex(uint32_t N, int face, int i, int j)
+{
+    const size_t P = size_t(N + 1) * (N + 2) / 2;
+    return size_t(face) * P + size_t(j) * (N + 1) - size_t(j) * (j - 1) / 2 + size_t(i);
+}
+
+// Tangent frames of the coarse mesh as a tangent-space consumer builds them (MikkTSpace:
+// Blender, glTF viewers, game engines): per triangle the directions of increasing u and v
+// on the surface, summed at each corner weighted by the corner's angle, per UV island (every
+// base face is its own island, so a corner's frame is its face's), made orthogonal to the
+// vertex normal; the bitangent is sign · N × T. Per lattice point of each base face: T and
+// the sign.
+struct TangentFrames
+{
+    std::vector<Vec3d> tangent;
+    std::vector<double> sign;
+};
+
+TangentFrames tangentFrames(const RockMesh& m, const std::vector<Vec3d>& world,
+                            const std::vector<Vec3d>& normals, const UvLayout& layout)
+{
+    const uint32_t N = m.lattice;
+    const size_t P = size_t(N + 1) * (N + 2) / 2;
+    std::vector<Vec3d> T(20 * P, Vec3d(0.0)), B(20 * P, Vec3d(0.0));
+    std::vector<unsigned> vertex(20 * P, ~0u);
+    for (size_t t = 0; t < m.triangles.size(); ++t) {
+        const int f = m.baseFace[t];
+        const auto& c = m.corners[t];
+        std::array<Vec3d, 3> p;
+        std::array<openvdb::Vec2d, 3> uv;
+        std::array<size_t, 3> k;
+        for (int q = 0; q < 3; ++q) {
+            const int i = int(c[size_t(2 * q)]), j = int(c[size_t(2 * q + 1)]);
+            p[size_t(q)] = world[m.triangles[t][q]];
+            uv[size_t(q)] = layout.uv(f, double(i) / N, double(j) / N);
+            k[size_t(q)] = latticeIndex(N, f, i, j);
+            vertex[k[size_t(q)]] = m.triangles[t][q];
+        }
+        const Vec3d e1 = p[1] - p[0], e2 = p[2] - p[0];
+        const double du1 = uv[1][0] - uv[0][0], dv1 = uv[1][1] - uv[0][1];
+        const double du2 = uv[2][0] - uv[0][0], dv2 = uv[2][1] - uv[0][1];
+        const double det = du1 * dv2 - du2 * dv1;
+        if (std::abs(det) < 1e-20) continue;
+        const Vec3d tu = (e1 * dv2 - e2 * dv1) / det, tv = (e2 * du1 - e1 * du2) / det;
+        for (int q = 0; q < 3; ++q) {
+            const Vec3d a = p[size_t((q + 1) % 3)] - p[size_t(q)], b = p[size_t((q + 2) % 3)] - p[size_t(q)];
+            const double la = a.length(), lb = b.length();
+            if (la <= 0 || lb <= 0) continue;
+            const double angle = std::acos(std::clamp(a.dot(b) / (la * lb), -1.0, 1.0));
+            T[k[size_t(q)]] += tu * angle;
+            B[k[size_t(q)]] += tv * angle;
+        }
+    }
+    TangentFrames out{std::vector<Vec3d>(20 * P, Vec3d(1, 0, 0)), std::vector<double>(20 * P, 1.0)};
+    for (size_t k = 0; k < T.size(); ++k) {
+        if (vertex[k] == ~0u) continue;
+        const Vec3d& n = normals[vertex[k]];
+        Vec3d t = T[k] - n * n.dot(T[k]);
+        const double len = t.length();
+        if (len <= 1e-12) continue;
+        t /= len;
+        out.tangent[k] = t;
+        out.sign[k] = n.cross(t).dot(B[k]) < 0.0 ? -1.0 : 1.0;
+    }
+    return out;
+}
+
+// The normal map of the finer model (§7), laid out as UvLayout: per texel the normal of the
+// fine mesh (its vertex normals blended across the fine triangle), in object space (rockvdb's
+// frame) or in the tangent frame of the coarse mesh there (interpolated as a shader does).
+void normalMap(const RockMesh& coarse, const std::vector<Vec3d>& coarseWorld, const RockMesh& fine,
+               const std::vector<Vec3d>& fineWorld, int cell, bool tangentSpace,
                std::vector<float>& rgb, int& width, int& height, Task& task)
 {
     const std::vector<Vec3d> normals = vertexNormals(fineWorld, fine.triangles);
-    const uint32_t N = fine.lattice;
-    const size_t P = size_t(N + 1) * (N + 2) / 2;
-    // Vertex at lattice point (i, j) of base face f.
-    std::vector<unsigned> vertexAt(20 * P, ~0u);
-    for (size_t t = 0; t < fine.triangles.size(); ++t) {
-        const auto& c = fine.corners[t];
-        for (int q = 0; q < 3; ++q) {
-            const size_t i = c[size_t(2 * q)], j = c[size_t(2 * q + 1)];
-            vertexAt[size_t(fine.baseFace[t]) * P + j * (N + 1) - j * (j - 1) / 2 + i] = fine.triangles[t][q];
-        }
+    const std::vector<unsigned> fineAt = latticeVertices(fine);
+    const UvLayout layout;
+    std::vector<Vec3d> coarseNormals;
+    std::vector<unsigned> coarseAt;
+    TangentFrames frames;
+    if (tangentSpace) {
+        coarseNormals = vertexNormals(coarseWorld, coarse.triangles);
+        coarseAt = latticeVertices(coarse);
+        frames = tangentFrames(coarse, coarseWorld, coarseNormals, layout);
     }
     width = 5 * cell;
     height = 2 * cell;
     rgb.assign(size_t(width) * size_t(height) * 3, 0.0f);
-    const UvLayout layout;
-    const double r = (2.0 - std::sqrt(2.0)) / 2.0, s = 1.0 - layout.gutter / r;
     parallelFor(task, size_t(height), 8, [&](size_t row) {
         const double v = 1.0 - (double(row) + 0.5) / height;
         for (int col = 0; col < width; ++col) {
-            const double u = (col + 0.5) / width;
-            const int cx = std::min(4, int(u * 5)), cy = std::min(1, int(v * 2));
-            double x = u * 5 - cx, y = v * 2 - cy;
-            const bool lower = x + y <= 1.0;
-            const double ic = lower ? r : 1.0 - r;
-            x = ic + (x - ic) / s;
-            y = ic + (y - ic) / s;
-            const int face = (cy * 5 + cx) * 2 + (lower ? 0 : 1);
-            double a = lower ? x : 1.0 - x, b = lower ? y : 1.0 - y;
-            a = std::max(0.0, a);
-            b = std::max(0.0, b);
-            if (a + b > 1.0) {
-                const double sum = a + b;
-                a /= sum;
-                b /= sum;
+            const FacePoint fp = texelToFace((col + 0.5) / width, v, layout);
+            const LatticeHit hit = latticeHit(fine.lattice, fp.a, fp.b);
+            Vec3d n(0.0);
+            for (int q = 0; q < 3; ++q) {
+                const auto [i, j] = hit.at[size_t(q)];
+                n += normals[fineAt[latticeIndex(fine.lattice, fp.face, i, j)]] * hit.w[size_t(q)];
             }
-            // The fine triangle at lattice (a, b)·N and the barycentric blend of its normals.
-            const double fa = a * N, fb = b * N;
-            int i = std::min(int(N) - 1, int(std::floor(fa))), j = std::min(int(N) - 1, int(std::floor(fb)));
-            if (i + j > int(N) - 1) {
-                // On the far edge: step back into the last row of upright triangles.
-                if (i > 0) --i; else --j;
-            }
-            const double da = fa - i, db = fb - j;
-            auto at = [&](int ii, int jj) {
-                return normals[vertexAt[size_t(face) * P + size_t(jj) * (N + 1) - size_t(jj) * (jj - 1) / 2 + size_t(ii)]];
-            };
-            Vec3d n;
-            if (da + db <= 1.0 || i + j + 2 > int(N)) {
-                n = at(i, j) * (1.0 - da - db) + at(i + 1, j) * da + at(i, j + 1) * db;
-            } else {
-                n = at(i + 1, j + 1) * (da + db - 1.0) + at(i + 1, j) * (1.0 - db) + at(i, j + 1) * (1.0 - da);
-            }
-            const double len = n.length();
+            double len = n.length();
             if (len > 0) n /= len;
+            if (tangentSpace) {
+                // The shader's frame: T and N blended across the coarse triangle, B = s·N×T;
+                // stored are the coefficients c with c_x T + c_y B + c_z N ∥ n.
+                const LatticeHit ch = latticeHit(coarse.lattice, fp.a, fp.b);
+                Vec3d t(0.0), nn(0.0);
+                double sign = 0;
+                for (int q = 0; q < 3; ++q) {
+                    const auto [i, j] = ch.at[size_t(q)];
+                    const size_t k = latticeIndex(coarse.lattice, fp.face, i, j);
+                    t += frames.tangent[k] * ch.w[size_t(q)];
+                    nn += coarseNormals[coarseAt[k]] * ch.w[size_t(q)];
+                    sign += frames.sign[k] * ch.w[size_t(q)];
+                }
+                const Vec3d b = nn.cross(t) * (sign < 0 ? -1.0 : 1.0);
+                openvdb::math::Mat3d M(t[0], b[0], nn[0], t[1], b[1], nn[1], t[2], b[2], nn[2]);
+                const double det = M.det();
+                const Vec3d c = std::abs(det) > 1e-12 ? M.inverse() * n : Vec3d(0, 0, 1);
+                len = c.length();
+                n = len > 0 ? c / len : Vec3d(0, 0, 1);
+            }
             float* out = &rgb[(row * size_t(width) + size_t(col)) * 3];
             for (int c = 0; c < 3; ++c) out[c] = float(0.5 * n[c] + 0.5);
         }
@@ -258,7 +394,7 @@ const std::vector<std::string>& carveRows()
 
 const std::vector<std::string>& singleRockRows()
 {
-    static const std::vector<std::string> rows = {"center", "normal-levels", "normal-map-size"};
+    static const std::vector<std::string> rows = {"center", "normal-levels", "normal-map-size", "normal-space"};
     return rows;
 }
 
@@ -279,11 +415,36 @@ void requireDefaults(const FractalRockParams& p, const std::vector<std::string>&
 
 } // namespace
 
+void writeNormalMap(const std::string& path, int width, int height, std::vector<float> rgb,
+                    const std::string& space, UpAxis up)
+{
+    if (space != "object" && space != "tangent") {
+        fail<ValueError>("fractal: normal-space must be 'object' or 'tangent' (got '", space, "')");
+    }
+    std::string name = space;
+    if (space == "object") {
+        name = up == UpAxis::Y ? "object, y up" : "object, z up";
+        if (up == UpAxis::Y) {
+            // The file's (x, y, z) is rockvdb's (x, z, −y), as fromZUp turns the mesh.
+            for (size_t k = 0; k + 2 < rgb.size(); k += 3) {
+                const float y = rgb[k + 1], z = rgb[k + 2];
+                rgb[k + 1] = z;
+                rgb[k + 2] = 1.0f - y;
+            }
+        }
+    }
+    writeRgbExr(path, width, height, rgb,
+                {{"rockvdb:normal_space", name}, {"rockvdb:normal_encoding", "rgb = n / 2 + 1 / 2"}});
+}
+
 const char* normalMapHelp()
 {
     return "Normal map (§7): an RGB float EXR of the normals of a model normal-levels finer, "
-           "averaged per vertex, in rockvdb's z-up coordinates (Blender's object space, also "
-           "after its OBJ importer turned a --mesh-up y file), stored as n/2 + 1/2. UV layout (written into the OBJ as vt): the 20 icosahedron faces in 10 "
+           "averaged per vertex, stored as n/2 + 1/2; --normal-space object: in the mesh "
+           "file's object space (rockvdb's z up, or turned with the mesh by --mesh-up y, as "
+           "Blender's OBJ importer keeps it), tangent: in the OBJ's tangent frames (per-vertex "
+           "tangents from the UVs, bitangent sign·N×T, as MikkTSpace builds them in Blender and "
+           "glTF). The EXR header's rockvdb:normal_space names the space. UV layout (written into the OBJ as vt): the 20 icosahedron faces in 10 "
            "square cells, 5 across and 2 down (the image is 5n x 2n pixels); face 2k and 2k+1 "
            "share cell k (column k mod 5, row k div 5 from the bottom): 2k its lower-left "
            "half, 2k+1 its upper-right half, each shrunk by a 1% gutter.";
@@ -341,7 +502,8 @@ RockResult runRock(const FractalRockParams& p, bool withLevelSet, bool withNorma
         RockShape fineShape = p.shape;
         fineShape.levels += p.normalLevels;
         const RockMesh fine = buildRock(fineShape, extent, R, task);
-        normalMap(fine, toWorld(fine, extent, R, p.center), p.normalMapSize, r.normalMap,
+        normalMap(r.rock, world, fine, toWorld(fine, extent, R, p.center), p.normalMapSize,
+                  p.normalSpace == "tangent", r.normalMap,
                   r.normalMapWidth, r.normalMapHeight, task);
         r.stats.normalMapSeconds = since(t0);
     }

@@ -43,6 +43,7 @@ struct FractalRockParams
     double halfWidth;    ///< voxels
     int normalLevels;    ///< the normal map's model: this many levels finer (§7)
     int normalMapSize;   ///< pixels per cell of the normal map (the image is 5·n × 2·n)
+    std::string normalSpace; ///< the normal map's space: "object" or "tangent"
     double maxMemoryGB;  ///< refuse work estimated above this (0 = 75% of RAM)
 
     // Scatter (count > 0).
@@ -96,6 +97,14 @@ struct RockResult
 
 /// @brief What the normal map holds and where (the --help text).
 const char* normalMapHelp();
+
+/// @brief Write a normal map (RGB float EXR, n/2 + 1/2, rows from the top) made in @a space
+/// ("object" or "tangent") for a mesh file written with @a up: an object-space map is turned
+/// as that mesh is (Blender's OBJ importer keeps a y-up file's frame as the object's own).
+/// The header's string attribute `rockvdb:normal_space` names the space ("object, z up",
+/// "object, y up" or "tangent"); `rockvdb:normal_encoding` the encoding.
+void writeNormalMap(const std::string& path, int width, int height, std::vector<float> rgb,
+                    const std::string& space, UpAxis up);
 
 /// @brief Build one rock (phases: mesh, level set, normal map); a step of runFractal, which
 /// stamps the provenance. @a withLevelSet false: the mesh (and map) only.

@@ -983,7 +983,8 @@ def _fractal_rock(path=None, mesh_path=None, mesh_up=_MESH_UP, normal_map=False,
         _rockvdb.write_mesh(mesh["points"], mesh["triangles"], mesh["normals"], mesh.get("uvs"),
                             mesh.get("triangle_uvs"), mesh_target, mesh_up)
     if map_target is not None:
-        _rockvdb.write_rgb_exr(map_target, mesh["normal_map"])
+        # Turned as the mesh file is (object space), the space named in the EXR's header.
+        _rockvdb.write_normal_map(map_target, mesh["normal_map"], mesh["normal_space"], mesh_up)
     if target is not None:
         _rockvdb.write(target, [surface])
     return surface, mesh
@@ -997,8 +998,10 @@ fractal_rock = _stage_function(
     "Returns (surface, mesh): surface is the level set (a pyopenvdb.FloatGrid 'surface'; None "
     "with level_set=False), mesh a dict of numpy arrays: points (N x 3, m, z up), triangles "
     "(M x 3), normals (N x 3), and with normal_map=True also uvs, triangle_uvs and normal_map "
-    "(H x W x 3 floats, the layout of vdb_fractal_rock --help). path, mesh_path (.obj / .ply; "
-    "mesh_up 'z' or 'y') and normal_map_path (.exr) also write the files (atomically). "
+    "(H x W x 3 floats, the layout of vdb_fractal_rock --help; normal_space 'object': "
+    "rockvdb's z-up frame, or 'tangent') and normal_space. path, mesh_path (.obj / .ply; "
+    "mesh_up 'z' or 'y') and normal_map_path (.exr: an object-space map turned with mesh_up, "
+    "as the CLI writes it) also write the files (atomically). "
     "Ctrl-C raises KeyboardInterrupt.",
     after=[("path", None), ("mesh_path", None), ("mesh_up", _MESH_UP), ("normal_map", False),
            ("normal_map_path", None), ("level_set", True)],

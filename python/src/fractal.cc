@@ -130,7 +130,10 @@ py::tuple runFractal(const std::string& mode, const std::string& params, py::obj
     for (const auto& g : r.grids) grids.append(openvdb::gridPtrCast<openvdb::FloatGrid>(g));
     py::dict stats = pyJson(r.stats).cast<py::dict>();
     py::object mesh = py::none();
-    if (r.mode == fractal::FractalMode::Rock) mesh = rockMesh(r.rock, normalMap);
+    if (r.mode == fractal::FractalMode::Rock) {
+        mesh = rockMesh(r.rock, normalMap);
+        if (normalMap) mesh["normal_space"] = p.normalSpace;
+    }
     if (r.mode == fractal::FractalMode::Scatter) {
         addPlacements(stats, r.scatter.rocks);
         if (withMesh) mesh = scatterMesh(r.scatter.mesh);
@@ -155,6 +158,16 @@ void bindFractal(py::module_& m)
           py::arg("level_set") = true, py::arg("normal_map") = false, py::arg("mesh") = false,
           "The fractal-rock stage (vdb_fractal_rock) in mode 'rock', 'scatter' (input: the "
           "ground) or 'carve' (input: the solid): (grids, stats, mesh)");
+    m.def("write_normal_map", [](const std::string& path,
+                                 py::array_t<float, py::array::c_style | py::array::forcecast> a,
+                                 const std::string& space, const std::string& up) {
+        if (a.ndim() != 3 || a.shape(2) != 3) throw ValueError("write_normal_map: expected an H x W x 3 array");
+        std::vector<float> rgb(a.data(), a.data() + a.size());
+        fractal::writeNormalMap(path, int(a.shape(1)), int(a.shape(0)), std::move(rgb), space,
+                                upAxisFromString(up, "mesh_up"));
+    }, py::arg("path"), py::arg("image"), py::arg("space"), py::arg("up"),
+          "vdb_fractal_rock --normal-map's writer: the map turned with a y-up mesh (object "
+          "space), its space named in the EXR header");
 }
 
 } // namespace pyhost

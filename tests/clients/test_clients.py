@@ -86,6 +86,10 @@ def fractal(tmp_path_factory):
          "--size", "3,2.4,1.5", "-o", str(d / "rock.vdb"), "--mesh", str(d / "rock.obj"),
          "--mesh-up", "y", "--normal-map", str(d / "rock_n.exr"), "--normal-map-size", "32"],
         check=True)
+    # The same rock's tangent-space map.
+    run([tool("vdb_fractal_rock"), "-q", "--levels", "2", "--seed", "5", "--voxel-size", "0.05",
+         "--size", "3,2.4,1.5", "-o", str(d / "rock_t.vdb"), "--normal-map", str(d / "rock_t.exr"),
+         "--normal-map-size", "32", "--normal-space", "tangent"], check=True)
     run([tool("vdb_fractal_rock"), "-q", "--count", "12", "--levels", "1", "--size", "1,0.8,0.6",
          "--area", "-3,-3,3,3", "--voxel-size", "0.05", "-o", str(d / "scatter.vdb"),
          "--points", str(d / "points.vdb")], check=True)
@@ -324,6 +328,29 @@ def test_blender_imports_the_fractal_rock_mesh_with_uvs_and_normals(fractal, tmp
     for a in range(3):
         assert abs(r["min"][a] - (lo[a] + 3) * dx) <= 1.5 * dx, (a, r, lo)
         assert abs(r["max"][a] - (hi[a] - 3) * dx) <= 1.5 * dx, (a, r, hi)
+
+
+@pytest.mark.skipif(not shutil.which("blender"), reason="blender not installed")
+def test_blender_reads_both_normal_maps_in_their_spaces(fractal, tmp_path):
+    """The object-space map of a y-up OBJ is turned with it (Blender keeps the file's frame as
+    the object's: 0.22 agreement before), and the tangent-space map decoded with Blender's own
+    MikkTSpace tangents gives the same normals; each EXR names its space in its header."""
+    report = tmp_path / "nm.json"
+    p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
+                        os.path.join(HERE, "blender_normal_map.py"), "--", str(fractal / "rock.obj"),
+                        str(fractal / "rock_n.exr"), str(fractal / "rock_t.exr"), str(report)],
+                       capture_output=True, text=True, timeout=600)
+    assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
+    r = json.loads(report.read_text())
+    assert r["triangles"] == 5120
+    # A finer model's normals lean off the coarse mesh's, but not far: a wrong frame (the map
+    # in z up under a y-up object) drops this to ~0.2.
+    assert r["object"] > 0.8, r
+    assert r["tangent"] > 0.8, r
+    assert r["same"] > 0.97, r
+    assert b"rockvdb:normal_space" in (fractal / "rock_n.exr").read_bytes()[:4096]
+    assert b"object, y up" in (fractal / "rock_n.exr").read_bytes()[:4096]
+    assert b"tangent" in (fractal / "rock_t.exr").read_bytes()[:4096]
 
 
 @pytest.mark.skipif(not shutil.which("vdb_print"), reason="libopenvdb-tools not installed")
