@@ -16,12 +16,13 @@ usage: PYTHONPATH=build/python /usr/bin/python3 bench/distributed.py [VOXEL] [OU
 """
 import json
 import os
-import platform
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
+
+from machine import cpu  # (bench/ is on sys.path: scripts run from there)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -37,13 +38,6 @@ def timed(argv):
     if os.waitstatus_to_exitcode(status) != 0:
         sys.exit(err)
     return time.monotonic() - t0, usage.ru_maxrss * 1024, err
-
-
-def cpu():
-    for line in open("/proc/cpuinfo"):
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return platform.processor()
 
 
 def main():

@@ -12,29 +12,19 @@ time and active voxels, the reference's, their ratio, and the whole demo's time.
 usage: /usr/bin/python3 bench/lookdev.py [QUALITY ...] [--runs N]
 """
 import os
-import platform
 import re
 import subprocess
 import sys
 import tempfile
 import time
 
+from machine import cpu  # (bench/ is on sys.path: scripts run from there)
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 BUILD = os.environ.get("ROCKVDB_BUILD", os.path.join(ROOT, "build"))
 TOOLS = os.path.join(BUILD, "vdbtools")
 DEMO = os.path.join(ROOT, "samples", "01_demo.sh")
-
-
-def cpu():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 def demo(quality, out):

@@ -15,11 +15,12 @@ usage: /usr/bin/python3 bench/meshes.py [ADAPTIVITY ...] [--runs N]
 """
 import json
 import os
-import platform
 import re
 import subprocess
 import sys
 import tempfile
+
+from machine import cpu  # (bench/ is on sys.path: scripts run from there)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -46,17 +47,6 @@ pieces = [o for o in bpy.data.objects if o.type == "MESH" and o != cube]
 print("CELL_FRACTURE", json.dumps({"pieces": len(pieces), "seconds": seconds,
       "vertices": sum(len(o.data.vertices) for o in pieces)}))
 """
-
-
-def cpu():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 def ply_vertices(path):

@@ -185,7 +185,11 @@ private:
     uint64_t mPos = 0;
 };
 
-GrayImage readExr(const std::string& path, const std::string& bytes, const char* op, double maxMemoryBytes)
+// The channels @a want of an EXR (every one of the file's when empty: it must then hold
+// exactly one), interleaved, rows from the top; width and height out.
+std::vector<float> readExrChannels(const std::string& path, const std::string& bytes, const char* op,
+                                   double maxMemoryBytes, std::vector<std::string> want,
+                                   int& width, int& height)
 {
     try {
         MemoryIStream stream(bytes, path);
@@ -193,29 +197,39 @@ GrayImage readExr(const std::string& path, const std::string& bytes, const char*
         const Imf::ChannelList& channels = file.header().channels();
         std::vector<std::string> names;
         for (auto it = channels.begin(); it != channels.end(); ++it) names.push_back(it.name());
-        if (names.size() != 1) {
-            std::string list;
-            for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
-            fail<ValueError>(op, ": '", path, "' has ", names.size(), " channels (", list,
-                             "); expected a single-channel EXR");
+        std::string list;
+        for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+        if (want.empty()) {
+            if (names.size() != 1) {
+                fail<ValueError>(op, ": '", path, "' has ", names.size(), " channels (", list,
+                                 "); expected a single-channel EXR");
+            }
+            want = names;
+        }
+        for (const auto& w : want) {
+            if (std::find(names.begin(), names.end(), w) == names.end()) {
+                fail<ValueError>(op, ": '", path, "' has no channel ", w, " (it has ", list, ")");
+            }
         }
         const auto dw = file.header().dataWindow();
-        GrayImage img;
-        img.width = dw.max.x - dw.min.x + 1;
-        img.height = dw.max.y - dw.min.y + 1;
+        width = dw.max.x - dw.min.x + 1;
+        height = dw.max.y - dw.min.y + 1;
         // EXR's codecs expand less than deflate's 1032:1 except on constant data (run-length
         // coded PIZ): 10 000:1 is generous for any real file.
         checkClaimedSize(path, op, double(dw.max.x) - dw.min.x + 1, double(dw.max.y) - dw.min.y + 1,
-                         4.0, 1e4, bytes.size(), maxMemoryBytes);
-        img.pixels.assign(size_t(img.width) * size_t(img.height), 0.0f);
+                         4.0 * double(want.size()), 1e4, bytes.size(), maxMemoryBytes);
+        const size_t n = want.size();
+        std::vector<float> pixels(size_t(width) * size_t(height) * n, 0.0f);
         Imf::FrameBuffer fb;
-        char* base = reinterpret_cast<char*>(img.pixels.data()) -
-                     (ptrdiff_t(dw.min.x) + ptrdiff_t(dw.min.y) * img.width) * ptrdiff_t(sizeof(float));
-        fb.insert(names[0], Imf::Slice(Imf::FLOAT, base, sizeof(float),
-                                       sizeof(float) * size_t(img.width)));
+        for (size_t c = 0; c < n; ++c) {
+            char* base = reinterpret_cast<char*>(pixels.data() + c) -
+                         (ptrdiff_t(dw.min.x) + ptrdiff_t(dw.min.y) * width) * ptrdiff_t(n * sizeof(float));
+            fb.insert(want[c], Imf::Slice(Imf::FLOAT, base, n * sizeof(float),
+                                          n * sizeof(float) * size_t(width)));
+        }
         file.setFrameBuffer(fb);
         file.readPixels(dw.min.y, dw.max.y);
-        return img;
+        return pixels;
     } catch (const ValueError&) {
         throw;
     } catch (const IoError&) {
@@ -223,6 +237,13 @@ GrayImage readExr(const std::string& path, const std::string& bytes, const char*
     } catch (const std::exception& e) {
         fail<IoError>(op, ": cannot read '", path, "': ", e.what());
     }
+}
+
+GrayImage readExr(const std::string& path, const std::string& bytes, const char* op, double maxMemoryBytes)
+{
+    GrayImage img;
+    img.pixels = readExrChannels(path, bytes, op, maxMemoryBytes, {}, img.width, img.height);
+    return img;
 }
 
 bool endsWith(const std::string& s, const std::string& suffix)
@@ -337,6 +358,16 @@ void writeRgbExr(const std::string& path, int width, int height, const std::vect
         fail<ValueError>("image: ", rgb.size(), " values for a ", width, "x", height, " RGB image");
     }
     writeFileAtomic(path, encodeExr(width, height, {"R", "G", "B"}, rgb.data(), attributes));
+}
+
+std::vector<float> readRgbExr(const std::string& path, int& width, int& height, const char* op)
+{
+    const std::string bytes = readAll(path, op);
+    static const unsigned char exrSig[4] = {0x76, 0x2f, 0x31, 0x01};
+    if (bytes.size() < 4 || std::memcmp(bytes.data(), exrSig, 4) != 0) {
+        fail<ValueError>(op, ": '", path, "' is not an EXR file");
+    }
+    return readExrChannels(path, bytes, op, 0, {"R", "G", "B"}, width, height);
 }
 
 void writeGrayImage(const std::string& path, const GrayImage& image)

@@ -37,6 +37,11 @@ std::string encodePng(int width, int height, int channels, int bits, const std::
 /// ".png" as 16-bit greyscale PNG (values clamped to [0, 1] and scaled to 0..65535).
 void writeGrayImage(const std::string& path, const GrayImage& image);
 
+/// @brief Channels R, G, B of an EXR, interleaved, rows from the top (what writeRgbExr
+/// writes). @throw ValueError for a file that is not an EXR or lacks a channel, IoError for
+/// one that cannot be read.
+std::vector<float> readRgbExr(const std::string& path, int& width, int& height, const char* op = "image");
+
 /// @brief Write an RGB float EXR (channels R, G, B; @a rgb interleaved, rows from the top)
 /// atomically, with @a attributes as string attributes of its header (name, value).
 /// @throw ValueError unless @a path ends in ".exr".

@@ -15,7 +15,7 @@ Grids are pyopenvdb.FloatGrid objects: level sets named 'surface', id grids ('bl
 
 Fields: sphere, box, capsule, plane, polytope, expression -> Field (| & -, union, transform,
 warp, tag, bake). Grids: heightfield, csg, detail, read, write, mesh, preview, provenance,
-write_heightfield, read_image, coverage. Stages: block_tile / load_tile -> BlockTile (implicit-blocks
+write_heightfield, read_image, read_rgb_exr, coverage. Stages: block_tile / load_tile -> BlockTile (implicit-blocks
 §4), amplify (§5), detail (§4.2 and the Gabor details paper), rock_tiles / rock_library /
 rock_pile (aperiodic rock piles, arches §5), fractal_rock / fractal_scatter / fractal_carve
 (fractal rocks), Stacks (material-stack terrain with overhangs, arches §3).
@@ -50,7 +50,7 @@ Job.__doc__ = ("A stage call watched from another thread: enter it (with job:) o
 __all__ = ["BlockTile", "Field", "Job", "amplify", "asset", "asset_each", "asset_ids", "asset_instances", "block_tile", "box", "capsule", "coverage", "csg",
            "detail", "expression", "fractal_carve", "fractal_rock", "fractal_scatter", "heightfield", "load_tile", "mesh", "plane",
            "polytope", "preview",
-           "provenance", "read", "read_image", "rock_library", "rock_pile", "rock_tiles",
+           "provenance", "read", "read_image", "read_rgb_exr", "rock_library", "rock_pile", "rock_tiles",
            "sphere", "write", "write_heightfield", "__version__"]
 
 
@@ -482,6 +482,12 @@ def write_heightfield(path, array):
 def read_image(path):
     """A float EXR or 16-bit PNG (0..1) as a 2D float32 numpy array (row 0 = first row)."""
     return _rockvdb.read_image(_path(path, "path", "read_image"), "image")
+
+
+def read_rgb_exr(path):
+    """Channels R, G, B of an EXR (a normal map of fractal_rock / vdb_fractal_rock) as an
+    H x W x 3 float32 numpy array, row 0 the top row."""
+    return _rockvdb.read_rgb_exr(_path(path, "path", "read_rgb_exr"))
 
 
 def _csg(op, grids, ids=None, **params):

@@ -116,6 +116,14 @@ void bindGrids(py::module_& m)
         writeRgbExr(path, int(a.shape(1)), int(a.shape(0)), rgb);
     }, py::arg("path"), py::arg("image"));
 
+    m.def("read_rgb_exr", [](const std::string& path) {
+        int w = 0, h = 0;
+        const std::vector<float> rgb = readRgbExr(path, w, h, "read_rgb_exr");
+        py::array_t<float> a({size_t(h), size_t(w), size_t(3)});
+        std::copy(rgb.begin(), rgb.end(), a.mutable_data());
+        return a;
+    }, py::arg("path"));
+
     m.def("read_image", [](const std::string& path, const std::string& op) {
         GrayImage img = readGrayImage(path, op.c_str());
         py::array_t<float> a({img.height, img.width});

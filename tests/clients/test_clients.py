@@ -14,6 +14,16 @@ from conftest import run, tool
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
+def blender_json(script, args, report):
+    """Run tests/clients/@a script in headless Blender with @a args after '--'; the JSON it
+    wrote to @a report (one of the args)."""
+    p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
+                        os.path.join(HERE, script), "--", *map(str, args)],
+                       capture_output=True, text=True, timeout=600)
+    assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
+    return json.loads(report.read_text())
+
+
 @pytest.fixture(scope="module")
 def scene(tmp_path_factory):
     """A small scene with a block_id grid (the demo's structure, smaller voxels budget)."""
@@ -183,11 +193,7 @@ def test_blender_imports_and_meshes_surface(which, scene, blocks, amplified, det
              "piled": piled, "fractal": fractal / "rock.vdb",
              "scatter": fractal / "scatter.vdb", "arches": arches}[which]
     report = tmp_path / "blender.json"
-    p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
-                        os.path.join(HERE, "blender_mesh.py"), "--", str(scene), str(report)],
-                       capture_output=True, text=True, timeout=600)
-    assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
-    r = json.loads(report.read_text())
+    r = blender_json("blender_mesh.py", [scene, report], report)
     assert r["grids"] and "surface" in r["grids"]
     assert r["vertices"] > 1000
     s = vdb.read(str(scene), "surface")
@@ -234,12 +240,8 @@ def test_blender_meshes_the_arches_overhangs(arches, tmp_path):
     import pyopenvdb as vdb
     columns = overhang_columns(vdb.read(str(arches), "surface"))
     report = tmp_path / "blender.json"
-    p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
-                        os.path.join(HERE, "blender_mesh.py"), "--", str(arches), str(report)]
-                       + [f"{x},{y}" for x, y in columns],
-                       capture_output=True, text=True, timeout=600)
-    assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
-    r = json.loads(report.read_text())
+    r = blender_json("blender_mesh.py", [arches, report] + [f"{x},{y}" for x, y in columns],
+                     report)
     assert r["crossings"] == [4] * len(columns), (r["crossings"], columns)
 
 
@@ -264,12 +266,8 @@ def test_blender_meshes_an_edited_terrain_a_tunnel_makes_it_a_torus(tmp_path):
         out = tmp_path / f"{name}.vdb"
         run([tool("vdb_arches"), "-q", str(scene), "-o", str(out)], check=True)
         report = tmp_path / f"{name}.report.json"
-        p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
-                            os.path.join(HERE, "blender_mesh.py"), "--", str(out), str(report),
-                            "15.13,10.07", "15.13,4.07"],
-                           capture_output=True, text=True, timeout=600)
-        assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
-        reports.append(json.loads(report.read_text()))
+        reports.append(blender_json("blender_mesh.py",
+                                    [out, report, "15.13,10.07", "15.13,4.07"], report))
     before, after = reports
     assert before["euler"] == 2 and after["euler"] == 0, (before["euler"], after["euler"])
     assert before["crossings"] == [2, 2] and after["crossings"] == [4, 2], \
@@ -309,11 +307,7 @@ def test_vdb_render_renders_the_arches_ground(arches, tmp_path):
 def test_blender_imports_the_fractal_rock_mesh_with_uvs_and_normals(fractal, tmp_path):
     """Blender's own OBJ importer (default axes) puts the y-up OBJ where the level set is."""
     report = tmp_path / "obj.json"
-    p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
-                        os.path.join(HERE, "blender_obj.py"), "--", str(fractal / "rock.obj"),
-                        str(report)], capture_output=True, text=True, timeout=600)
-    assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
-    r = json.loads(report.read_text())
+    r = blender_json("blender_obj.py", [fractal / "rock.obj", report], report)
     assert r["vertices"] == 2562 and r["faces"] == 5120
     assert r["uv_layers"] and r["custom_normals"]
     # One smoothing group (OBJ "s 1"): smooth faces, and a glTF export that splits vertices
@@ -336,12 +330,8 @@ def test_blender_reads_both_normal_maps_in_their_spaces(fractal, tmp_path):
     the object's: 0.22 agreement before), and the tangent-space map decoded with Blender's own
     MikkTSpace tangents gives the same normals; each EXR names its space in its header."""
     report = tmp_path / "nm.json"
-    p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
-                        os.path.join(HERE, "blender_normal_map.py"), "--", str(fractal / "rock.obj"),
-                        str(fractal / "rock_n.exr"), str(fractal / "rock_t.exr"), str(report)],
-                       capture_output=True, text=True, timeout=600)
-    assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
-    r = json.loads(report.read_text())
+    r = blender_json("blender_normal_map.py", [fractal / "rock.obj", fractal / "rock_n.exr",
+                                               fractal / "rock_t.exr", report], report)
     assert r["triangles"] == 5120
     # A finer model's normals lean off the coarse mesh's, but not far: a wrong frame (the map
     # in z up under a y-up object) drops this to ~0.2.
@@ -378,11 +368,7 @@ def test_block_ids_reach_blender_and_ply_from_vdb_mesh(tmp_path):
                    check=True)
     subprocess.run([tool("vdb_mesh"), "-q", str(src), "-o", str(tmp_path / "b.ply")], check=True)
     report = tmp_path / "ids.json"
-    p = subprocess.run(["blender", "--background", "--factory-startup", "--python",
-                        os.path.join(HERE, "blender_ids.py"), "--", str(tmp_path / "b.obj"),
-                        str(report)], capture_output=True, text=True, timeout=600)
-    assert report.exists(), p.stdout[-2000:] + p.stderr[-2000:]
-    r = json.loads(report.read_text())
+    r = blender_json("blender_ids.py", [tmp_path / "b.obj", report], report)
     surface, ids = vdb.read(str(src), "surface"), vdb.read(str(src), "block_id")
     sa, ia = surface.getConstAccessor(), ids.getConstAccessor()
     dx = surface.transform.voxelSize()[0]

@@ -24,15 +24,7 @@ def test_install_prefix_tools_and_python_package(tmp_path):
     out = tmp_path / "s.vdb"
     subprocess.run([str(prefix / "bin" / "vdb_primitive"), "-q", "--voxel-size", "0.1", "-o",
                     str(out), "sphere", "--radius", "1"], check=True, timeout=120)
-    # The license and the tour beside the tools: README, docs and the samples with their data
-    # (the tour's commands read samples/data).
-    doc = prefix / "share" / "doc" / "rockvdb"
-    assert "Apache License" in (doc / "LICENSE").read_text()
-    assert (doc / "NOTICE").exists() and (doc / "README.md").exists()
-    assert (doc / "docs" / "blocks.md").exists() and (doc / "docs" / "blocks_authored.png").exists()
-    samples = prefix / "share" / "rockvdb" / "samples"
-    assert (samples / "data" / "boulder.json").exists() and (samples / "data" / "relief.exr").exists()
-    assert os.access(samples / "01_demo.sh", os.X_OK)
+    assert_documents_installed(prefix)
     site = prefix / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / "dist-packages"
     assert (site / "rockvdb" / "__init__.py").exists()
     # The one documented line, from a folder that is not the build tree.
@@ -67,6 +59,18 @@ json.dump({{"addon": mod.__file__ if mod else None, "rockvdb": rockvdb.__file__,
 """
 
 
+def assert_documents_installed(prefix):
+    """The license and the tour beside the tools: README, docs and the samples with their data
+    (the tour's commands read samples/data)."""
+    doc = prefix / "share" / "doc" / "rockvdb"
+    assert "Apache License" in (doc / "LICENSE").read_text()
+    assert (doc / "NOTICE").exists() and (doc / "README.md").exists()
+    assert (doc / "docs" / "blocks.md").exists() and (doc / "docs" / "blocks_authored.png").exists()
+    samples = prefix / "share" / "rockvdb" / "samples"
+    assert (samples / "data" / "boulder.json").exists() and (samples / "data" / "relief.exr").exists()
+    assert os.access(samples / "01_demo.sh", os.X_OK)
+
+
 def _blender(tmp_path, setup, env_extra=None):
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     env.update(env_extra or {})
@@ -90,15 +94,7 @@ def test_install_blender_addon_with_the_one_documented_setting(tmp_path):
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stdout + p.stderr
     scripts = prefix / "share" / "rockvdb" / "blender"
-    # The license and the tour beside the tools: README, docs and the samples with their data
-    # (the tour's commands read samples/data).
-    doc = prefix / "share" / "doc" / "rockvdb"
-    assert "Apache License" in (doc / "LICENSE").read_text()
-    assert (doc / "NOTICE").exists() and (doc / "README.md").exists()
-    assert (doc / "docs" / "blocks.md").exists() and (doc / "docs" / "blocks_authored.png").exists()
-    samples = prefix / "share" / "rockvdb" / "samples"
-    assert (samples / "data" / "boulder.json").exists() and (samples / "data" / "relief.exr").exists()
-    assert os.access(samples / "01_demo.sh", os.X_OK)
+    assert_documents_installed(prefix)
     site = prefix / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / "dist-packages"
     r = _blender(tmp_path, f"prefs.filepaths.script_directory = r'{scripts}'\n"
                            "bpy.utils.refresh_script_paths()")

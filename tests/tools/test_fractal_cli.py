@@ -100,6 +100,32 @@ def test_obj_is_closed_with_normals_and_uvs_in_the_stated_layout(tmp_path):
     assert b"dataWindow" in data[:400]
 
 
+@pytest.mark.parametrize("space", ["object", "tangent"])
+def test_normal_map_files_are_the_same_from_python_and_turn_with_the_mesh(tmp_path, space):
+    """CLI and Python write the same EXR bytes (y up); an object-space map turns with the
+    mesh: the y-up file's normal is the z-up file's (x, z, -y); a tangent map does not turn."""
+    common = ["--levels", "1", "--normal-map-size", "16", "--normal-space", space]
+    for up in ("z", "y"):
+        run([FR, "-q", *common, "-o", str(tmp_path / f"{up}.vdb"), "--mesh",
+             str(tmp_path / f"{up}.obj"), "--mesh-up", up, "--normal-map",
+             str(tmp_path / f"{up}.exr")], check=True)
+    rockvdb.fractal_rock(levels=1, normal_map_size=16, normal_space=space, level_set=False,
+                         mesh_path=str(tmp_path / "py.obj"), mesh_up="y",
+                         normal_map_path=str(tmp_path / "py.exr"))
+    assert (tmp_path / "py.exr").read_bytes() == (tmp_path / "y.exr").read_bytes()
+    z = rockvdb.read_rgb_exr(str(tmp_path / "z.exr")) * 2 - 1
+    y = rockvdb.read_rgb_exr(str(tmp_path / "y.exr")) * 2 - 1
+    if space == "object":
+        assert np.allclose(y, np.stack([z[..., 0], z[..., 2], -z[..., 1]], axis=-1), atol=1e-6)
+    else:
+        assert np.array_equal(y, z) and np.mean(z[..., 2]) > 0.8  # near the coarse normal
+    head = (tmp_path / "y.exr").read_bytes()[:2000]
+    assert (b"object, y up" if space == "object" else b"tangent") in head
+    rockvdb.write_heightfield(str(tmp_path / "gray.exr"), np.zeros((4, 4), dtype=np.float32))
+    with pytest.raises(ValueError, match="has no channel R"):
+        rockvdb.read_rgb_exr(tmp_path / "gray.exr")
+
+
 def test_ply_has_normals_and_y_up_rotates(tmp_path):
     run([FR, "-q", "--levels", "1", "--voxel-size", "0.05", "-o", str(tmp_path / "r.vdb"),
          "--mesh", str(tmp_path / "r.ply")], check=True)
