@@ -82,6 +82,17 @@ std::map<int, std::array<double, 3>> parsePalette(const std::string& text, const
     return out;
 }
 
+std::array<double, 3> materialColour(const std::string& name)
+{
+    if (name == "sand") return {{0.62, 0.50, 0.30}};
+    if (name == "bedrock") return {{0.42, 0.40, 0.38}};
+    if (name == "rocks") return {{0.30, 0.29, 0.28}};
+    uint64_t h = 0;
+    for (char c : name) h = random::mix64(h + uint8_t(c));
+    return {{0.3 + 0.4 * random::toUnit(h), 0.3 + 0.4 * random::toUnit(random::mix64(h)),
+             0.3 + 0.4 * random::toUnit(random::mix64(h + 1))}};
+}
+
 std::vector<PreviewMaterial> previewMaterials(const openvdb::GridPtrVec& grids)
 {
     std::vector<PreviewMaterial> out;
@@ -93,15 +104,7 @@ std::vector<PreviewMaterial> previewMaterials(const openvdb::GridPtrVec& grids)
         PreviewMaterial m;
         m.name = name.substr(7);
         m.weight = f;
-        if (m.name == "sand") m.colour = {{0.62, 0.50, 0.30}};
-        else if (m.name == "bedrock") m.colour = {{0.42, 0.40, 0.38}};
-        else if (m.name == "rocks") m.colour = {{0.30, 0.29, 0.28}};
-        else {
-            uint64_t h = 0;
-            for (char c : m.name) h = random::mix64(h + uint8_t(c));
-            m.colour = {{0.3 + 0.4 * random::toUnit(h), 0.3 + 0.4 * random::toUnit(random::mix64(h)),
-                         0.3 + 0.4 * random::toUnit(random::mix64(h + 1))}};
-        }
+        m.colour = materialColour(m.name);
         out.push_back(m);
     }
     return out;

@@ -53,8 +53,13 @@ struct PreviewMaterial
     std::array<double, 3> colour{{0.5, 0.5, 0.5}}; ///< linear albedo
 };
 
-/// @brief The materials of @a grids' weight_<name> float grids (in their order): sand, bedrock
-/// and rocks get their colours and patterns, other names a colour hashed from the name.
+/// @brief A ground material's colour (linear RGB in [0, 1]): sand, bedrock and rocks their
+/// own, any other name one hashed from it. The one table: vdb_preview --texture and the
+/// Blender add-on's default material (through rockvdb.material_colour) read it.
+std::array<double, 3> materialColour(const std::string& name);
+
+/// @brief The materials of @a grids' weight_<name> float grids (in their order), each with its
+/// materialColour and pattern.
 std::vector<PreviewMaterial> previewMaterials(const openvdb::GridPtrVec& grids);
 
 /// @brief The texture of material @a m at @a p (world) for the unit normal @a n: its 2D pattern

@@ -15,7 +15,7 @@ Grids are pyopenvdb.FloatGrid objects: level sets named 'surface', id grids ('bl
 
 Fields: sphere, box, capsule, plane, polytope, expression -> Field (| & -, union, transform,
 warp, tag, bake). Grids: heightfield, csg, detail, read, write, mesh, preview, provenance,
-write_heightfield, read_image, read_rgb_exr, coverage. Stages: block_tile / load_tile -> BlockTile (implicit-blocks
+write_heightfield, read_image, read_rgb_exr, material_colour, coverage. Stages: block_tile / load_tile -> BlockTile (implicit-blocks
 §4), amplify (§5), detail (§4.2 and the Gabor details paper), rock_tiles / rock_library /
 rock_pile (aperiodic rock piles, arches §5), fractal_rock / fractal_scatter / fractal_carve
 (fractal rocks), Stacks (material-stack terrain with overhangs, arches §3).
@@ -50,7 +50,7 @@ Job.__doc__ = ("A stage call watched from another thread: enter it (with job:) o
 __all__ = ["BlockTile", "Field", "Job", "amplify", "asset", "asset_each", "asset_ids", "asset_instances", "block_tile", "box", "capsule", "coverage", "csg",
            "detail", "expression", "fractal_carve", "fractal_rock", "fractal_scatter", "heightfield", "load_tile", "mesh", "plane",
            "polytope", "preview",
-           "provenance", "read", "read_image", "read_rgb_exr", "rock_library", "rock_pile", "rock_tiles",
+           "material_colour", "provenance", "read", "read_image", "read_rgb_exr", "rock_library", "rock_pile", "rock_tiles",
            "sphere", "write", "write_heightfield", "__version__"]
 
 
@@ -482,6 +482,15 @@ def write_heightfield(path, array):
 def read_image(path):
     """A float EXR or 16-bit PNG (0..1) as a 2D float32 numpy array (row 0 = first row)."""
     return _rockvdb.read_image(_path(path, "path", "read_image"), "image")
+
+
+def material_colour(name):
+    """A ground material's colour (linear RGB in [0, 1]) as vdb_preview --texture paints it and
+    the Blender add-on's default material gives it: sand, bedrock, rocks their own, any other
+    name (a weight_<name> grid of vdb_arches) one hashed from the name."""
+    if not isinstance(name, str):
+        raise _type_error("material_colour", "name", "a str", name)
+    return _rockvdb.material_colour(name)
 
 
 def read_rgb_exr(path):

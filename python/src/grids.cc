@@ -116,6 +116,11 @@ void bindGrids(py::module_& m)
         writeRgbExr(path, int(a.shape(1)), int(a.shape(0)), rgb);
     }, py::arg("path"), py::arg("image"));
 
+    m.def("material_colour", [](const std::string& name) {
+        const auto c = materialColour(name);
+        return py::make_tuple(c[0], c[1], c[2]);
+    }, py::arg("name"));
+
     m.def("read_rgb_exr", [](const std::string& path) {
         int w = 0, h = 0;
         const std::vector<float> rgb = readRgbExr(path, w, h, "read_rgb_exr");

@@ -79,7 +79,11 @@ def evaluated(obj):
             # (over the vertices with any weight: the terrain's floor, facing nothing, has none)
             "weights_sum_one": float(np.mean(np.abs(total[total > 0.01] - 1) < 0.02)) if (total > 0.01).any() else 0.0,
             "weights_none": float(np.mean(total <= 0.01)) if weights and len(total) else 1.0,
-            "noise_textures": sum(1 for n in nodes if n.type == "TEX_NOISE")}
+            "noise_textures": sum(1 for n in nodes if n.type == "TEX_NOISE"),
+            # each material's colour (the unlinked vector of its SCALE node)
+            "colours": sorted([round(c, 6) for c in n.inputs[0].default_value] for n in nodes
+                              if n.type == "VECT_MATH" and n.operation == "SCALE"
+                              and not n.inputs[0].is_linked)}
 
 
 def result(name, obj, copy=True):

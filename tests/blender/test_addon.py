@@ -11,6 +11,8 @@ import subprocess
 import numpy as np
 import pytest
 
+import rockvdb
+
 from conftest import BUILD, arches_small_scene, assert_bitwise_equal, run, tool
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -174,6 +176,9 @@ def test_results_hold_their_grids_meshed_and_tinted(report):
         assert "weight_bedrock" in r["weights"], name
         assert r["tint"] == sorted(r["weights"]), name
         assert r["noise_textures"] == 3 * len(r["weights"]), name
+        # vdb_preview --texture's colours (one table: rockvdb.material_colour)
+        expected = sorted(rockvdb.material_colour(w[len("weight_"):]) for w in r["weights"])
+        assert np.allclose(r["colours"], expected, atol=1e-6), (name, r["colours"], expected)
         # (the floor of the terrain's block faces nothing: no weights there)
         assert r["weights_sum_one"] > 0.95 and r["weights_none"] < 0.35, (name, r["weights_sum_one"], r["weights_none"])
     assert set(R["stacks_scene"]["weights"]) == {"weight_sand", "weight_bedrock", "weight_rocks"}

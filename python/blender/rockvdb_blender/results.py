@@ -29,8 +29,9 @@ ID_GRIDS = ("material", "block_id", "rock_id")
 # arches §6: the share of each ground material's visible faces (vdb_arches' weight_<name>)
 WEIGHT_PREFIX = "weight_"
 # Colour (linear) and 2D pattern scale (1/m) of each known material's texture
-TEXTURES = {"sand": ((0.62, 0.50, 0.30), 40.0), "bedrock": ((0.42, 0.40, 0.38), 4.0),
-            "rocks": ((0.30, 0.29, 0.28), 10.0)}
+# Each material's noise scale (1/m) in the default material; its colour is rockvdb's
+# (material_colour: the one vdb_preview --texture paints).
+NOISE_SCALES = {"sand": 40.0, "bedrock": 4.0, "rocks": 10.0}
 
 
 def cache_dir():
@@ -184,7 +185,7 @@ def _textured_material(name, weights):
     colour_sum, weight_sum = None, None
     for attr in weights:
         kind = attr[len(WEIGHT_PREFIX):]
-        rgb, scale = TEXTURES.get(kind, ((0.45, 0.45, 0.45), 6.0))
+        rgb, scale = rockvdb.material_colour(kind), NOISE_SCALES.get(kind, 6.0)
         shade = None
         for k in range(3):
             tex = N.new("ShaderNodeTexNoise")
