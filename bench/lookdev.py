@@ -18,7 +18,7 @@ import sys
 import tempfile
 import time
 
-from machine import cpu  # (bench/ is on sys.path: scripts run from there)
+from machine import cpu, runs_option  # (bench/ is on sys.path: scripts run from there)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -47,11 +47,7 @@ def plain(terrain, voxel, out):
 
 
 def main(argv):
-    runs = 2
-    if "--runs" in argv:
-        i = argv.index("--runs")
-        runs = int(argv[i + 1])
-        argv = argv[:i] + argv[i + 2:]
+    runs, argv = runs_option(argv)
     qualities = argv or ["preview", "draft", "default"]
     print(f"look-dev: the demo's cliff, best of {runs} runs, {os.cpu_count()} CPUs, {cpu()}")
     print()

@@ -20,7 +20,7 @@ import subprocess
 import sys
 import tempfile
 
-from machine import cpu  # (bench/ is on sys.path: scripts run from there)
+from machine import cpu, runs_option  # (bench/ is on sys.path: scripts run from there)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -80,11 +80,7 @@ def cell_fracture():
 
 
 def main(argv):
-    runs = 2
-    if "--runs" in argv:
-        i = argv.index("--runs")
-        runs = int(argv[i + 1])
-        argv = argv[:i] + argv[i + 2:]
+    runs, argv = runs_option(argv)
     levels = [float(a) for a in argv] or [0.0, 0.25, 0.5, 1.0]
     print(f"block meshes of a 20 m tile at 5 cm, best of {runs} runs, {os.cpu_count()} CPUs, {cpu()}")
     print()

@@ -4,19 +4,16 @@ NAME_ID) with Blender's own importer and report, for every 7th polygon, its cent
 the name of its material slot.
 usage: blender --background --factory-startup --python blender_ids.py -- in.obj report.json"""
 import json
+import os
 import sys
 
-import bpy
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_obj import import_obj  # noqa: E402
 
 if "--" in sys.argv:
     path, report = sys.argv[sys.argv.index("--") + 1:][:2]
-    for o in list(bpy.context.scene.objects):
-        bpy.data.objects.remove(o)
-    bpy.ops.wm.obj_import(filepath=path)
     out = {"polygons": [], "slots": []}
-    for obj in bpy.context.scene.objects:
-        if obj.type != "MESH":
-            continue
+    for obj in import_obj(path):
         names = [s.material.name if s.material else None for s in obj.material_slots]
         out["slots"] += names
         for p in list(obj.data.polygons)[::7]:

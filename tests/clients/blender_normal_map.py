@@ -9,9 +9,13 @@ interpolates them):
 usage: blender --background --factory-startup --python blender_normal_map.py -- in.obj
        object.exr tangent.exr report.json"""
 import json
+import os
 import sys
 
 import bpy
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_obj import import_obj  # noqa: E402
 
 
 def sampler(path):
@@ -38,10 +42,7 @@ def dot(a, b):
 
 if "--" in sys.argv:
     path, obj_map, tan_map, report = sys.argv[sys.argv.index("--") + 1:][:4]
-    for o in list(bpy.context.scene.objects):
-        bpy.data.objects.remove(o)
-    bpy.ops.wm.obj_import(filepath=path)
-    me = [o for o in bpy.context.scene.objects if o.type == "MESH"][-1].data
+    me = import_obj(path)[-1].data
     me.calc_tangents(uvmap=me.uv_layers.active.name)
     # (After calc_tangents: it reallocates the mesh's layers, and a reference taken before
     # reads stale memory.)

@@ -2,18 +2,26 @@
 """Run by headless Blender: import an OBJ with Blender's own importer (default axes: forward
 -Z, up Y), report its vertex and face counts, UV layers, custom normals, world bounds, the share of
 smooth-shaded faces and the vertex count of Blender's glTF export of it.
-usage: blender --background --factory-startup --python blender_obj.py -- in.obj report.json"""
+usage: blender --background --factory-startup --python blender_obj.py -- in.obj report.json
+Also imported by the other OBJ scripts for import_obj()."""
 import json
 import sys
 
 import bpy
 
-if "--" in sys.argv:
-    path, report = sys.argv[sys.argv.index("--") + 1:][:2]
+
+def import_obj(path):
+    """An empty scene, then @a path through Blender's own OBJ importer (default axes): the
+    imported mesh objects (one per OBJ object)."""
     for o in list(bpy.context.scene.objects):
         bpy.data.objects.remove(o)
     bpy.ops.wm.obj_import(filepath=path)
-    obj = [o for o in bpy.context.scene.objects if o.type == "MESH"][-1]
+    return [o for o in bpy.context.scene.objects if o.type == "MESH"]
+
+
+if __name__ == "__main__" and "--" in sys.argv:
+    path, report = sys.argv[sys.argv.index("--") + 1:][:2]
+    obj = import_obj(path)[-1]
     me = obj.data
     co = [obj.matrix_world @ v.co for v in me.vertices]
     r = {"vertices": len(me.vertices), "faces": len(me.polygons),
