@@ -217,26 +217,25 @@ LatticeHit latticeHit(uint32_t N, double a, double b)
     return {{{{i + 1, j + 1}, {i + 1, j}, {i, j + 1}}}, {da + db - 1.0, 1.0 - db, 1.0 - da}};
 }
 
-// Per base face, the vertex at each lattice point: index face · P + j(N + 1) − j(j − 1)/2 + i.
-std::vector<unsigned> latticeVertices(const RockMesh& m)
-{
-    const uint32_t N = m.lattice;
-    const size_t P = size_t(N + 1) * (N + 2) / 2;
-    std::vector<unsigned> at(20 * P, ~0u);
-    for (size_t t = 0; t < m.triangles.size(); ++t) {
-        const auto& c = m.corners[t];
-        for (int q = 0; q < 3; ++q) {
-            const size_t i = c[size_t(2 * q)], j = c[size_t(2 * q + 1)];
-            at[size_t(m.baseFace[t]) * P + j * (N + 1) - j * (j - 1) / 2 + i] = m.triangles[t][q];
-        }
-    }
-    return at;
-}
-
+// Lattice point (i, j) of base face @a face among the 20 faces' points of a lattice of N steps.
 size_t latticeIndex(uint32_t N, int face, int i, int j)
 {
     const size_t P = size_t(N + 1) * (N + 2) / 2;
     return size_t(face) * P + size_t(j) * (N + 1) - size_t(j) * (j - 1) / 2 + size_t(i);
+}
+
+// Per base face, the vertex at each lattice point (latticeIndex).
+std::vector<unsigned> latticeVertices(const RockMesh& m)
+{
+    std::vector<unsigned> at(20 * size_t(m.lattice + 1) * (m.lattice + 2) / 2, ~0u);
+    for (size_t t = 0; t < m.triangles.size(); ++t) {
+        const auto& c = m.corners[t];
+        for (int q = 0; q < 3; ++q) {
+            at[latticeIndex(m.lattice, m.baseFace[t], int(c[size_t(2 * q)]), int(c[size_t(2 * q + 1)]))] =
+                m.triangles[t][q];
+        }
+    }
+    return at;
 }
 
 // Tangent frames of the coarse mesh as a tangent-space consumer builds them (MikkTSpace:
@@ -252,12 +251,11 @@ struct TangentFrames
 };
 
 TangentFrames tangentFrames(const RockMesh& m, const std::vector<Vec3d>& world,
-                            const std::vector<Vec3d>& normals, const UvLayout& layout)
+                            const std::vector<Vec3d>& normals, const std::vector<unsigned>& vertex,
+                            const UvLayout& layout)
 {
     const uint32_t N = m.lattice;
-    const size_t P = size_t(N + 1) * (N + 2) / 2;
-    std::vector<Vec3d> T(20 * P, Vec3d(0.0)), B(20 * P, Vec3d(0.0));
-    std::vector<unsigned> vertex(20 * P, ~0u);
+    std::vector<Vec3d> T(vertex.size(), Vec3d(0.0)), B(vertex.size(), Vec3d(0.0));
     for (size_t t = 0; t < m.triangles.size(); ++t) {
         const int f = m.baseFace[t];
         const auto& c = m.corners[t];
@@ -269,7 +267,6 @@ TangentFrames tangentFrames(const RockMesh& m, const std::vector<Vec3d>& world,
             p[size_t(q)] = world[m.triangles[t][q]];
             uv[size_t(q)] = layout.uv(f, double(i) / N, double(j) / N);
             k[size_t(q)] = latticeIndex(N, f, i, j);
-            vertex[k[size_t(q)]] = m.triangles[t][q];
         }
         const Vec3d e1 = p[1] - p[0], e2 = p[2] - p[0];
         const double du1 = uv[1][0] - uv[0][0], dv1 = uv[1][1] - uv[0][1];
@@ -286,7 +283,7 @@ TangentFrames tangentFrames(const RockMesh& m, const std::vector<Vec3d>& world,
             B[k[size_t(q)]] += tv * angle;
         }
     }
-    TangentFrames out{std::vector<Vec3d>(20 * P, Vec3d(1, 0, 0)), std::vector<double>(20 * P, 1.0)};
+    TangentFrames out{std::vector<Vec3d>(vertex.size(), Vec3d(1, 0, 0)), std::vector<double>(vertex.size(), 1.0)};
     for (size_t k = 0; k < T.size(); ++k) {
         if (vertex[k] == ~0u) continue;
         const Vec3d& n = normals[vertex[k]];
@@ -316,7 +313,7 @@ void normalMap(const RockMesh& coarse, const std::vector<Vec3d>& coarseWorld, co
     if (tangentSpace) {
         coarseNormals = vertexNormals(coarseWorld, coarse.triangles);
         coarseAt = latticeVertices(coarse);
-        frames = tangentFrames(coarse, coarseWorld, coarseNormals, layout);
+        frames = tangentFrames(coarse, coarseWorld, coarseNormals, coarseAt, layout);
     }
     width = 5 * cell;
     height = 2 * cell;

@@ -30,7 +30,10 @@ void bindRockpile(py::module_& m)
         if (!tiles) throw py::type_error("rockpile: the tile set grid is None");
         const rockpile::TileSet set = rockpile::tilesFromGrid(*tiles);
         const StageResult r = withTask([&](Task& task) { return rockpile::runLibrary(set, task); });
-        return openvdb::gridPtrCast<openvdb::FloatGrid>(r.grids.at(1)); // (0: rock_id)
+        for (const auto& g : r.grids) {
+            if (g->getName() == "library") return openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+        }
+        throw ValueError("rock_library: the library stage returned no grid 'library'");
     }, py::arg("tiles"));
 
     // Every rock of a tile set meshed in its canonical frame (voxel v at v·voxel size): a
