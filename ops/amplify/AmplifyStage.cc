@@ -76,6 +76,10 @@ Schema<AmplifyParams> makeSchema()
                              ", ", p.rules.distanceMax, ")");
         }
     });
+    // Front-ends' groups (the Blender add-on's sub-panels); the rest is Shape.
+    s.group("Input", {"terrain-grid", "cell-size", "height-scale", "base-depth"});
+    s.group("Placement", {"roi", "mask-cell-size", "carve", "max-slope", "distance-range",
+                          "anchors", "fraction"});
     return s;
 }
 

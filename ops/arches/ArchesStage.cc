@@ -147,6 +147,13 @@ Schema<ArchesParams> makeArchesSchema()
         if (!edits.is_array()) fail<ValueError>("arches: edits must be a list of edits [{\"tool\": ...}, ...]");
         for (size_t k = 0; k < edits.size(); ++k) validateEdit(edits[k], k);
     });
+    // Front-ends' groups (the Blender add-on's sub-panels) and file rows.
+    s.group("Input", {"terrain", "extent", "cell-size", "floor"});
+    s.group("Materials", {"quantum", "sand-depth", "sand-map", "repose-sand", "repose-rocks",
+                          "stabilize", "rock-tiles", "rock-threshold", "material-ids", "weights"});
+    s.group("Surface", {"sigma", "kernel", "reach"});
+    s.group("Edits", {"edits"});
+    s.files({"sand-map", "rock-tiles"});
     return s;
 }
 

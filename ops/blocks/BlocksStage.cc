@@ -49,13 +49,13 @@ void addTileRows(Schema<P>& s, Access at)
          [](T& t, const json& j) { t.type = blockTypeFromString(j.get<std::string>()); });
     member(param("tile-size", ParamType::Real, "m", 20.0, Range::openClosed(0, 1e4), "Tile side s"),
            &T::tileSize);
-    member(param("point-radius", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
+    member(param("point-radius", ParamType::Real, "m", 0.0, Range::open(0, 5e3),
                "Poisson radius of the sample points"), &T::pointRadius);
-    member(param("neighbour-radius", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
+    member(param("neighbour-radius", ParamType::Real, "m", 0.0, Range::open(0, 5e3),
                "Longest graph edge"), &T::neighbourRadius);
-    member(param("disc-count", ParamType::Int, "", -1, Range::closed(-1, 10000),
+    member(param("disc-count", ParamType::Int, "", -1, Range::closed(0, 10000),
                "Generated fracture discs (0 = none)"), &T::discCount);
-    member(param("disc-spacing", ParamType::Real, "m", 0.0, Range::halfOpen(0, 5e3),
+    member(param("disc-spacing", ParamType::Real, "m", 0.0, Range::open(0, 5e3),
                "Poisson radius of the disc centres"), &T::discSpacing);
     bind(param("disc-radius", ParamType::Reals, "m", nullptr, Range::closed(0, 4e4),
              "Disc radius range min,max", 2),
@@ -66,9 +66,9 @@ void addTileRows(Schema<P>& s, Access at)
              t.discRadiusMin = j.is_null() ? 0.0 : j.at(0).get<double>();
              t.discRadiusMax = j.is_null() ? 0.0 : j.at(1).get<double>();
          });
-    member(param("jitter", ParamType::Real, "degrees", -1.0, Range::closed(-1, 90),
+    member(param("jitter", ParamType::Real, "degrees", -1.0, Range::closed(0, 90),
                "Random tilt of the set normals"), &T::jitterDeg);
-    member(param("irregular-fraction", ParamType::Real, "", -1.0, Range::closed(-1, 1),
+    member(param("irregular-fraction", ParamType::Real, "", -1.0, Range::closed(0, 1),
                "Share of discs with a random normal"),
            &T::irregularFraction);
     member(param("axis", ParamType::Reals, "", json::array({0.0, 0.0, 1.0}), Range::closed(-1e6, 1e6),
@@ -115,13 +115,13 @@ void addTileRows(Schema<P>& s, Access at)
                "disc's own where it separates them) and stand fracture-width apart; --no-fill: "
                "the paper's hull-only reading (neighbours about a point spacing apart, small "
                "clusters dropped)"), &T::fill);
-    member(param("fracture-width", ParamType::Real, "m", -1.0, Range::closed(-1, 1e3),
+    member(param("fracture-width", ParamType::Real, "m", -1.0, Range::closed(0, 1e3),
                "Gap between neighbouring blocks across a fracture (unused without fill)"),
            &T::fractureWidth);
-    member(param("smooth-radius", ParamType::Real, "m", -1.0, Range::closed(-1, 2.5e3),
+    member(param("smooth-radius", ParamType::Real, "m", -1.0, Range::closed(0, 2.5e3),
                "R of the smooth intersection of the hull planes"), &T::smoothRadius);
     const auto warp = warpRows(-1.0, 1.0,
-        "Warp: exponent p of the triplanar weights |g.u_i|^p (1 = the paper's)", true);
+        "Warp: exponent p of the triplanar weights |g.u_i|^p (1 = the paper's)");
     bind(warp[0], [](const T& t) { return t.relief.amplitude; },
          [](T& t, const json& j) { t.relief.amplitude = j.get<double>(); });
     bind(warp[1], [](const T& t) { return t.relief.image.empty() ? std::string("turbulence") : t.relief.image; },
@@ -174,6 +174,12 @@ void addTileRows(Schema<P>& s, Access at)
     derived("warp-amplitude", perSize(kWarpAmplitudePerSize),
             [](T& t) { t.relief.amplitude = kWarpAmplitudePerSize * t.tileSize; });
     s.rule([at](const P& p) { checkTileRules(at(p)); });
+    // Front-ends' groups (the Blender add-on's sub-panels); the rest is Shape.
+    s.group("Fractures", {"point-radius", "neighbour-radius", "disc-count", "disc-spacing",
+                          "disc-radius", "jitter", "irregular-fraction", "oblique-angle",
+                          "fractures", "min-points"});
+    s.group("Surface", {"fill", "fracture-width", "smooth-radius", "warp-amplitude", "warp-relief",
+                        "warp-scale", "warp-octaves", "warp-sharpness"});
 }
 
 Schema<BlockTileParams> makeTileSchema()

@@ -133,12 +133,12 @@ ParamInfo maxMemoryRow(std::string help)
     return row;
 }
 
-std::array<ParamInfo, 5> warpRows(double amplitude, double sharpness, std::string sharpnessHelp,
-                                  bool derivedAmplitude)
+std::array<ParamInfo, 5> warpRows(double amplitude, double sharpness, std::string sharpnessHelp)
 {
-    // A derived amplitude's default is -1 (the table's rule fills it).
-    return {param("warp-amplitude", ParamType::Real, "m", amplitude,
-                  Range::closed(derivedAmplitude ? -1 : 0, 1e3),
+    // A derived amplitude's default (-1) lies outside the range: coerce() takes a derived
+    // row's default as "derive".
+    std::array<ParamInfo, 5> rows = {param("warp-amplitude", ParamType::Real, "m", amplitude,
+                  Range::closed(0, 1e3),
                   "Warp: largest displacement of the surface (0 = off)"),
             param("warp-relief", ParamType::Text, "", "turbulence", Range::any(),
                   "Warp relief: 'turbulence' or an EXR / 16-bit PNG image (tiled; bright = bump)"),
@@ -148,6 +148,8 @@ std::array<ParamInfo, 5> warpRows(double amplitude, double sharpness, std::strin
                   "Warp: turbulence octaves"),
             param("warp-sharpness", ParamType::Real, "", sharpness, Range::closed(1, 64),
                   std::move(sharpnessHelp))};
+    rows[1].file = true; // an image
+    return rows;
 }
 
 json jsonOrFile(const json& value)
@@ -198,6 +200,44 @@ const ParamInfo* SchemaBase::find(const std::string& name) const
     return nullptr;
 }
 
+SchemaBase& SchemaBase::group(const std::string& group, const std::vector<std::string>& names)
+{
+    for (const auto& name : names) {
+        auto it = std::find_if(mInfo.begin(), mInfo.end(), [&](const ParamInfo& p) { return p.name == name; });
+        if (it == mInfo.end()) throw std::logic_error(mOp + ": no row '" + name + "' to group");
+        it->group = group;
+    }
+    return *this;
+}
+
+SchemaBase& SchemaBase::files(const std::vector<std::string>& names)
+{
+    for (const auto& name : names) {
+        auto it = std::find_if(mInfo.begin(), mInfo.end(), [&](const ParamInfo& p) { return p.name == name; });
+        if (it == mInfo.end()) throw std::logic_error(mOp + ": no row '" + name + "' to mark as a file");
+        it->file = true;
+    }
+    return *this;
+}
+
+std::string ParamInfo::groupName() const
+{
+    if (!group.empty()) return group;
+    return resolution ? "Resolution" : "Shape";
+}
+
+// The preview rule's two numbers (measured on the 2-core machine, issue 55): 20 m block tile
+// at defaults, fractal rock, rock pile, amplified 40 m landscape.
+const double kPreviewVoxelsAcross = 128.0;
+const double kPreviewAdaptivity = 0.5;
+
+double previewVoxelSize(double finalVoxel, double extent)
+{
+    require(std::isfinite(finalVoxel) && finalVoxel > 0, "preview", "voxel size", "> 0", finalVoxel);
+    require(std::isfinite(extent) && extent >= 0, "preview", "extent", ">= 0", extent);
+    return std::max(finalVoxel, extent / kPreviewVoxelsAcross);
+}
+
 json SchemaBase::coerce(const ParamInfo& info, const json& v) const
 {
     auto wrongType = [&]() {
@@ -208,7 +248,10 @@ json SchemaBase::coerce(const ParamInfo& info, const json& v) const
         if (!x.is_number() || x.is_boolean()) wrongType();
         const double d = x.get<double>();
         if (integer && !(x.is_number_integer() || (std::isfinite(d) && d == std::floor(d)))) wrongType();
-        if (!info.range.contains(d) || !std::isfinite(d)) {
+        // A derived row's default stands for its rule's value, outside the row's range.
+        const bool derive = !info.derived.empty() && info.defaultValue.is_number() &&
+                            d == info.defaultValue.get<double>();
+        if (!derive && (!info.range.contains(d) || !std::isfinite(d))) {
             // A NaN dumps as JSON null: say what it is.
             fail<ValueError>(mOp, ": ", info.name, " must be ", info.range.text(), " (got ",
                              std::isnan(d) ? std::string("nan") : jsonText(x), ")");
@@ -283,7 +326,8 @@ json SchemaBase::describe() const
                         {"min", std::isfinite(p.range.min) ? json(p.range.min) : json()},
                         {"max", std::isfinite(p.range.max) ? json(p.range.max) : json()},
                         {"min_open", p.range.minOpen}, {"max_open", p.range.maxOpen},
-                        {"resolution", p.resolution}});
+                        {"resolution", p.resolution}, {"group", p.groupName()},
+                        {"file", p.file || p.type == ParamType::Json}});
     }
     return {{"op", mOp}, {"summary", mSummary}, {"params", rows}};
 }

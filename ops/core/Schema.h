@@ -84,6 +84,14 @@ struct ParamInfo
     /// region, chunks, memory limit), never the look: the CLI lists these rows apart, so an
     /// artist can tune the look at a coarse voxel and bake it fine.
     bool resolution = false;
+    /// Where a front-end shows the row (the Blender add-on's sub-panels): "Shape", "Surface",
+    /// "Placement", "Input" or "Resolution". Empty: "Resolution" for a resolution row, else
+    /// "Shape" (groupName()).
+    std::string group;
+    std::string groupName() const;
+    /// The value may name a file (an image, a JSON file, a tile set): front-ends offer a file
+    /// browser. Json rows always may.
+    bool file = false;
     /// The Python keyword: the name with '_' for '-'.
     std::string pythonName() const;
 };
@@ -98,11 +106,19 @@ ParamInfo seedRow(std::string help = "Random seed (same seed, same bits)");
 ParamInfo voxelSizeRow(nlohmann::json defaultValue, std::string help = "Voxel edge length");
 ParamInfo halfWidthRow(nlohmann::json defaultValue, std::string help = "Narrow-band half width");
 ParamInfo maxMemoryRow(std::string help = "Refuse work estimated above this (0 = 75% of RAM)");
+
+/// @brief Preview quality: the rule that makes a quick look of any stage (the Blender add-on's
+/// default quality; Final is the tables' defaults, the CLI's). The same parameters baked at
+/// a coarser voxel: at most kPreviewVoxelsAcross voxels across the result's largest extent
+/// @a extent (m), never finer than @a finalVoxel (m), and meshed with kPreviewAdaptivity. Only
+/// resolution changes, never the look: the same blocks, the same rocks.
+double previewVoxelSize(double finalVoxel, double extent);
+extern const double kPreviewVoxelsAcross;
+extern const double kPreviewAdaptivity;
 /// The gradient warp's rows (implicit blocks §4.2), in order: warp-amplitude, warp-relief,
 /// warp-scale, warp-octaves, warp-sharpness. Stages differ in two defaults: the amplitude and
 /// the exponent p (whose help says why).
-std::array<ParamInfo, 5> warpRows(double amplitude, double sharpness, std::string sharpnessHelp,
-                                  bool derivedAmplitude = false);
+std::array<ParamInfo, 5> warpRows(double amplitude, double sharpness, std::string sharpnessHelp);
 
 /// @brief A Json row's value as JSON: a string is a file path, read; anything else is itself.
 nlohmann::json jsonOrFile(const nlohmann::json& value);
@@ -129,6 +145,18 @@ public:
     const std::string& summary() const { return mSummary; }
     const std::vector<ParamInfo>& params() const { return mInfo; }
     const ParamInfo* find(const std::string& name) const;
+
+    /// @brief Put the rows @a names in front-end group @a group (ParamInfo::group).
+    /// @throw std::logic_error for a name the table does not have.
+    SchemaBase& group(const std::string& group, const std::vector<std::string>& names);
+    /// @brief Mark the rows @a names as naming files (ParamInfo::file).
+    SchemaBase& files(const std::vector<std::string>& names);
+
+    /// @brief The complete parameters @a j stands for, canonical, with every derived default
+    /// filled by its rule (what a front-end shows beside an Auto box). Without derived rows:
+    /// resolve(@a j).
+    /// @throw ValueError as fromJson.
+    virtual nlohmann::json derivedValues(const nlohmann::json& j) const { return resolve(j); }
 
     /// @brief Check one JSON value against its row and return it in canonical form (ints for
     /// Int, doubles for Real, lists of the right length).
@@ -269,6 +297,11 @@ public:
         nlohmann::json j = nlohmann::json::object();
         for (size_t i = 0; i < mInfo.size(); ++i) j[mInfo[i].name] = mGet[i](p);
         return j;
+    }
+
+    nlohmann::json derivedValues(const nlohmann::json& j) const override
+    {
+        return toJson(derive(fromJson(j)));
     }
 
     /// @brief Ranges and rules of parameters set from C++ (ValueError naming the parameter).

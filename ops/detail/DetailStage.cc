@@ -26,7 +26,9 @@ Schema<DetailStageParams> makeSchema()
         "noise in local frames (n, t, b), b = n ^ W): each point near the surface is projected "
         "on it and the field raised or lowered by D(noise)·(1 - |p p_S|/R)^6. Amplitudes are "
         "in metres and bound the displacement; 0 disables an operator.");
-    const auto warp = warpRows(0.0, 8.0,
+    // A 2 cm warp by default, so that detail at its defaults shows (issue 55: 0 changed
+    // nothing): visible on a 1 m rock, a texture on a 20 m cliff; 0 turns it off.
+    const auto warp = warpRows(0.02, 8.0,
         "Warp: exponent p of the projection weights |g.u_i|^p (8: the arches paper's texture "
         "blend keeps one projection sharp; 1: the blocks paper's)");
     s.member(warp[0], &P::warpAmplitude);
@@ -93,6 +95,11 @@ Schema<DetailStageParams> makeSchema()
                              "direction-curvature");
         }
     });
+    // Front-ends' groups (the Blender add-on's sub-panels): the warp is Shape.
+    s.group("Gabor", {"gabor-amplitude", "gabor-frequency", "gabor-bandwidth", "gabor-orientation",
+                      "gabor-impulses", "gabor-falloff", "gabor-isotropic", "tilt"});
+    s.group("Direction", {"direction-axis", "direction-skeleton", "direction-curvature", "singular",
+                          "blend"});
     return s;
 }
 

@@ -104,7 +104,8 @@ Schema<FractalRockParams> makeRockSchema()
     s.member(maxMemoryRow(), &P::maxMemoryGB);
     // Scatter rows (§1: rocks "spatially distributed by another fBm").
     s.member(param("count", ParamType::Int, "", 0, Range::closed(0, 1000000),
-                   "Scatter this many rocks on the ground (0: one rock at center)"), &P::count);
+                   "Scatter this many rocks on the ground (0: one rock at center; in a scatter, "
+                   "rockvdb.fractal_scatter and the Blender add-on, one per density-scale² of area)"), &P::count);
     s.member(param("area", ParamType::Reals, "m", nullptr, Range::closed(-1e7, 1e7),
                    "Scatter area xmin,ymin,xmax,ymax (default: the ground's extent; on the "
                    "plane z = 0: -5,-5,5,5)", 4), &P::area);
@@ -153,6 +154,13 @@ Schema<FractalRockParams> makeRockSchema()
             }
         }
     });
+    // Front-ends' groups (the Blender add-on's sub-panels); the rest is Shape.
+    s.group("Placement", {"center", "count", "area", "size-jitter", "aspect-jitter",
+                          "density-scale", "density-octaves", "density-contrast", "embed",
+                          "attempts", "material"});
+    s.group("Input", {"ground-cell-size", "ground-height-scale", "ground-grid"});
+    s.group("Normal map", {"normal-levels", "normal-map-size", "normal-space"});
+    s.group("Carve", {"carve-start", "carve-direction", "carve-wander"});
     return s;
 }
 
@@ -544,11 +552,9 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, bool 
                          bool withMesh, Task& task)
 {
     rockSchema().validate(p);
-    if (p.count < 1) fail<ValueError>("fractal: a scatter needs count >= 1");
     requireDefaults(p, singleRockRows(), "applies to a single rock (count 0)");
     requireDefaults(p, carveRows(), "applies to a carve (--carve SOLID)");
     ScatterSettings s;
-    s.count = p.count;
     if (p.area) {
         s.area = *p.area;
     } else if (auto b = ground.bounds()) {
@@ -557,6 +563,12 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, bool 
         s.area = {-5.0, -5.0, 5.0, 5.0};
     }
     s.size = p.size;
+    // count 0 in a scatter: one rock per density-scale² of the area (the density map's own
+    // cell), so a scatter at its defaults scatters some rocks (issue 55).
+    const int count = p.count >= 1 ? p.count
+        : int(std::max(1.0, std::round((s.area[2] - s.area[0]) * (s.area[3] - s.area[1]) /
+                                       (p.densityScale * p.densityScale))));
+    s.count = count;
     s.sizeJitter = p.sizeJitter;
     s.aspectJitter = p.aspectJitter;
     s.tilt = p.tilt;
@@ -568,11 +580,11 @@ ScatterResult runScatter(const FractalRockParams& p, const Ground& ground, bool 
     s.shape = p.shape;
     // Memory: every rock's mesh, and the band of their union.
     const double limit = memoryLimit(p.maxMemoryGB);
-    const double meshMemory = double(p.count) * meshBytes(p.shape.levels, p.shape.method);
-    const double voxels = double(p.count) * 2.0 * ellipsoidArea(p.extent()) /
+    const double meshMemory = double(count) * meshBytes(p.shape.levels, p.shape.method);
+    const double voxels = double(count) * 2.0 * ellipsoidArea(p.extent()) /
                           (p.voxelSize * p.voxelSize) * 2.0 * p.halfWidth;
     if (meshMemory + voxels * 40 > limit) {
-        fail<ValueError>("fractal: ", p.count, " rocks of ", p.shape.levels, " levels at ",
+        fail<ValueError>("fractal: ", count, " rocks of ", p.shape.levels, " levels at ",
                          p.voxelSize, " m voxels need about ", formatBytes(meshMemory + voxels * 40),
                          " (over the ", formatBytes(limit), " limit); use fewer --count or "
                          "--levels, a larger --voxel-size, or raise --max-memory");

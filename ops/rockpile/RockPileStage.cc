@@ -74,6 +74,7 @@ Schema<RockTileParams> makeTilesSchema()
                              p.poissonRadius, ")");
         }
     });
+    s.group("Erosion", {"contact-radii", "erosion-steps", "erosion-rate"});
     return s;
 }
 
@@ -104,6 +105,7 @@ Schema<PileParams> makePileSchema()
           [](P& p, const json& j) { p.support.up = j == "y" ? UpAxis::Y : UpAxis::Z; });
     s.member(seedRow("Lattice colours (and a JSON support's noise)"), &P::seed);
     addChunkRows(s, [](auto& p) -> auto& { return p.chunking; });
+    s.group("Input", {"support-grid", "up"});
     return s;
 }
 

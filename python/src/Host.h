@@ -7,6 +7,7 @@
 #include <rockvdb/core/Error.h>
 #include <rockvdb/core/Expression.h>
 #include <rockvdb/core/Json.h>
+#include <rockvdb/core/Schema.h>
 #include <rockvdb/core/StageResult.h>
 #include <rockvdb/core/Task.h>
 #include <rockvdb/core/VdbIO.h>
@@ -136,7 +137,7 @@ void bindFractal(pybind11::module_& m);
 
 /// rockvdb.Stacks' native half (arches.cc) and the arches table's description.
 void bindArches(pybind11::module_& m);
-std::string archesSchemaText();
+const SchemaBase& archesSchemaBase();
 std::string archesEditTools();
 
 } // namespace pyhost

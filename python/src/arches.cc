@@ -111,7 +111,7 @@ py::object bakeStacksPy(const PyStacks& s, const std::string& what, const std::s
 
 } // namespace
 
-std::string archesSchemaText() { return jsonText(archesSchema().describe()); }
+const SchemaBase& archesSchemaBase() { return archesSchema(); }
 std::string archesEditTools() { return jsonText(editTools()); }
 
 void bindArches(py::module_& m)

@@ -11,6 +11,8 @@
 #include <rockvdb/core/Preview.h>
 #include <rockvdb/core/VdbIO.h>
 
+#include <openvdb/tools/Interpolation.h>
+
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
@@ -52,6 +54,66 @@ void bindGrids(py::module_& m)
         return py::make_tuple(P, V);
     }, py::arg("surface"), py::arg("ids"), py::arg("band") = 1.0,
        "Voxel centres within band voxels of a level set's surface and the id grids' values there");
+
+    // The Blender add-on's mesh, made on its worker thread so that Blender only copies arrays
+    // (foreach_set): the level set meshed by tools::volumeToMesh at @a adaptivity with outward
+    // faces (vdb_mesh's), its polygons as Blender stores them (loops: the corners of the quads
+    // then the triangles; starts and totals per polygon), per vertex each id grid's id as
+    // vdb_mesh --ids gives it and each weight grid's value (trilinear), all float32.
+    m.def("mesh_arrays", [](const Grid& surface, double adaptivity, const std::vector<Grid>& ids,
+                            const std::vector<Grid>& weights) {
+        MeshParams mp;
+        mp.adaptivity = adaptivity;
+        Mesh mesh = withTask([&](Task&) {
+            Mesh out = meshGrid(*surface, mp);
+            for (const auto& g : ids) attachIds(out, *surface, *g, g->getName());
+            return out;
+        });
+        const size_t n = mesh.points.size(), nq = mesh.quads.size(), nt = mesh.triangles.size();
+        py::array_t<float> P({n, size_t(3)});
+        py::array_t<int32_t> loops(4 * nq + 3 * nt), starts(nq + nt), totals(nq + nt);
+        std::vector<py::array_t<float>> W;
+        for (size_t k = 0; k < weights.size(); ++k) W.emplace_back(n);
+        {
+            py::gil_scoped_release release;
+            std::copy_n(&mesh.points[0][0], 3 * n, P.mutable_data());
+            int32_t* l = loops.mutable_data();
+            int32_t* st = starts.mutable_data();
+            int32_t* to = totals.mutable_data();
+            size_t at = 0, f = 0;
+            for (const auto& q : mesh.quads) {
+                st[f] = int32_t(at), to[f++] = 4;
+                for (int c = 0; c < 4; ++c) l[at++] = int32_t(q[c]);
+            }
+            for (const auto& t : mesh.triangles) {
+                st[f] = int32_t(at), to[f++] = 3;
+                for (int c = 0; c < 3; ++c) l[at++] = int32_t(t[c]);
+            }
+            for (size_t k = 0; k < weights.size(); ++k) {
+                openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler>
+                    sampler(weights[k]->getConstAccessor(), weights[k]->transform());
+                float* w = W[k].mutable_data();
+                for (size_t i = 0; i < n; ++i) w[i] = sampler.wsSample(openvdb::Vec3d(mesh.points[i]));
+            }
+        }
+        py::dict out;
+        out["points"] = P;
+        out["loops"] = loops;
+        out["starts"] = starts;
+        out["totals"] = totals;
+        py::dict idOut, weightOut;
+        for (const auto& [name, values] : mesh.pointIds) {
+            py::array_t<float> a(n);
+            std::copy(values.begin(), values.end(), a.mutable_data());
+            idOut[py::str(name)] = a;
+        }
+        for (size_t k = 0; k < weights.size(); ++k) weightOut[py::str(weights[k]->getName())] = W[k];
+        out["ids"] = idOut;
+        out["weights"] = weightOut;
+        return out;
+    }, py::arg("surface"), py::arg("adaptivity"), py::arg("ids") = std::vector<Grid>(),
+       py::arg("weights") = std::vector<Grid>(),
+       "A level set's mesh as Blender's arrays: points, loops, starts, totals, ids, weights");
 
     // rockvdb.distributed records each chunk with the checksum vdb_merge --manifest checks.
     m.def("file_checksum", [](const std::string& path) {

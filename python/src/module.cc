@@ -25,6 +25,30 @@
 using namespace rockvdb;
 using namespace rockvdb::pyhost;
 
+namespace {
+
+/// A stage's table by its Python name.
+const SchemaBase& schemaOf(const std::string& stage)
+{
+    if (stage == "csg") return csgSchema();
+    if (stage == "rock_tiles") return rockpile::tilesSchema();
+    if (stage == "rock_pile") return rockpile::pileSchema();
+    if (stage == "detail") return detail::detailSchema();
+    if (stage == "block_tile") return blocks::blocksSchema();
+    if (stage == "bake") return fieldBakeSchema();
+    if (stage == "heightfield") return heightfieldSchema();
+    if (stage == "mesh") return meshSchema();
+    if (stage == "preview") return previewSchema();
+    if (stage == "tile") return blocks::tileSchema();
+    if (stage == "amplify") return amplify::amplifySchema();
+    if (stage == "fractal_rock" || stage == "fractal_scatter") return fractal::rockSchema();
+    if (stage == "arches") return archesSchemaBase();
+    if (stage == "asset") return asset::assetSchema();
+    throw ValueError("schema: no stage '" + stage + "'");
+}
+
+} // namespace
+
 // Ctrl-C while a file's bytes are checked in readGrids' child process (a corrupt file can
 // keep it busy for its whole CPU budget): only the thread that imported the module, as the
 // interpreter's main thread, sees Python's signals.
@@ -95,21 +119,16 @@ PYBIND11_MODULE(_rockvdb, m)
 
     // Stage tables: the Python wrappers build their signatures, defaults and docstrings
     // from these (python/rockvdb/__init__.py).
-    m.def("schema", [](const std::string& stage) {
-        if (stage == "csg") return jsonText(csgSchema().describe());
-        if (stage == "rock_tiles") return jsonText(rockpile::tilesSchema().describe());
-        if (stage == "rock_pile") return jsonText(rockpile::pileSchema().describe());
-        if (stage == "detail") return jsonText(detail::detailSchema().describe());
-        if (stage == "block_tile") return jsonText(blocks::blocksSchema().describe());
-        if (stage == "bake") return jsonText(fieldBakeSchema().describe());
-        if (stage == "heightfield") return jsonText(heightfieldSchema().describe());
-        if (stage == "mesh") return jsonText(meshSchema().describe());
-        if (stage == "preview") return jsonText(previewSchema().describe());
-        if (stage == "tile") return jsonText(blocks::tileSchema().describe());
-        if (stage == "amplify") return jsonText(amplify::amplifySchema().describe());
-        if (stage == "fractal_rock" || stage == "fractal_scatter") return jsonText(fractal::rockSchema().describe());
-        if (stage == "arches") return archesSchemaText();
-        if (stage == "asset") return jsonText(asset::assetSchema().describe());
-        throw ValueError("schema: no stage '" + stage + "'");
-    }, py::arg("stage"));
+    m.def("schema", [](const std::string& stage) { return jsonText(schemaOf(stage).describe()); },
+          py::arg("stage"));
+    // What a call's parameters stand for, every derived default filled (the Blender add-on
+    // shows these beside its Auto boxes).
+    m.def("derive", [](const std::string& stage, const std::string& params) {
+        return jsonText(schemaOf(stage).derivedValues(parseParams(params, stage.c_str())));
+    }, py::arg("stage"), py::arg("params"));
+    // The preview quality's rule (core/Schema.h), for front-ends.
+    m.def("preview_voxel_size", &previewVoxelSize, py::arg("final_voxel"), py::arg("extent"),
+          "Preview quality: the voxel size for a result of largest extent @a extent (m)");
+    m.attr("PREVIEW_ADAPTIVITY") = kPreviewAdaptivity;
+    m.attr("PREVIEW_VOXELS_ACROSS") = kPreviewVoxelsAcross;
 }

@@ -19,7 +19,7 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 import rockvdb_blender  # noqa: E402
-from rockvdb_blender import Run, stages  # noqa: E402
+from rockvdb_blender import Run, results, stages  # noqa: E402
 
 report = {"errors": []}
 
@@ -40,6 +40,7 @@ def props_of(idname):
             d["length"] = p.array_length
             d["default"] = list(p.default_array) if p.array_length else p.default
             d["min"], d["max"] = p.hard_min, p.hard_max
+            d["soft_min"], d["soft_max"] = p.soft_min, p.soft_max
             d["subtype"], d["unit"] = p.subtype, p.unit
         elif p.type == "BOOLEAN":
             d["default"] = p.default
@@ -48,6 +49,7 @@ def props_of(idname):
             d["items"] = [i.identifier for i in p.enum_items]
         elif p.type == "STRING":
             d["default"] = p.default
+            d["subtype"] = p.subtype
         d["description"] = p.description
         out[p.identifier] = d
     return out
@@ -91,15 +93,13 @@ def result(name, obj, copy=True):
     r = evaluated(obj)
     r["name"] = obj.name
     r.update({k: obj[k] for k in ("rockvdb_stage", "rockvdb_version", "rockvdb_generator",
-                                  "rockvdb_params", "rockvdb_cache")})
-    vol = obj["rockvdb_volume"]
-    vol.data.grids.load()
-    r["volume_grids"] = sorted(g.name for g in vol.data.grids)
-    r["modifiers"] = [(m.type, getattr(m, "grid_name", None), getattr(m, "threshold", None),
-                       getattr(m, "adaptivity", None)) for m in obj.modifiers]
-    r["hidden_children"] = sorted(c.name for c in obj.children if c.hide_viewport and c.hide_render)
+                                  "rockvdb_params", "rockvdb_cache", "rockvdb_mesh_adaptivity")})
+    r["volume_grids"] = sorted(g.name for g in results.grids_of(obj))
+    r["modifiers"] = [m.type for m in obj.modifiers]
+    r["children"] = sorted(c.name for c in obj.children)
+    r["mesh_users"] = obj.data.users
     if copy:
-        shutil.copy(obj["rockvdb_cache"], os.path.join(OUT, name + ".vdb"))
+        shutil.copy(results.cache_file(obj["rockvdb_cache"]), os.path.join(OUT, name + ".vdb"))
     return r
 
 
@@ -138,7 +138,7 @@ def instances_of(name, obj):
             "rocks": len(rocks.objects), "points": len(pts),
             "tint": [n.attribute_type for m in bpy.data.materials if m.name.startswith(obj.name + " instances")
                      for n in m.node_tree.nodes if n.type == "ATTRIBUTE"],
-            "surface_shown": obj.modifiers["rockvdb surface"].show_viewport,
+            "surface_shown": obj.display_type != "BOUNDS" or not obj.hide_render,
             "result": result(name, obj)}
 
 
@@ -174,6 +174,8 @@ try:
     bpy.ops.rockvdb.fractal_rock()
     rock = bpy.context.active_object
     R["fractal_rock"] = result("fractal_rock", rock)
+    bpy.ops.rockvdb.fractal_rock(quality="FINAL")
+    R["fractal_rock_final"] = result("fractal_rock_final", bpy.context.active_object)
     bpy.ops.rockvdb.fractal_rock(seed=5, roughness=0.3)
     R["fractal_rock_seed5"] = result("fractal_rock_seed5", bpy.context.active_object)
 
@@ -246,12 +248,12 @@ try:
     # Regenerate in place: same object, same grids (copied before, the cache is replaced).
     bpy.context.view_layer.objects.active = rock
     before_names = scene_names()
-    shutil.copy(rock["rockvdb_cache"], os.path.join(OUT, "regen_before.vdb"))
+    shutil.copy(results.cache_file(rock["rockvdb_cache"]), os.path.join(OUT, "regen_before.vdb"))
     bpy.ops.rockvdb.regenerate()
     report["regenerate"] = {"same_object": bpy.context.active_object == rock,
                             "scene_unchanged": scene_names() == before_names,
                             "new_cache": rock["rockvdb_cache"] != R["fractal_rock"]["rockvdb_cache"]}
-    shutil.copy(rock["rockvdb_cache"], os.path.join(OUT, "regen_after.vdb"))
+    shutil.copy(results.cache_file(rock["rockvdb_cache"]), os.path.join(OUT, "regen_after.vdb"))
 
     # The other operators at their table defaults (only their inputs given): a block tile
     # (20 m at 5 cm), a pile in a cube, stacks and an amplified sheet.
@@ -272,20 +274,20 @@ try:
     # Regenerate stacks made from a scene file whose quantum is not the table's: the scene's
     # keys still hold (only what the call set is stored and passed again).
     stacks = bpy.data.objects[R["stacks_scene"]["name"]]
-    shutil.copy(stacks["rockvdb_cache"], os.path.join(OUT, "regen_stacks_before.vdb"))
+    shutil.copy(results.cache_file(stacks["rockvdb_cache"]), os.path.join(OUT, "regen_stacks_before.vdb"))
     bpy.context.view_layer.objects.active = stacks
     bpy.ops.rockvdb.regenerate()
     report["regenerate_stacks_operator"] = json.loads(stacks["rockvdb_operator"])
-    shutil.copy(stacks["rockvdb_cache"], os.path.join(OUT, "regen_stacks_after.vdb"))
+    shutil.copy(results.cache_file(stacks["rockvdb_cache"]), os.path.join(OUT, "regen_stacks_after.vdb"))
 
     # Regenerate a result made from a scene object (the pile in its cube), with another
     # object active: it reads the same cube again.
     pile = bpy.data.objects[R["rock_pile"]["name"]]
-    shutil.copy(pile["rockvdb_cache"], os.path.join(OUT, "regen_pile_before.vdb"))
+    shutil.copy(results.cache_file(pile["rockvdb_cache"]), os.path.join(OUT, "regen_pile_before.vdb"))
     bpy.context.view_layer.objects.active = pile
     bpy.ops.rockvdb.regenerate()
     report["regenerate_pile_same_object"] = bpy.context.active_object == pile
-    shutil.copy(pile["rockvdb_cache"], os.path.join(OUT, "regen_pile_after.vdb"))
+    shutil.copy(results.cache_file(pile["rockvdb_cache"]), os.path.join(OUT, "regen_pile_after.vdb"))
 
     # Export the rock: its grids with their provenance.
     bpy.context.view_layer.objects.active = rock
@@ -298,7 +300,7 @@ try:
     bpy.ops.object.select_all(action="DESELECT")
     bpy.context.view_layer.objects.active = None
     report["bad"] = {
-        "scatter_count": op_error(lambda: bpy.ops.rockvdb.fractal_scatter()),
+        "voxel_as_typed": op_error(lambda: bpy.ops.rockvdb.fractal_rock(voxel_size=-1.0, quality="FINAL")),
         "pile_no_mesh": op_error(lambda: bpy.ops.rockvdb.rock_pile()),
         "detail_no_result": op_error(lambda: bpy.ops.rockvdb.detail()),
         "stacks_no_terrain": op_error(lambda: bpy.ops.rockvdb.stacks()),
@@ -322,11 +324,13 @@ try:
     p = Props()
     for row in op.rows():
         setattr(p, row["prop"], row["default"])
-        if row["default"] is None:
+        if row["derived"]:
+            setattr(p, "auto_" + row["prop"], True)
+        elif row["default"] is None:
             setattr(p, "use_" + row["prop"], False)
     p.voxel_size = 0.02
     cache = os.path.join(OUT, "cancelled.vdb")
-    run = Run(op, op.keywords(p), {"cache": cache}).start()
+    run = Run(op, op.keywords(p), {"cache": cache, "adaptivity": 0.0, "scale": 1.0}).start()
     # Mid-run: once it reports progress (a loaded machine may take longer than a second to
     # start), and a little after.
     started = time.time()
@@ -340,6 +344,17 @@ try:
                         "finished_before": run.grids is not None, "error": run.error,
                         "progress_seen": progress, "scene_unchanged": scene_names() == before_names,
                         "cache_written": os.path.exists(cache)}
+
+    # Blender's Unit Scale 0.01 (a centimetre scene): the same rock in metres, 100 scene
+    # units across.
+    bpy.context.scene.unit_settings.scale_length = 0.01
+    none_selected()
+    bpy.ops.rockvdb.fractal_rock()
+    cm = bpy.context.active_object
+    report["unit_scale"] = {"params": cm["rockvdb_params"], "dimensions": list(cm.dimensions),
+                            "metre_dimensions": list(rock.dimensions)}
+    shutil.copy(results.cache_file(cm["rockvdb_cache"]), os.path.join(OUT, "fractal_rock_cm.vdb"))
+    bpy.context.scene.unit_settings.scale_length = 1.0
 
     rockvdb_blender.unregister()
     report["final_unregister"] = registered()

@@ -54,8 +54,12 @@ def tick():
             report["after_esc"] = names()
             report["workers_after_esc"] = workers()
             report["invoke_rock"] = op("fractal_rock")
+            state["t"] = now
             return 1.0
         if s == 3:
+            if workers() or ("Fractal Rock" not in names() and now - state["t"] < 20):
+                state["step"] = 3  # the mesh is still being handed over: look again
+                return 0.2
             report["after_rock"] = names()
             report["workers_after_rock"] = workers()
             with bpy.context.temp_override(window=win, area=area):

@@ -36,6 +36,10 @@ def patch(tmp_path_factory):
 
 
 def detail(inp, out, *args):
+    """vdb_detail with @a args; no warp unless they ask for one (the tests isolate each
+    operator; the tool's default warp is 2 cm)."""
+    if "--warp-amplitude" not in args:
+        args = ("--warp-amplitude", "0") + args
     p = run([tool("vdb_detail"), "-q", str(inp), "-o", str(out), *args])
     assert p.returncode == 0, p.stderr
     return vdb.read(str(out), "surface")
@@ -206,7 +210,8 @@ def test_threads_give_identical_grids(sphere, tmp_path):
 
 
 def test_python_matches_the_cli_and_skeleton_frames(sphere, tmp_path):
-    args = dict(gabor_amplitude=0.03, gabor_frequency=6.0, direction_axis=(0, 0, 1), seed=3)
+    args = dict(gabor_amplitude=0.03, gabor_frequency=6.0, direction_axis=(0, 0, 1), seed=3,
+                warp_amplitude=0.0)
     g = rockvdb.detail(vdb.read(str(sphere), "surface"), **args)
     c = detail(sphere, tmp_path / "c.vdb", "--gabor-amplitude", "0.03", "--gabor-frequency", "6",
                "--direction-axis", "0,0,1", "--seed", "3")
@@ -215,7 +220,7 @@ def test_python_matches_the_cli_and_skeleton_frames(sphere, tmp_path):
     # A skeleton along z gives the same frames as the z axis near it (W = f·S, same direction),
     # with the axis's treatment of the poles (skeleton frames fade to isotropic by default).
     skel = {"segments": [{"a": [0, 0, -2], "b": [0, 0, 2], "radius": 10}]}
-    gs = rockvdb.detail(vdb.read(str(sphere), "surface"), gabor_amplitude=0.03,
+    gs = rockvdb.detail(vdb.read(str(sphere), "surface"), gabor_amplitude=0.03, warp_amplitude=0.0,
                         gabor_frequency=6.0, direction_skeleton=skel, singular="cancel", seed=3)
     (la, a), (lb, b) = dense(gs), dense(g)
     assert la == lb and np.max(np.abs(a - b)) < 0.02 * 0.02
@@ -285,7 +290,7 @@ def test_detail_only_along_a_skeleton_that_carries_it(sphere, tmp_path):
     c = detail(sphere, tmp_path / "c.vdb", "--gabor-amplitude", "0", "--direction-skeleton",
                str(tmp_path / "s.json"), "--seed", "4")
     g = rockvdb.detail(vdb.read(str(sphere), "surface"), gabor_amplitude=0.0, direction_skeleton=skel,
-                       seed=4)
+                       seed=4, warp_amplitude=0.0)
     assert np.array_equal(dense(g)[1], dense(c)[1])
     diff, near, lo = displacement(vdb.read(str(sphere), "surface"), c, 0.02)
     z = (np.arange(diff.shape[2]) + lo[2]) * 0.02
@@ -354,7 +359,7 @@ def test_blending_interpolates_parameters_without_blurring(patch, tmp_path):
     averaged = ((1 - wx) * h0 + wx * h90)[np.abs(xs) < 0.15]
     assert rms(mid) > 1.15 * rms(averaged), (rms(mid), rms(averaged))
     # The same from Python; a blend without a mask is refused.
-    gp = rockvdb.detail(vdb.read(str(patch), "surface"), gabor_amplitude=0.02,
+    gp = rockvdb.detail(vdb.read(str(patch), "surface"), gabor_amplitude=0.02, warp_amplitude=0.0,
                         gabor_frequency=4, gabor_bandwidth=1, direction_axis=(1, 0, 0),
                         blend={"gabor_orientation": 90}, blend_mask=mask)
     assert np.array_equal(dense(gp)[1], dense(g)[1])

@@ -4,9 +4,12 @@ rockvdb tab), their properties made from the stage tables, results as meshed lev
 their ids.
 
 Each operator rockvdb.<stage> runs the stage off the UI thread when invoked from the UI
-(progress in the status bar, Esc cancels within a second, nothing half-made is left), and in
-the foreground from scripts and the redo panel (F9). Results keep their parameters:
-Regenerate re-runs them, Export .vdb writes the grids with the provenance the CLI writes."""
+(progress in the status bar, Esc cancels within a second, nothing half-made is left): the
+stage and its mesh are made on a worker, and Blender only copies the finished arrays, a step
+per timer tick. From scripts and the redo panel (F9) it runs in the foreground. Quality
+Preview (the default) bakes the same parameters coarser (the rule beside the tables);
+Final is the CLI's defaults. Results keep their parameters: Regenerate re-runs them, Export
+.vdb writes the grids with the provenance the CLI writes."""
 
 bl_info = {
     "name": "rockvdb",
@@ -21,11 +24,13 @@ bl_info = {
 
 import json
 import os
+import shutil
 import sys
 import threading
 import time
 
 import bpy
+from bpy.app.handlers import persistent
 
 
 def _find_rockvdb():
@@ -65,6 +70,7 @@ class Run:
         self.job = rockvdb.Job()
         self.grids = self.error = None
         self.cancelled = self.interrupted = False
+        self.key = None  # what makes its result (_call_key)
         self.thread = threading.Thread(target=self._work, daemon=True, name=f"rockvdb {stage.name}")
 
     def _work(self):
@@ -74,9 +80,11 @@ class Run:
                 extra = {}
                 if isinstance(grids, tuple):  # (grids, what else the stage made)
                     grids, extra = grids
-                # The cache file and the id points, here too: the UI thread only makes objects.
-                self.grids = results.prepare(grids, self.inputs["cache"])
+                # The cache file and the mesh, here too: the UI thread only copies arrays.
+                self.grids = results.prepare(grids, self.inputs["cache"], self.inputs["adaptivity"],
+                                             self.inputs["scale"])
                 self.grids.update(extra)
+                self.grids["scale"] = self.inputs["scale"]
         except KeyboardInterrupt:  # the stage saw the cancel and stopped
             self.cancelled = self.interrupted = True
         except Exception as e:  # every failure becomes the operator's one-line report
@@ -101,17 +109,60 @@ class Run:
         self.cancelled = True
 
 
+# Properties the panels use that are not the stage's: they never reach the stage, nor the
+# stored call.
+_UI_PROPS = ("target", "preview_voxel")
+
+
 def _operator_props(op):
     """The properties the call set (by the caller, the panel or the redo panel), as JSON-able
     values, stored on the result for Regenerate: the others take their defaults again, and a
-    scene file's keys hold where the call did not override them."""
+    scene file's keys hold where the call did not override them. A derived row's greyed value
+    (its Auto box on) is shown, not set."""
     out = {}
     for key in op.__annotations__:
-        if key in ("target",) or not op.properties.is_property_set(key):
+        if key in _UI_PROPS or key.startswith("show_") or not op.properties.is_property_set(key):
+            continue
+        if not key.startswith("auto_") and getattr(op, "auto_" + key, False):
             continue
         v = getattr(op, key)
         out[key] = list(v) if hasattr(v, "__len__") and not isinstance(v, str) else v
     return out
+
+
+# The last finished call of each stage: (its key, what it prepared). The redo panel re-runs an
+# operator on every change, also when a sub-panel opens or closes: an unchanged call reuses the
+# grids and mesh instead of baking them again.
+_last = {}
+
+
+def _call_key(stage, kw, inputs):
+    """What makes a call's result: its keywords and its inputs (meshes and heights by their
+    bytes, other files by their names), not the files it writes itself (in the cache folder)."""
+    import hashlib
+    h = hashlib.sha1(json.dumps(kw, sort_keys=True, default=str).encode())
+    own = results.cache_dir()
+    for k in sorted(inputs):
+        v = inputs[k]
+        if isinstance(v, str) and v.startswith(own):
+            continue
+        h.update(k.encode())
+        for a in (v if isinstance(v, tuple) else (v,)):
+            h.update(a.tobytes() if hasattr(a, "tobytes") else repr(a).encode())
+    return stage.name + ":" + h.hexdigest()
+
+
+def _reuse(run, last):
+    """The last call's result for @a run, the same call: its grids and mesh, its files copied to
+    this call's own paths (each result owns its files: Regenerate removes a result's old ones)."""
+    key, prepared, inputs = last
+    if key != run.key or not os.path.isfile(prepared["path"]):
+        return False
+    shutil.copyfile(prepared["path"], run.inputs["cache"])
+    if inputs.get("tile") and run.inputs.get("tile") and os.path.isfile(inputs["tile"]):
+        shutil.copyfile(inputs["tile"], run.inputs["tile"])
+    run.grids = dict(prepared, path=run.inputs["cache"])
+    return True
 
 
 class _StageOperator:
@@ -119,6 +170,7 @@ class _StageOperator:
     stage and its properties."""
     stage = None
     _run = None
+    _steps = None
 
     @classmethod
     def poll(cls, context):
@@ -126,60 +178,118 @@ class _StageOperator:
 
     def draw(self, context):
         layout = self.layout
+        layout.prop(self, "quality", expand=True)
         for name in self.stage.extra:
             layout.prop(self, name)
-        for (table, rows, prefix), summary in zip(self.stage.groups, self.stage.summaries):
+        preview = self.quality == "PREVIEW"
+        for group, rows in tables.groups(self.stage.rows()):
+            key = "show_" + _group_key(group)
             box = layout.box()
-            box.label(text=summary.split(":")[0])
-            tables.draw_rows(box, self, rows, resolution=False)
-            if any(r["resolution"] for r in rows):
-                box.label(text="Resolution (not the look):")
-                tables.draw_rows(box, self, rows, resolution=True)
+            head = box.row()
+            shown = getattr(self, key)
+            head.prop(self, key, text=group, emboss=False,
+                      icon="TRIA_DOWN" if shown else "TRIA_RIGHT")
+            if not shown:
+                continue
+            for row in rows:
+                if preview and row["python"] == "voxel_size" and self.preview_voxel > 0:
+                    line = box.row()
+                    line.enabled = False
+                    line.label(text=f"Voxel size: {self.preview_voxel:.3g} m (Preview; Final: "
+                                    "the field's value)")
+                    continue
+                tables.draw_row(box, self, row)
 
-    def _inputs(self, context):
-        return self.stage.gather_fn(self, context)
-
-    def _finish(self, context, run):
+    def _finish_steps(self, context, run):
+        """The result's objects, a step at a time (results.build_steps); yields None between
+        steps, then the final status."""
         if run.error:
             self.report({"ERROR"}, f"rockvdb.{self.stage.name}: {run.error}")
-            return {"CANCELLED"}
+            yield {"CANCELLED"}
+            return
         if run.cancelled:
             self.report({"WARNING"}, f"rockvdb.{self.stage.name}: cancelled")
-            return {"CANCELLED"}
+            yield {"CANCELLED"}
+            return
         target = bpy.data.objects.get(self.target) if self.target else None
         props = _operator_props(self)
         # Regenerate reads the same input object, whatever is active then.
         props["source"] = run.inputs.get("source", "")
-        obj = results.build(context, self.stage.name, self.stage.label, run.grids, props, target)
+        obj = None
+        for obj in results.build_steps(context, self.stage.name, self.stage.label, run.grids,
+                                       props, target):
+            if obj is None:
+                yield None
         if run.inputs.get("source"):
             obj["rockvdb_source"] = run.inputs["source"]
         if run.inputs.get("tile"):
-            obj["rockvdb_tile"] = run.inputs["tile"]
-        return {"FINISHED"}
+            obj["rockvdb_tile"] = results.cache_name(run.inputs["tile"])
+        _last[self.stage.name] = (run.key, run.grids, dict(run.inputs))
+        yield {"FINISHED"}
 
     def _prepare(self, context):
         try:
+            scale = stages.unit_scale(context)
+            if scale != 1.0:
+                self._scene_lengths(scale)
             inputs = self._inputs(context)
+            kw = self.stage.keywords(self, scale)
+            voxel = self.stage.preview(kw, inputs) if self.quality == "PREVIEW" else None
+            self.preview_voxel = voxel or 0.0
+            inputs["adaptivity"] = results.mesh_adaptivity(self.quality)
+            inputs["scale"] = scale
+            key = _call_key(self.stage, kw, inputs)
             inputs["cache"] = results.cache_path(self.stage.label)
-            return Run(self.stage, self.stage.keywords(self), inputs)
+            self._show_derived(kw, scale)
+            run = Run(self.stage, kw, inputs)
+            run.key = key
+            return run
         except Exception as e:
             self.report({"ERROR"}, f"rockvdb.{self.stage.name}: {_one_line(e)}")
             return None
+
+    def _scene_lengths(self, scale):
+        """Blender's Unit Scale (metres per scene unit) other than 1: length fields hold scene
+        units, the tables' defaults are metres, so a length field the call did not set starts
+        at its default in scene units (the panel then shows the table's metres)."""
+        for p in self.bl_rna.properties:
+            if p.type != "FLOAT" or p.unit != "LENGTH" or self.properties.is_property_set(p.identifier):
+                continue
+            if p.array_length:
+                setattr(self, p.identifier, [v / scale for v in p.default_array])
+            else:
+                setattr(self, p.identifier, p.default / scale)
+
+    def _show_derived(self, kw, scale):
+        """Each derived row's greyed field shows the value its rule gives for this call."""
+        for table, rows, prefix in self.stage.groups:
+            if any(r["derived"] for r in rows):
+                given = {r["name"]: kw[prefix][r["python"]] for r in rows if r["python"] in kw[prefix]}
+                tables.show_derived(self, rows, tables.derived_values(table, given), scale)
+
+    def _inputs(self, context):
+        return self.stage.gather_fn(self, context)
 
     def execute(self, context):
         run = self._prepare(context)
         if run is None:
             return {"CANCELLED"}
-        run._work()  # in the foreground: scripts, the redo panel
-        return self._finish(context, run)
+        last = _last.get(self.stage.name)
+        if last is None or not _reuse(run, last):  # (the same call again: the redo panel)
+            run._work()  # in the foreground: scripts, the redo panel
+        status = None
+        for status in self._finish_steps(context, run):
+            pass
+        return status
 
     def invoke(self, context, event):
         run = self._prepare(context)
         if run is None:
             return {"CANCELLED"}
         self._run = run.start()
+        self._steps = None
         wm = context.window_manager
-        self._timer = wm.event_timer_add(0.1, window=context.window)
+        self._timer = wm.event_timer_add(0.05, window=context.window)
         wm.progress_begin(0, 100)
         wm.modal_handler_add(self)
         return {"RUNNING_MODAL"}
@@ -194,14 +304,23 @@ class _StageOperator:
     def modal(self, context, event):
         run = self._run
         if event.type == "ESC":
+            if self._steps is not None:
+                self._steps.close()  # a half-made mesh is removed
             run.cancel()
             self._end(context)
             self.report({"WARNING"}, f"rockvdb.{self.stage.name}: cancelled")
             return {"CANCELLED"}
         if event.type == "TIMER":
+            if self._steps is not None:
+                # The finished arrays into Blender, one step per tick: the UI answers between.
+                status = next(self._steps)
+                if status is not None:
+                    self._end(context)
+                    return status
+                return {"RUNNING_MODAL"}
             if run.done():
-                self._end(context)
-                return self._finish(context, run)
+                self._steps = self._finish_steps(context, run)
+                return {"RUNNING_MODAL"}
             pct = int(100 * run.job.progress)
             context.window_manager.progress_update(pct)
             if context.workspace:
@@ -210,10 +329,33 @@ class _StageOperator:
         return {"PASS_THROUGH"}
 
 
+def _group_key(group):
+    return "".join(c if c.isalnum() else "_" for c in group.lower())
+
+
+QUALITY_ITEMS = [
+    ("PREVIEW", "Preview", "The same parameters at a coarser voxel and a lighter mesh (the rule "
+     "beside rockvdb's tables: at most PREVIEW_VOXELS_ACROSS voxels across the result): the same "
+     "blocks and rocks in seconds"),
+    ("FINAL", "Final", "The stage's own voxel size and vdb_mesh's mesh: the CLI's defaults, the "
+     "papers' figures' resolution"),
+]
+
+
 def _make_operator(stage):
     ann = dict(stage.extra)
     for _, rows, _ in stage.groups:
         ann.update(tables.annotations(rows))
+    ann["quality"] = bpy.props.EnumProperty(
+        name="Quality", items=[(k, n, d.replace("PREVIEW_VOXELS_ACROSS",
+                                                 f"{rockvdb._rockvdb.PREVIEW_VOXELS_ACROSS:g}"))
+                               for k, n, d in QUALITY_ITEMS],
+        default="PREVIEW", description="Preview: seconds; Final: the CLI's resolution")
+    ann["preview_voxel"] = bpy.props.FloatProperty(options={"HIDDEN", "SKIP_SAVE"}, default=0.0)
+    for k, (group, _) in enumerate(tables.groups(stage.rows())):
+        ann["show_" + _group_key(group)] = bpy.props.BoolProperty(
+            name=group, default=k == 0, options={"SKIP_SAVE"},
+            description=f"Show the {group} rows")
     ann["target"] = bpy.props.StringProperty(options={"HIDDEN", "SKIP_SAVE"},
                                              description="Result object to regenerate in place")
     ann["source"] = bpy.props.StringProperty(options={"HIDDEN"},
@@ -308,9 +450,18 @@ class VIEW3D_PT_rockvdb(bpy.types.Panel):
         if obj is not None and obj.get("rockvdb_stage"):
             box = layout.box()
             box.label(text=f"{obj.name}: {obj['rockvdb_stage']} (rockvdb {obj['rockvdb_version']})")
+            missing = results.missing_cache(obj)
+            if missing:
+                alert = box.column()
+                alert.alert = True
+                alert.label(text="Grids' cache missing:", icon="ERROR")
+                alert.label(text=os.path.basename(missing))
+                alert.label(text="Regenerate makes it again (the mesh is kept)")
             row = box.row(align=True)
             row.operator("rockvdb.regenerate", icon="FILE_REFRESH")
-            row.operator("rockvdb.export_vdb", icon="EXPORT")
+            sub = row.row(align=True)
+            sub.enabled = not missing
+            sub.operator("rockvdb.export_vdb", icon="EXPORT")
 
 
 def _menu(self, context):
@@ -320,15 +471,42 @@ def _menu(self, context):
 _classes = []
 
 
+@persistent
+def _save_pre(*args):
+    results.save_pre(*args)
+
+
+@persistent
+def _save_post(*args):
+    results.save_post(*args)
+
+
+@persistent
+def _load_post(*args):
+    results.load_post(*args)
+
+
+def _handlers():
+    """The caches follow the .blend on save; a missing one is named on load."""
+    h = bpy.app.handlers
+    return [(h.save_pre, _save_pre), (h.save_post, _save_post), (h.load_post, _load_post)]
+
+
 def register():
     _classes[:] = [_make_operator(s) for s in stages.STAGES] + [
         ROCKVDB_OT_regenerate, ROCKVDB_OT_export_vdb, VIEW3D_MT_rockvdb_add, VIEW3D_PT_rockvdb]
     for c in _classes:
         bpy.utils.register_class(c)
     bpy.types.VIEW3D_MT_add.append(_menu)
+    for handlers, fn in _handlers():
+        if fn not in handlers:
+            handlers.append(fn)
 
 
 def unregister():
+    for handlers, fn in _handlers():
+        if fn in handlers:
+            handlers.remove(fn)
     bpy.types.VIEW3D_MT_add.remove(_menu)
     for c in reversed(_classes):
         bpy.utils.unregister_class(c)

@@ -1,22 +1,29 @@
 # SPDX-License-Identifier: Apache-2.0
 """A stage's grids as Blender objects.
 
-One result is three objects, the first the one an artist handles:
-  <name>         a mesh object: a Volume to Mesh modifier on the grids' 'surface' (threshold
-                 0, vdb_mesh's adaptivity), then a geometry-nodes modifier that copies the id
-                 grids onto the mesh's points as attributes 'material', 'block_id', 'rock_id'
-                 (each vertex takes the id of the nearest surface voxel), and a material that
-                 tints by them (Attribute node: Cycles and Eevee) — or, for material stacks, their
-                 weight_* grids too, and a material that textures the ground by them (arches §6:
-                 triplanar noise per material, Lp weights p = 8, blended by the weights);
-  <name> grids   the Volume object holding the grids, read from a cache .vdb next to the .blend
-                 (//rockvdb_cache/, or Blender's temporary folder for an unsaved file), hidden;
-  <name> ids     the id grids' surface voxels as points with those attributes, hidden.
+A result is one mesh object, the object an artist handles. Its mesh is real mesh data, made
+on the worker thread (OpenVDB's volumeToMesh, with the ids per vertex as vdb_mesh --ids) and
+handed to Blender as arrays, so it is saved in the .blend and shows after reopening without
+anything evaluated on the UI thread. Its attributes are the id grids per vertex, 'material',
+'block_id', 'rock_id' (each vertex the id of the nearest surface voxel), and for material
+stacks the weight_* grids (trilinear); its material tints by them (Attribute node: Cycles and
+Eevee), or for material stacks textures the ground by its weights (arches §6: triplanar noise
+per material, Lp weights p = 8, blended by the weights).
+
+The grids themselves (for Export .vdb, Detail and the ids) live in a cache .vdb in the cache
+folder: //rockvdb_cache/ beside the .blend, or Blender's temporary folder for an unsaved file;
+on save they move beside the .blend (save_post), so a saved file keeps them, also when the
+.blend and its rockvdb_cache folder move together. A result names its files relative to the
+cache folder.
+
 The mesh object carries the custom properties rockvdb_stage, rockvdb_version,
-rockvdb_params (the stage's parameters, as each grid's rockvdb:params holds them) and
-rockvdb_operator (the operator's properties, for Regenerate)."""
+rockvdb_params (the stage's parameters, as each grid's rockvdb:params holds them),
+rockvdb_operator (the operator's properties, for Regenerate) and rockvdb_cache (its grids'
+file in the cache folder)."""
 import json
 import os
+import shutil
+import sys
 import uuid
 
 import bpy
@@ -28,16 +35,21 @@ from rockvdb import _rockvdb
 ID_GRIDS = ("material", "block_id", "rock_id")
 # arches §6: the share of each ground material's visible faces (vdb_arches' weight_<name>)
 WEIGHT_PREFIX = "weight_"
-# Colour (linear) and 2D pattern scale (1/m) of each known material's texture
 # Each material's noise scale (1/m) in the default material; its colour is rockvdb's
 # (material_colour: the one vdb_preview --texture paints).
 NOISE_SCALES = {"sand": 40.0, "bedrock": 4.0, "rocks": 10.0}
+# The custom properties that name files in the cache folder (relative to it).
+FILE_PROPS = ("rockvdb_cache", "rockvdb_tile")
+
+
+def _temp_cache_dir():
+    return os.path.join(bpy.app.tempdir or "/tmp", "rockvdb_cache")
 
 
 def cache_dir():
     if bpy.data.filepath:
         return bpy.path.abspath("//rockvdb_cache")
-    return os.path.join(bpy.app.tempdir or "/tmp", "rockvdb_cache")
+    return _temp_cache_dir()
 
 
 def safe_name(name):
@@ -59,27 +71,83 @@ def cache_path(name):
     return os.path.join(d, f"{safe_name(name)}_{uuid.uuid4().hex[:8]}.vdb")
 
 
-def mesh_adaptivity():
-    """vdb_mesh's default adaptivity (its table): the meshes the add-on and vdb_mesh make
-    agree."""
-    rows = json.loads(_rockvdb.schema("mesh"))["params"]
-    return float(next(r["default"] for r in rows if r["name"] == "adaptivity"))
+def cache_file(name):
+    """A file a result names (relative to the cache folder) as a path; an absolute name (an
+    older result's) is itself."""
+    return name if os.path.isabs(name) else os.path.join(cache_dir(), name)
+
+
+def cache_name(path):
+    """@a path as a result names it: relative to the cache folder when inside it."""
+    rel = os.path.relpath(path, cache_dir())
+    return path if rel.startswith("..") else rel
+
+
+def missing_cache(obj):
+    """The result's grids' file when it is missing (else None)."""
+    name = obj.get("rockvdb_cache")
+    if not name:
+        return None
+    path = cache_file(name)
+    return None if os.path.isfile(path) else path
+
+
+def _results():
+    return [o for o in bpy.data.objects if o.get("rockvdb_stage")]
+
+
+_saved_from = {}
+
+
+def save_pre(*_):
+    """Where the caches are before the save (bpy.data.filepath is still the old one)."""
+    _saved_from["dir"] = cache_dir()
+
+
+def save_post(*_):
+    """The caches follow the .blend: an unsaved file's move from Blender's temporary folder to
+    //rockvdb_cache/ beside it; a file saved under a new folder copies its results' files
+    there. Results name their files relative to the cache folder, so nothing else changes."""
+    old, new = _saved_from.pop("dir", None), cache_dir()
+    if not old or os.path.realpath(old) == os.path.realpath(new) or not os.path.isdir(old):
+        return
+    names = {o[k] for o in _results() for k in FILE_PROPS if o.get(k) and not os.path.isabs(o[k])}
+    temporary = os.path.realpath(old) == os.path.realpath(_temp_cache_dir())
+    for name in sorted(names):
+        src, dst = os.path.join(old, name), os.path.join(new, name)
+        if not os.path.exists(src) or os.path.exists(dst):
+            continue
+        os.makedirs(os.path.dirname(dst), exist_ok=True)
+        try:
+            (shutil.move if temporary else shutil.copy2)(src, dst)
+        except OSError as e:
+            print(f"rockvdb: could not keep {src} beside the .blend ({e.strerror})", file=sys.stderr)
+    if temporary:
+        # The rest of the session's cache (the inputs the results' provenance names: meshes
+        # as level sets, supports, tile sets) follows too, so CLI replays find them.
+        for entry in os.listdir(old):
+            src, dst = os.path.join(old, entry), os.path.join(new, entry)
+            if not os.path.exists(dst):
+                try:
+                    shutil.move(src, dst)
+                except OSError:
+                    pass
+
+
+def load_post(*_):
+    """A result whose grids' cache is gone (deleted, or a .blend moved without its
+    rockvdb_cache folder): one line naming it; its mesh still shows, the sidebar offers
+    Regenerate."""
+    for obj in _results():
+        path = missing_cache(obj)
+        if path:
+            print(f"rockvdb: '{obj.name}': its grids' cache {path} is missing (the mesh is "
+                  "kept; Regenerate makes the grids again)", file=sys.stderr)
 
 
 def _link(obj, collection):
     collection.objects.link(obj)
     return obj
-
-
-def _id_points(grids):
-    """The id grids' values at the surface voxels (|phi| <= half a voxel: about one voxel per
-    surface column, enough for the nearest-point look-up): (points N x 3, {name: values N})."""
-    surface = next(g for g in grids if g.name == "surface")
-    ids = [g for g in grids if g.name in ID_GRIDS or g.name.startswith(WEIGHT_PREFIX)]
-    if not ids:
-        return np.zeros((0, 3), np.float32), {}
-    pts, values = _rockvdb.surface_ids(surface, ids, 0.5)
-    return pts, {g.name: values[:, i] for i, g in enumerate(ids)}
 
 
 def _node_group(name):
@@ -89,37 +157,6 @@ def _node_group(name):
     ng.inputs.new("NodeSocketGeometry", "Geometry")
     ng.outputs.new("NodeSocketGeometry", "Geometry")
     return ng, ng.nodes, ng.links, ng.nodes.new("NodeGroupInput"), ng.nodes.new("NodeGroupOutput")
-
-
-def _ids_tree(name, points_obj, attributes):
-    """Geometry nodes: each point of the mesh takes, for every id attribute, the value of the
-    nearest point of @a points_obj."""
-    ng, N, L, gin, gout = _node_group(name)
-    info = N.new("GeometryNodeObjectInfo")
-    info.inputs["Object"].default_value = points_obj
-    info.transform_space = "RELATIVE"
-    nearest = N.new("GeometryNodeSampleNearest")
-    nearest.domain = "POINT"
-    L.new(info.outputs["Geometry"], nearest.inputs["Geometry"])
-    L.new(N.new("GeometryNodeInputPosition").outputs["Position"], nearest.inputs["Sample Position"])
-    geometry = gin.outputs[0]
-    for attr in attributes:
-        named = N.new("GeometryNodeInputNamedAttribute")
-        named.data_type = "FLOAT"
-        named.inputs["Name"].default_value = attr
-        sample = N.new("GeometryNodeSampleIndex")
-        sample.data_type, sample.domain = "FLOAT", "POINT"
-        L.new(info.outputs["Geometry"], sample.inputs["Geometry"])
-        L.new(named.outputs[1], sample.inputs[1])           # the float "Attribute" / "Value"
-        L.new(nearest.outputs["Index"], sample.inputs["Index"])
-        store = N.new("GeometryNodeStoreNamedAttribute")
-        store.data_type, store.domain = "FLOAT", "POINT"
-        store.inputs["Name"].default_value = attr
-        L.new(geometry, store.inputs["Geometry"])
-        L.new(sample.outputs[0], store.inputs[3])            # the float "Value"
-        geometry = store.outputs[0]
-    L.new(geometry, gout.inputs[0])
-    return ng
 
 
 def _material(name, attribute, instancer=False):
@@ -217,14 +254,13 @@ def _textured_material(name, weights):
     return mat
 
 
-def _points_mesh(name, pts, values):
-    me = bpy.data.meshes.new(name)
-    me.vertices.add(len(pts))
-    me.vertices.foreach_set("co", np.ascontiguousarray(pts, np.float32).ravel())
-    for attr, v in values.items():
-        a = me.attributes.new(attr, "FLOAT", "POINT")
-        a.data.foreach_set("value", np.ascontiguousarray(v, np.float32))
-    return me
+def mesh_adaptivity(quality):
+    """The mesh density of a quality: Final meshes as vdb_mesh does by default (its table),
+    Preview at the preview rule's adaptivity (core/Schema.h, beside the tables)."""
+    if quality == "PREVIEW":
+        return float(_rockvdb.PREVIEW_ADAPTIVITY)
+    rows = json.loads(_rockvdb.schema("mesh"))["params"]
+    return float(next(r["default"] for r in rows if r["name"] == "adaptivity"))
 
 
 def stage_params(grids):
@@ -235,82 +271,103 @@ def stage_params(grids):
     return "{}", rockvdb.__version__, ""
 
 
-def prepare(grids, path):
+def prepare(grids, path, adaptivity, scale=1.0):
     """What build() needs that takes no bpy, for the worker thread: the grids written to the
-    cache file @a path, and the id points."""
+    cache file @a path, and their mesh as Blender's arrays (points in scene units: metres /
+    @a scale, Blender's Unit Scale), with the ids and weights per vertex."""
     rockvdb.write(path, grids)
-    return {"path": path, "grids": grids, "ids": _id_points(grids)}
+    surface = next(g for g in grids if g.name == "surface")
+    ids = [g for g in grids if g.name in ID_GRIDS]
+    weights = sorted((g for g in grids if g.name.startswith(WEIGHT_PREFIX)), key=lambda g: g.name)
+    mesh = _rockvdb.mesh_arrays(surface, adaptivity, ids, weights)
+    if scale != 1.0:
+        mesh["points"] = (mesh["points"] / scale).astype(np.float32)
+    return {"path": path, "grids": grids, "mesh": mesh, "adaptivity": adaptivity}
 
 
-def build(context, stage, label, prepared, operator_props, target=None):
-    """Objects for the prepare()d grids (the new result, or @a target's replaced in place).
-    Returns the mesh object."""
-    path, grids = prepared["path"], prepared["grids"]
-    pts, values = prepared["ids"]
+def mesh_steps(name, mesh):
+    """Make a Blender mesh from prepare()'s arrays, a step at a time: yields None after each
+    costly copy (the modal operator runs one step per timer tick, so the UI keeps answering),
+    then the finished Mesh. Closing the generator early removes the half-made mesh."""
+    me = bpy.data.meshes.new(name)
+    try:
+        pts, loops = mesh["points"], mesh["loops"]
+        me.vertices.add(len(pts))
+        me.vertices.foreach_set("co", np.ascontiguousarray(pts, np.float32).ravel())
+        yield None
+        me.loops.add(len(loops))
+        me.loops.foreach_set("vertex_index", loops)
+        yield None
+        me.polygons.add(len(mesh["starts"]))
+        me.polygons.foreach_set("loop_start", mesh["starts"])
+        me.polygons.foreach_set("loop_total", mesh["totals"])
+        yield None
+        me.polygons.foreach_set("use_smooth", np.ones(len(mesh["starts"]), bool))
+        me.update(calc_edges=True)
+        yield None
+        for attr, values in list(mesh["ids"].items()) + list(mesh["weights"].items()):
+            a = me.attributes.new(attr, "FLOAT", "POINT")
+            a.data.foreach_set("value", values)
+    except BaseException:  # an error, or the generator closed (Esc) before the end
+        bpy.data.meshes.remove(me)
+        raise
+    yield me
+
+
+def build_steps(context, stage, label, prepared, operator_props, target=None):
+    """Objects for the prepare()d grids (the new result, or @a target's replaced in place), a
+    step at a time (see mesh_steps); the last value is the result's mesh object."""
+    grids, mesh = prepared["grids"], prepared["mesh"]
     params, version, generator = stage_params(grids)
     collection = context.collection or context.scene.collection
-
-    if target is not None and target.get("rockvdb_stage") == stage:
+    replace = target is not None and target.get("rockvdb_stage") == stage
+    name = target.name if replace else unique_name(label)
+    me = None
+    for me in mesh_steps(name, mesh):
+        if me is None:
+            yield None
+    attrs = [a for a in ID_GRIDS if a in mesh["ids"]]
+    weights = sorted(mesh["weights"])
+    if replace:
         obj = target
-        vol_obj = obj.get("rockvdb_volume")
-        pts_obj = obj.get("rockvdb_points")
-        old = bpy.path.abspath(vol_obj.data.filepath)
-        vol_obj.data.filepath = path
-        vol_obj.data.grids.load()
-        old_mesh = pts_obj.data
-        pts_obj.data = _points_mesh(obj.name + " ids", pts, values)
-        bpy.data.meshes.remove(old_mesh)
-        if old.startswith(cache_dir()) and os.path.exists(old) and old != path:
-            os.remove(old)
-        if set(values) != set(obj.get("rockvdb_ids", [])):
-            _set_ids(obj, pts_obj, values)
+        old_mesh, old_cache = obj.data, obj.get("rockvdb_cache")
+        obj.data = me
+        if old_mesh.users == 0:
+            bpy.data.meshes.remove(old_mesh)
+        if old_cache:
+            old = cache_file(old_cache)
+            if old.startswith(cache_dir()) and os.path.exists(old) and old != prepared["path"]:
+                os.remove(old)
     else:
-        vol = bpy.data.volumes.new(label + " grids")
-        vol.filepath = path
-        vol_obj = _link(bpy.data.objects.new(label + " grids", vol), collection)
-        obj = _link(bpy.data.objects.new(label, bpy.data.meshes.new(label)), collection)
-        pts_obj = _link(bpy.data.objects.new(label + " ids", _points_mesh(label + " ids", pts, values)),
-                        collection)
-        for child in (vol_obj, pts_obj):
-            child.parent = obj
-            child.hide_viewport = child.hide_render = True
-            child.hide_select = True
-        mod = obj.modifiers.new("rockvdb surface", "VOLUME_TO_MESH")
-        mod.object = vol_obj
-        mod.grid_name = "surface"
-        mod.threshold = 0.0
-        mod.resolution_mode = "GRID"
-        mod.adaptivity = mesh_adaptivity()
-        mod.use_smooth_shade = True
-        obj["rockvdb_volume"] = vol_obj
-        obj["rockvdb_points"] = pts_obj
-        _set_ids(obj, pts_obj, values)
+        obj = _link(bpy.data.objects.new(label, me), collection)
         for o in context.view_layer.objects:
             o.select_set(False)
         obj.select_set(True)
         context.view_layer.objects.active = obj
-    _set_instances(obj, collection, prepared.get("instances"))
+    _set_material(obj, attrs, weights)
+    _set_instances(obj, collection, prepared.get("instances"), prepared.get("scale", 1.0))
     obj["rockvdb_stage"] = stage
     obj["rockvdb_generator"] = generator
     obj["rockvdb_version"] = version
     obj["rockvdb_params"] = params
     obj["rockvdb_operator"] = json.dumps(operator_props)
-    obj["rockvdb_cache"] = path
+    obj["rockvdb_cache"] = cache_name(prepared["path"])
+    obj["rockvdb_ids"] = attrs + weights
+    # How the mesh was made: vdb_mesh --adaptivity of the cache file gives the same mesh.
+    obj["rockvdb_mesh_adaptivity"] = prepared.get("adaptivity", 0.0)
+    yield obj
+
+
+def build(context, stage, label, prepared, operator_props, target=None):
+    """build_steps() at once; returns the mesh object."""
+    for obj in build_steps(context, stage, label, prepared, operator_props, target):
+        pass
     return obj
 
 
-def _set_ids(obj, pts_obj, values):
-    """The ids modifier and the tinting material for the id attributes in @a values."""
-    attrs = [a for a in ID_GRIDS if a in values]
-    weights = sorted(a for a in values if a.startswith(WEIGHT_PREFIX))
-    old = obj.modifiers.get("rockvdb ids")
-    if old is not None:
-        obj.modifiers.remove(old)
-    if attrs or weights:
-        mod = obj.modifiers.new("rockvdb ids", "NODES")
-        mod.node_group = _ids_tree(obj.name + " ids", pts_obj, attrs + weights)
-    obj["rockvdb_ids"] = attrs + weights
-    # Material stacks' ground: textured by its weights (§6); anything else tinted by its ids.
+def _set_material(obj, attrs, weights):
+    """The tinting material for the id attributes @a attrs, or for material stacks' ground
+    the textured one of its @a weights (§6)."""
     mat = _textured_material(obj.name, weights) if weights else _material(obj.name, attrs[0] if attrs else None)
     if obj.data.materials:
         obj.data.materials[0] = mat
@@ -320,11 +377,14 @@ def _set_ids(obj, pts_obj, values):
 
 def grids_of(obj):
     """The grids of a rockvdb result object (read from its cache .vdb), as pyopenvdb grids."""
-    vol_obj = obj.get("rockvdb_volume")
-    if vol_obj is None:
+    if not obj.get("rockvdb_stage"):
         raise ValueError(f"'{obj.name}' is not a rockvdb result")
+    path = missing_cache(obj)
+    if path:
+        raise ValueError(f"'{obj.name}': its grids' cache {path} is missing: Regenerate makes "
+                         "it again")
     import pyopenvdb
-    return pyopenvdb.readAll(bpy.path.abspath(vol_obj.data.filepath))[0]
+    return pyopenvdb.readAll(cache_file(obj["rockvdb_cache"]))[0]
 
 
 def _instancer_tree(name, rocks):
@@ -354,7 +414,7 @@ def _instancer_tree(name, rocks):
     return ng
 
 
-def _set_instances(obj, collection, instances):
+def _set_instances(obj, collection, instances, scale=1.0):
     """The result's instances (made again on Regenerate): a collection '<name> rocks' of one
     mesh per distinct rock (not linked to the scene: only instanced) and a child
     '<name> instances' of points instancing them, with attributes 'rock' (which mesh),
@@ -363,7 +423,8 @@ def _set_instances(obj, collection, instances):
     instances show.
     instances: {"rocks": [{"points", "triangles"}] in each rock's own frame, "index": the rock
     of each instance (default: instance i is rock i), "positions", "orients" (quaternions x,
-    y, z, w), "pscale", "rock_id"} per instance."""
+    y, z, w), "pscale", "rock_id"} per instance, lengths in metres (divided by @a scale, the
+    Unit Scale, here)."""
     from mathutils import Quaternion
     old = obj.get("rockvdb_instances")
     if old is not None:
@@ -373,16 +434,18 @@ def _set_instances(obj, collection, instances):
         bpy.data.collections.remove(rocks)
         bpy.data.objects.remove(old)
         del obj["rockvdb_instances"]
-    surface_mod = obj.modifiers.get("rockvdb surface")
-    if surface_mod is not None:
-        surface_mod.show_viewport = surface_mod.show_render = instances is None
+    # With instances the level set's own mesh is drawn as its bounds (still selectable) and
+    # not rendered: the instances show the rocks.
+    obj.display_type = "TEXTURED" if instances is None else "BOUNDS"
+    obj.hide_render = instances is not None
     if instances is None:
         return
     rocks = bpy.data.collections.new(obj.name + " rocks")
     mat = _material(obj.name + " instances", "rock_id", instancer=True)
     for i, r in enumerate(instances["rocks"]):
         me = bpy.data.meshes.new(f"{obj.name} rock {i:04d}")
-        me.from_pydata(r["points"].tolist(), [], r["triangles"].tolist())
+        me.from_pydata((np.asarray(r["points"], np.float64) / scale).tolist(), [],
+                       r["triangles"].tolist())
         me.polygons.foreach_set("use_smooth", [True] * len(me.polygons))
         me.materials.append(mat)
         rocks.objects.link(bpy.data.objects.new(me.name, me))
@@ -390,7 +453,8 @@ def _set_instances(obj, collection, instances):
     index = np.asarray(instances.get("index", np.arange(n)), np.int32)
     pm = bpy.data.meshes.new(obj.name + " instances")
     pm.vertices.add(n)
-    pm.vertices.foreach_set("co", np.ascontiguousarray(instances["positions"], np.float32).ravel())
+    pm.vertices.foreach_set("co", np.ascontiguousarray(np.asarray(instances["positions"]) / scale,
+                                                       np.float32).ravel())
     rot = [Quaternion((q[3], q[0], q[1], q[2])).to_euler("XYZ") for q in instances["orients"]]
     for attr, kind, values in (("rock", "INT", index),
                                ("rotation", "FLOAT_VECTOR",

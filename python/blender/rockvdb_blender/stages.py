@@ -8,6 +8,7 @@ import bpy
 import numpy as np
 
 import rockvdb
+from rockvdb import _rockvdb
 
 from . import results, tables
 
@@ -15,35 +16,71 @@ from . import results, tables
 class Stage:
     """One operator: rockvdb.<name> in Blender.
     tables: [(stage table, rockvdb function, property prefix)];
-    gather(op, context) -> inputs: what it reads from the scene (UI thread);
-    run(kw, inputs) -> grids, or (grids, {"instances": ...}): called off the UI thread."""
+    gather(op, context) -> inputs: what it reads from the scene (UI thread), lengths in metres;
+    run(kw, inputs) -> grids, or (grids, {"instances": ...}): called off the UI thread;
+    extent(kw, inputs) -> the result's largest extent (m), which the Preview quality's rule
+    reads (None: the stage has no voxel size of its own to coarsen, as Detail)."""
 
-    def __init__(self, name, label, icon, tables_, gather, run, extra=None, positional=()):
+    def __init__(self, name, label, icon, tables_, gather, run, extra=None, positional=(),
+                 extent=None):
         self.name, self.label, self.icon = name, label, icon
-        self.gather_fn, self.run_fn = gather, run
+        self.gather_fn, self.run_fn, self.extent_fn = gather, run, extent
         self.groups = [(t, tables.rows_of(t, f, prefix, positional), prefix)
                        for t, f, prefix in tables_]
         # The add-on's own properties (how a scene object becomes the stage's input), drawn
         # above the table's rows: {name: bpy property}.
         self.extra = extra or {}
         self.summaries = [tables.table(t)["summary"] for t, _, _ in tables_]
-        self.summary = " ".join(self.summaries)
+        # Blender's tooltip: one plain sentence (the first table's).
+        self.summary = tables.sentence(self.summaries[-1])
 
     def rows(self):
         return [r for _, rows, _ in self.groups for r in rows]
 
-    def keywords(self, op):
-        """{prefix: keywords} for each table of the stage, from the operator's properties."""
-        return {prefix: tables.keywords(op, rows) for _, rows, prefix in self.groups}
+    def keywords(self, op, scale=1.0):
+        """{prefix: keywords} for each table of the stage, from the operator's properties
+        (lengths times @a scale, Blender's Unit Scale)."""
+        return {prefix: tables.keywords(op, rows, scale) for _, rows, prefix in self.groups}
+
+    def default(self, kw, python, prefix=""):
+        """The value of row @a python in @a kw, else the table's default (metres)."""
+        if python in kw[prefix]:
+            return kw[prefix][python]
+        return next(r for _, rows, p in self.groups if p == prefix for r in rows
+                    if r["python"] == python)["default"]
+
+    def preview(self, kw, inputs):
+        """The Preview quality: the voxel size the rule beside the tables gives for this
+        result's extent (core/Schema.h previewVoxelSize), set in @a kw; returns it (None: the
+        stage keeps its voxel size)."""
+        if self.extent_fn is None or not any(r["python"] == "voxel_size" for _, rows, p in self.groups
+                                             if p == "" for r in rows):
+            return None
+        final = self.default(kw, "voxel_size")
+        extent = self.extent_fn(self, kw, inputs)
+        if final is None or extent is None:
+            return None
+        voxel = _rockvdb.preview_voxel_size(final, extent)
+        # Three significant digits (provenance a person reads), never finer than the final.
+        voxel = max(final, float(f"{voxel:.3g}"))
+        kw[""]["voxel_size"] = voxel
+        return voxel
 
 
 # ---------------------------------------------------------------------------------------------
 # What stages read from the scene.
 
+def unit_scale(context):
+    """Blender's Unit Scale: metres per scene unit (rockvdb works in metres)."""
+    return float(context.scene.unit_settings.scale_length) or 1.0
+
+
 def _mesh_arrays(obj, context, close_depth=None):
-    """The active mesh, modifiers applied, in world space: (points N x 3, triangles M x 3).
-    With close_depth, an open sheet (a terrain) is closed first: its border extruded down to
-    close_depth below its lowest point and the hole filled, so it bounds a solid."""
+    """The active mesh, modifiers applied, in world space and metres (scene units times the
+    Unit Scale): (points N x 3, triangles M x 3). With close_depth (m), an open sheet (a
+    terrain) is closed first: its border extruded down to close_depth below its lowest point
+    and the hole filled, so it bounds a solid."""
+    scale = unit_scale(context)
     import bmesh
     depsgraph = context.evaluated_depsgraph_get()
     ev = obj.evaluated_get(depsgraph)
@@ -55,7 +92,7 @@ def _mesh_arrays(obj, context, close_depth=None):
     if close_depth is not None:
         border = [e for e in bm.edges if e.is_boundary]
         if border:
-            floor = min(v.co.z for v in bm.verts) - close_depth
+            floor = min(v.co.z for v in bm.verts) - close_depth / scale
             made = bmesh.ops.extrude_edge_only(bm, edges=border)
             new_verts = [g for g in made["geom"] if isinstance(g, bmesh.types.BMVert)]
             for v in new_verts:
@@ -64,7 +101,8 @@ def _mesh_arrays(obj, context, close_depth=None):
             bmesh.ops.holes_fill(bm, edges=new_edges, sides=0)
             bmesh.ops.recalc_face_normals(bm, faces=bm.faces)
     bmesh.ops.triangulate(bm, faces=bm.faces)
-    pts = np.array([v.co[:] for v in bm.verts], np.float32)
+    pts = np.array([v.co[:] for v in bm.verts], np.float64) * scale
+    pts = pts.astype(np.float32)
     index = {v: i for i, v in enumerate(bm.verts)}
     tris = np.array([[index[v] for v in f.verts] for f in bm.faces], np.uint32).reshape(-1, 3)
     bm.free()
@@ -184,19 +222,25 @@ def _gather_amplify(op, context):
     for n in names:
         o = bpy.data.objects.get(n)
         if o is not None and o.get("rockvdb_tile"):
-            tiles.append(o["rockvdb_tile"])
+            tile = results.cache_file(o["rockvdb_tile"])
+            if not os.path.isfile(tile):
+                raise ValueError(f"tiles: the tile file of '{n}' is missing ({tile}): "
+                                 "Regenerate it first")
+            tiles.append(tile)
         elif n.endswith(".tile") and os.path.isfile(bpy.path.abspath(n)):
             tiles.append(bpy.path.abspath(n))
         else:
             raise ValueError(f"tiles: '{n}' is neither a Block Tile result nor a .tile file")
     inputs = {"tiles": tiles, "source": obj.name}
     if op.terrain_as == "HEIGHTFIELD":
-        z = _heightfield(obj, context, op.cell_size)
+        z = _heightfield(obj, context, tables.decimal(op.cell_size * unit_scale(context)))
         path = results.cache_path(obj.name + "_heights")[:-4] + ".exr"
         rockvdb.write_heightfield(path, z)
         inputs["terrain"] = path
+        inputs["heights"] = z
     else:
-        inputs["mesh"] = _mesh_arrays(obj, context, close_depth=op.base_depth)
+        inputs["mesh"] = _mesh_arrays(obj, context,
+                                      close_depth=tables.decimal(op.base_depth * unit_scale(context)))
         inputs["level_set"] = results.cache_path(obj.name + "_terrain")
     return inputs
 
@@ -215,7 +259,8 @@ def _gather_stacks(op, context):
         return {"source": ""}
     obj = _active_mesh(context, source=op.source)
     return {"mesh": _mesh_arrays(obj, context, close_depth=1.0), "source": obj.name,
-            "level_set": results.cache_path(obj.name + "_terrain"), "mesh_voxel": op.mesh_voxel}
+            "level_set": results.cache_path(obj.name + "_terrain"),
+            "mesh_voxel": tables.decimal(op.mesh_voxel * unit_scale(context))}
 
 
 def _gather_support(op, context):
@@ -228,7 +273,8 @@ def _gather_support(op, context):
     # The tile set is saved beside it too, and the pile reads it from there: the pile's
     # provenance then names both files, and vdb_rockpile --params replays it.
     tiles = results.cache_path(obj.name + "_rocks")[:-4] + ".tiles.vdb"
-    return {"support": path, "tiles": tiles, "source": obj.name, "instances": op.instances}
+    return {"support": path, "tiles": tiles, "source": obj.name, "instances": op.instances,
+            "mesh": (pts, tris)}
 
 
 def _gather_result(op, context):
@@ -356,6 +402,29 @@ def _run_detail(kw, inputs):
     return list(rockvdb.detail(surface, ids=ids, **kw[""]))
 
 
+# ---------------------------------------------------------------------------------------------
+# Each result's largest extent (m), for the Preview quality's rule.
+
+def _extent_rock(stage, kw, inputs):
+    """A rock (and each rock of a scatter: they are what the voxels resolve): its size."""
+    return 2.0 * max(stage.default(kw, "size"))
+
+
+def _extent_tile(stage, kw, inputs):
+    return stage.default(kw, "tile_size") * max(stage.default(kw, "periods"))
+
+
+def _extent_mesh(stage, kw, inputs):
+    """The input mesh's (a terrain's, a support's) largest extent; a heightfield's."""
+    if "mesh" in inputs:
+        pts = inputs["mesh"][0]
+        return float((pts.max(0) - pts.min(0)).max())
+    if "heights" in inputs:
+        rows, cols = inputs["heights"].shape
+        return max(rows, cols) * stage.default(kw, "cell_size")
+    return None
+
+
 def _instances_property(what):
     return bpy.props.BoolProperty(
         name="As instances", description=f"Also make the rocks Blender instances (collection "
@@ -364,23 +433,25 @@ def _instances_property(what):
 
 STAGES = [
     Stage("fractal_rock", "Fractal Rock", "MESH_ICOSPHERE",
-          [("fractal_rock", rockvdb.fractal_rock, "")], _gather_none, _run_fractal_rock),
+          [("fractal_rock", rockvdb.fractal_rock, "")], _gather_none, _run_fractal_rock,
+          extent=_extent_rock),
     Stage("fractal_scatter", "Fractal Scatter", "PARTICLES",
           [("fractal_scatter", rockvdb.fractal_scatter, "")], _gather_ground,
-          _run_fractal_scatter,
+          _run_fractal_scatter, extent=_extent_rock,
           extra={"instances": _instances_property(
               "each its own mesh in its own frame, instanced on points at their positions and "
               "orientations (P, orient, pscale)")}),
     Stage("block_tile", "Block Tile", "MOD_EXPLODE",
-          [("block_tile", rockvdb.block_tile, "")], _gather_tile, _run_block_tile),
+          [("block_tile", rockvdb.block_tile, "")], _gather_tile, _run_block_tile,
+          extent=_extent_tile),
     Stage("rock_pile", "Rock Pile", "OUTLINER_OB_POINTCLOUD",
           [("rock_tiles", rockvdb.rock_tiles, "tiles_"), ("rock_pile", rockvdb.rock_pile, "")],
-          _gather_support, _run_rock_pile,
+          _gather_support, _run_rock_pile, extent=_extent_mesh,
           extra={"instances": _instances_property(
               "the tile set's rocks the pile uses, each meshed in its own frame, instanced on "
               "one point per placed rock")}),
     Stage("amplify", "Amplify Terrain", "MOD_OCEAN",
-          [("amplify", rockvdb.amplify, "")], _gather_amplify, _run_amplify,
+          [("amplify", rockvdb.amplify, "")], _gather_amplify, _run_amplify, extent=_extent_mesh,
           extra={
               "tiles": bpy.props.StringProperty(
                   name="Tiles", description="Block Tile results (object names) or .tile files, "

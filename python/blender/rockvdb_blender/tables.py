@@ -1,13 +1,19 @@
 # SPDX-License-Identifier: Apache-2.0
 """Blender properties made from the stage tables (rockvdb's C++ tables, through
-rockvdb._rockvdb.schema): each row's name, type, unit, default, range and help become one
-operator property. Nothing here restates a default or a range: a row's default is the
-property's default, its closed or open range the property's min and max, its help the tooltip.
+rockvdb._rockvdb.schema): each row's name, type, unit, default, range, group and help become
+one operator property. Nothing here restates a default or a range: a row's default is the
+property's default, its range the property's soft limits (a value typed outside them reaches
+the stage, which reports it as typed), its help the tooltip.
 
-A row whose default is "unset" (null: a region, an optional axis) gets a check box
-``use_<name>`` beside its value; the value is passed only when the box is on, and the
-value's own widget starts at the row's range floor (a widget needs some number; it is never
-passed unless the box is on)."""
+Rows whose default stands for something else are never shown as their sentinel:
+- a derived row (the table's rule fills it: "0.002 x tile-size") gets a check box
+  ``auto_<name>``, on by default, beside a greyed field showing the value the rule gives
+  (rockvdb._rockvdb.derive); unticked, the field is editable and passed;
+- a row that is unset by default (null: a region, an optional axis) gets a check box
+  ``use_<name>``; the value is passed only when the box is on, and its widget starts at a
+  value in the row's range.
+Vectors of three get X / Y / Z labels (a translation, a length or plain XYZ subtype), every
+choice is a drop-down, rows that may name a file have a file browser."""
 import json
 
 import bpy
@@ -27,105 +33,149 @@ def table(stage):
     return json.loads(_rockvdb.schema(stage))
 
 
+def derived_values(stage, given=None):
+    """What the parameters @a given (table names) stand for, every derived row filled by its
+    rule; None when they are not a valid call (the stage will say why when run)."""
+    try:
+        return json.loads(_rockvdb.derive(stage, json.dumps(given or {})))
+    except (ValueError, TypeError):
+        return None
+
+
 def rows_of(stage, function, prefix="", positional=()):
     """The rows of @a stage's table that @a function (a rockvdb stage function) takes as
     keywords (and the @a positional ones it takes as rows), in table order, each with "prop":
-    the property's name (prefix + python name)."""
+    the property's name (prefix + python name), "stage": the table, and for a derived row
+    "auto": its rule's value at the table's defaults."""
     import inspect
     taken = {p.name for p in inspect.signature(function).parameters.values()
              if p.kind == p.KEYWORD_ONLY} | set(positional)
+    defaults = derived_values(stage) or {}
     out = []
     for row in table(stage)["params"]:
         if row["python"] in taken and row["name"] not in SKIPPED:
-            out.append(dict(row, prop=prefix + row["python"]))
+            extra = {"prop": prefix + row["python"], "stage": stage}
+            if row["derived"]:
+                extra["auto"] = defaults.get(row["name"])
+            out.append(dict(row, **extra))
     return out
+
+
+def sentence(summary):
+    """A table's summary as one plain sentence: its first, without a paper citation."""
+    import re
+    text = re.split(r"(?<=[a-z)])[.:;] ", summary.strip() + " ")[0].strip().rstrip(".")
+    text = re.sub(r"\s*\([^)]*(§|et al|paper)[^)]*\)", "", text)
+    text = re.sub(r"\s*\((?:implicit blocks|arches|fractal-rocks)[^)]*\)", "", text)
+    return text + "."
 
 
 def _tooltip(row):
     text = row["help"]
     if row["unit"]:
         text += f" ({UNIT_TEXT.get(row['unit'], row['unit'])})"
-    if row["derived"]:
-        text += f". Default: {row['derived']}"
     if row["range"] and row["type"] not in ("str", "bool", "json"):
         text += f"; {row['range']}"
     return text
 
 
-def _bounds(row, integer):
-    """Property limits from the row's range: a closed end is itself, an open integer end the
-    next integer; an open real end is left to the stage's own check (Blender has no open
-    bounds), which reports the value out of range in one line."""
+def _limits(row, integer):
+    """Soft limits (what dragging and the slider reach) from the row's range: a closed end is
+    itself, an open integer end the next integer, an open real end itself (Blender has no open
+    bounds). The hard limits stay Blender's own, so that a value typed outside the range
+    reaches the stage, whose one-line error names the value as typed."""
     kw = {}
     lo, hi = row["min"], row["max"]
     if lo is not None:
-        kw["min"] = int(lo) + 1 if integer and row["min_open"] else (int(lo) if integer else lo)
+        kw["soft_min"] = int(lo) + 1 if integer and row["min_open"] else (int(lo) if integer else float(lo))
     if hi is not None:
-        kw["max"] = int(hi) - 1 if integer and row["max_open"] else (int(hi) if integer else hi)
-    if not integer:
-        # Blender clamps float limits to about +-3.4e38; the tables' limits are far inside.
-        for k in ("min", "max"):
-            if k in kw:
-                kw[k] = float(kw[k])
+        kw["soft_max"] = int(hi) - 1 if integer and row["max_open"] else (int(hi) if integer else float(hi))
     return kw
 
 
-def _placeholder(row, integer):
-    """A value widget's start for a row with no default: its range floor, else 0."""
-    lo = row["min"]
-    base = (int(lo) if integer else float(lo)) if lo is not None else (0 if integer else 0.0)
-    if row["min_open"] and lo is not None:
-        base = base + 1 if integer else base
-    if row["count"] > 1:
-        return tuple([base] * row["count"])
-    return base
+def _in_range(row, integer, value=0):
+    """@a value moved into the row's range (a widget's start for a row with no default)."""
+    lo, hi = row["min"], row["max"]
+    if lo is not None and (value < lo or (value == lo and row["min_open"])):
+        value = lo + (1 if integer and row["min_open"] else 0)
+        if not integer and row["min_open"]:
+            value = lo + (abs(lo) * 1e-3 or 1e-3) if hi is None or hi > lo + 1e-3 else (lo + hi) / 2
+    if hi is not None and (value > hi or (value == hi and row["max_open"])):
+        value = hi - (1 if integer and row["max_open"] else 0)
+    return int(value) if integer else float(value)
+
+
+def _subtype(row):
+    """X / Y / Z labels for a vector of three: a translation (a point, m), a length (sizes, m)
+    or plain XYZ (a direction, periods, factors)."""
+    if row["count"] != 3:
+        return "NONE"
+    if row["unit"] == "m":
+        return "XYZ_LENGTH" if row["python"] in ("size",) else "TRANSLATION"
+    return "XYZ"
 
 
 def make_property(row):
     """The bpy property for one row (a bpy.props deferred property)."""
     name = row["python"].replace("_", " ").capitalize()
     desc = _tooltip(row)
-    kind, default = row["type"], row["default"]
+    kind = row["type"]
+    default = row["auto"] if row.get("derived") else row["default"]
     unset = default is None
     if kind == "bool":
         return bpy.props.BoolProperty(name=name, description=desc,
                                       default=bool(default) if not unset else False)
-    if kind in ("int", "ints"):
-        kw = _bounds(row, True)
-        d = _placeholder(row, True) if unset else (tuple(default) if kind == "ints" else default)
-        if kind == "ints":
-            return bpy.props.IntVectorProperty(name=name, description=desc, size=row["count"],
-                                               default=d, **kw)
-        return bpy.props.IntProperty(name=name, description=desc, default=d, **kw)
-    if kind in ("float", "floats"):
-        kw = _bounds(row, False)
+    if kind in ("int", "ints", "float", "floats"):
+        integer = kind in ("int", "ints")
+        kw = _limits(row, integer)
+        if unset:
+            d = _in_range(row, integer)
+            d = tuple([d] * row["count"]) if row["count"] > 1 else d
+        elif row["count"] > 1:
+            d = tuple(_in_range(row, integer, v) for v in default)
+        else:
+            d = _in_range(row, integer, default)
+        if integer:
+            if kind == "ints":
+                return bpy.props.IntVectorProperty(name=name, description=desc, size=row["count"],
+                                                   default=d, subtype=_subtype(row), **kw)
+            return bpy.props.IntProperty(name=name, description=desc, default=d, **kw)
         unit = {"unit": "LENGTH"} if row["unit"] == "m" else {}
-        d = _placeholder(row, False) if unset else (tuple(float(v) for v in default)
-                                                    if kind == "floats" else float(default))
+        if row["unit"] == "degrees":
+            unit = {}  # degrees as the table gives them (Blender's ROTATION unit is radians)
         if kind == "floats":
             return bpy.props.FloatVectorProperty(name=name, description=desc, size=row["count"],
-                                                 default=d, precision=3, **unit, **kw)
-        return bpy.props.FloatProperty(name=name, description=desc, default=d, precision=3,
-                                       **unit, **kw)
+                                                 default=tuple(float(v) for v in d), precision=3,
+                                                 subtype=_subtype(row), **unit, **kw)
+        return bpy.props.FloatProperty(name=name, description=desc, default=float(d),
+                                       precision=3, **unit, **kw)
     if kind == "str" and row["choices"]:
         items = [(c, c.replace("_", " ").capitalize(), "") for c in row["choices"]]
         return bpy.props.EnumProperty(name=name, description=desc, items=items,
                                       default=default if not unset else row["choices"][0])
-    # str without choices, json (text, or a file path): text.
+    # str without choices, json (text, or a file path): text, with a file browser where the
+    # row may name a file.
     if kind == "json":
-        desc += " (JSON text, or a .json file path)"
+        desc += " (JSON text, or a .json file)"
         d = "" if unset else json.dumps(default)
     else:
         d = "" if unset else str(default)
-    return bpy.props.StringProperty(name=name, description=desc, default=d)
+    sub = {"subtype": "FILE_PATH"} if row.get("file") else {}
+    return bpy.props.StringProperty(name=name, description=desc, default=d, **sub)
 
 
 def annotations(rows):
-    """Operator annotations for @a rows: the value property, and use_<prop> for unset rows."""
+    """Operator annotations for @a rows: the value property, auto_<prop> for derived rows,
+    use_<prop> for unset rows."""
     ann = {}
     for row in rows:
         ann[row["prop"]] = make_property(row)
-        if row["default"] is None:
+        if row["derived"]:
+            ann["auto_" + row["prop"]] = bpy.props.BoolProperty(
+                name="Auto", default=True,
+                description=f"On: {row['derived']} (the field shows the value); off: the value "
+                            "typed in the field")
+        elif row["default"] is None:
             ann["use_" + row["prop"]] = bpy.props.BoolProperty(
                 name="Set " + row["python"].replace("_", " "),
                 description="Off: " + row["help"] + " stays unset (the stage's own choice)")
@@ -141,18 +191,27 @@ def decimal(value):
     return float(repr(np.float32(value)))
 
 
-def keywords(op, rows):
+def is_length(row):
+    return row["unit"] == "m" and row["type"] in ("float", "floats")
+
+
+def keywords(op, rows, scale=1.0):
     """The stage keywords an operator's properties give (rows in their Python spelling):
-    unset rows only when their use_ box is on, JSON text parsed."""
+    derived rows only when their Auto box is off, unset rows only when their use_ box is on,
+    JSON text parsed. Lengths are scene lengths times @a scale (Blender's Unit Scale: metres
+    per scene unit)."""
     kw = {}
     for row in rows:
-        if row["default"] is None and not getattr(op, "use_" + row["prop"]):
+        if row["derived"] and getattr(op, "auto_" + row["prop"]):
+            continue
+        if not row["derived"] and row["default"] is None and not getattr(op, "use_" + row["prop"]):
             continue
         value = getattr(op, row["prop"])
+        s = scale if is_length(row) else 1.0
         if row["type"] == "float":
-            value = decimal(value)
+            value = decimal(value * s)
         elif row["type"] == "floats":
-            value = [decimal(v) for v in value]
+            value = [decimal(v * s) for v in value]
         elif row["type"] == "ints":
             value = list(value)
         elif row["type"] == "json":
@@ -166,23 +225,56 @@ def keywords(op, rows):
                     raise ValueError(f"{row['python']}: not valid JSON ({e.msg})") from None
             else:
                 value = bpy.path.abspath(text)
+        elif row.get("file") and value and value != row["default"]:
+            value = bpy.path.abspath(value)
         kw[row["python"]] = value
     return kw
 
 
-def draw_rows(layout, op, rows, resolution):
-    """The rows that change the look (resolution=False) or only how finely it is sampled."""
+def show_derived(op, rows, values, scale=1.0):
+    """Put each derived row's value (from @a values: the call's derived_values, table names)
+    into its greyed field while its Auto box is on, so that the panel shows what the stage
+    used."""
+    if not values:
+        return
     for row in rows:
-        if bool(row["resolution"]) != resolution:
+        if not row["derived"] or not getattr(op, "auto_" + row["prop"]):
             continue
-        if row["default"] is None:
-            line = layout.row(align=True)
-            line.prop(op, "use_" + row["prop"], text="")
-            sub = line.row(align=True)
-            sub.active = getattr(op, "use_" + row["prop"])
-            sub.prop(op, row["prop"])
-        else:
-            layout.prop(op, row["prop"])
+        v = values.get(row["name"])
+        if v is None:
+            continue
+        s = scale if is_length(row) else 1.0
+        try:
+            setattr(op, row["prop"], [x / s for x in v] if isinstance(v, list) else
+                    (v / s if isinstance(v, float) else v))
+        except (TypeError, ValueError, OverflowError):
+            pass
+
+
+def draw_row(layout, op, row, enabled=True):
+    """One row: its field, with the Auto or Set box before it."""
+    if row["derived"] or row["default"] is None:
+        box = "auto_" if row["derived"] else "use_"
+        line = layout.row(align=True)
+        line.prop(op, box + row["prop"], text="" if box == "use_" else "Auto", toggle=box == "auto_")
+        sub = line.row(align=True)
+        on = getattr(op, box + row["prop"])
+        sub.enabled = enabled and (not on if box == "auto_" else on)
+        sub.prop(op, row["prop"])
+    else:
+        line = layout.row()
+        line.enabled = enabled
+        line.prop(op, row["prop"])
+
+
+def groups(rows):
+    """@a rows by their table group, groups in the order they first appear and Resolution
+    last: [(group, rows)]."""
+    out = {}
+    for row in rows:
+        out.setdefault(row["group"], []).append(row)
+    order = sorted(out, key=lambda g: (g == "Resolution", list(out).index(g)))
+    return [(g, out[g]) for g in order]
 
 
 def version():

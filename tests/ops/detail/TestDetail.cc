@@ -61,8 +61,8 @@ TEST(Detail, ResultsAreValidNarrowBandLevelSets)
     BakeSettings s;
     s.voxelSize = dx;
     for (const char* opts : {R"({"warp-amplitude": 0.05, "warp-scale": 0.8})",
-                             R"({"gabor-amplitude": 0.04, "gabor-frequency": 5, "direction-axis": [0, 0, 1]})",
-                             R"({"gabor-amplitude": 0.04, "gabor-frequency": 5, "direction-curvature": true, "tilt": [30, 0]})"}) {
+                             R"({"warp-amplitude": 0, "gabor-amplitude": 0.04, "gabor-frequency": 5, "direction-axis": [0, 0, 1]})",
+                             R"({"warp-amplitude": 0, "gabor-amplitude": 0.04, "gabor-frequency": 5, "direction-curvature": true, "tilt": [30, 0]})"}) {
         const auto p = detail::DetailParams::fromJson(nlohmann::json::parse(opts));
         auto out = detail::detailLevelSet(in, p, s).surface;
         EXPECT_EQ(openvdb::tools::checkLevelSet(*out, 8), "") << opts;
@@ -354,6 +354,7 @@ TEST(DetailSkeleton, ATorusOfAPolylineHasRidgesAlongItAndItsParameters)
     const nlohmann::json skel = {{"polylines", {{{"points", pts}, {"closed", true}, {"radius", 1.6}, {"weight", 4.0},
                                                  {"amplitude", as}, {"frequency", fs}}}}};
     detail::DetailParams p;
+    p.warpAmplitude = 0.0; // Gabor only (the table's default warp is 2 cm)
     p.gabor.amplitude = 0.03;      // where no primitive reaches (nowhere on the torus)
     p.gabor.frequency = 5.0;
     p.gabor.bandwidth = 1.0;       // narrow: well-defined ridges
@@ -429,6 +430,7 @@ TEST(DetailSkeleton, NearASingularityTheAnisotropyFadesSmoothlyIntoIsotropicNois
     // within a patch) with the same segment as skeleton: at its poles W ∥ n. Measured by the angle β from the pole: anisotropic on the side, fading to
     // isotropic at the pole with the amplitude kept (the default: auto = isotropic here).
     detail::DetailParams p;
+    p.warpAmplitude = 0.0; // Gabor only (the table's default warp is 2 cm)
     p.gabor.amplitude = 0.03;
     p.gabor.frequency = 5.0;
     p.gabor.bandwidth = 1.0;
@@ -538,6 +540,7 @@ TEST(DetailSkeleton, AtTheTJunctionOfFig5bTheRidgesTurnAsTheSkeletonsBlend)
     const nlohmann::json skel = {{"segments", {{{"a", {-3, 0, 0}}, {"b", {3, 0, 0}}, {"radius", 2.0}},
                                                {{"a", {0, 0, 0}}, {"b", {0, 0, 3}}, {"radius", 2.0}}}}};
     detail::DetailParams p;
+    p.warpAmplitude = 0.0; // Gabor only (the table's default warp is 2 cm)
     p.gabor.amplitude = 0.02;
     p.gabor.frequency = 6.0;
     p.gabor.bandwidth = 1.0;
