@@ -30,7 +30,7 @@ PY
     -o "$OUT/detail_ring_plain.vdb"
 # --gabor-amplitude 0: detail only where the skeleton carries it (all of the ring here);
 # orientation 90: the frequency across the skeleton, so the ridges run along it.
-"$BUILD/vdbtools/vdb_detail" -q "$OUT/detail_ring_plain.vdb" --gabor-amplitude 0 \
+"$BUILD/vdbtools/vdb_detail" -q "$OUT/detail_ring_plain.vdb" --gabor-amplitude 0 --warp-amplitude 0 \
     --gabor-orientation 90 --gabor-bandwidth 2 --direction-skeleton "$OUT/detail_ring_skeleton.json" \
     --seed 2 -o "$OUT/detail_ring.vdb"
 "$BUILD/vdbtools/vdb_preview" -q "$OUT/detail_ring.vdb" --azimuth 200 --elevation 40 --zoom 1.3 \

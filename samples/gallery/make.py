@@ -197,7 +197,7 @@ def coral():
                              for a, b, r in segs]}
     plain, out = scene("coral_plain.vdb"), scene("coral.vdb")
     tool("vdb_primitive", "expr", write("coral.json", shape), "--voxel-size", v(0.01, 0.04), "-o", plain)
-    tool("vdb_detail", plain, "--gabor-amplitude", 0, "--gabor-orientation", 90, "--gabor-bandwidth", v(6, 3),
+    tool("vdb_detail", plain, "--gabor-amplitude", 0, "--warp-amplitude", 0, "--gabor-orientation", 90, "--gabor-bandwidth", v(6, 3),
          "--direction-skeleton", write("coral_skeleton.json", skeleton), "--seed", 1, "-o", out)
     return out
 
@@ -219,7 +219,7 @@ mask.name = "weights"
 mask.transform = vdb.createLinearTransform(voxelSize=0.05)
 w = np.clip((np.arange(-30, 30) * 0.05 + 0.5) / 1.0, 0, 1).astype(np.float32)
 mask.copyFromArray(np.ascontiguousarray(np.broadcast_to(w[:, None, None], (60, 60, 60))), ijk=(-30, -30, -30))
-g = rockvdb.detail(sphere, gabor_amplitude=0.03, gabor_frequency=float(sys.argv[3]), direction_axis=(0, 0, 1),
+g = rockvdb.detail(sphere, gabor_amplitude=0.03, gabor_frequency=float(sys.argv[3]), warp_amplitude=0, direction_axis=(0, 0, 1),
                    blend={"gabor_orientation": 90, "gabor_amplitude": 0.03}, blend_mask=mask)
 rockvdb.write(sys.argv[2], [g])
 """, scene("blend_sphere.vdb"), out, v(6, 3))

@@ -164,6 +164,8 @@ try:
     report["registered_again"] = registered()
 
     report["props"] = {s.name: props_of(s.name) for s in stages.STAGES}
+    report["descriptions"] = {s.name: getattr(bpy.types, f"ROCKVDB_OT_{s.name}").bl_description
+                              for s in stages.STAGES}
     report["undo"] = {s.name: "UNDO" in getattr(bpy.types, f"ROCKVDB_OT_{s.name}").bl_options
                       for s in stages.STAGES}
     R = report["results"] = {}

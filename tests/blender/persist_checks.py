@@ -74,11 +74,13 @@ try:
         made["fractal_scatter"] = timed("fractal_scatter", lambda: bpy.ops.rockvdb.fractal_scatter()).name
         bpy.ops.mesh.primitive_cube_add(size=2.0, location=(20, 0, 1))
         made["rock_pile"] = timed("rock_pile", lambda: bpy.ops.rockvdb.rock_pile()).name
-        # A small landscape at x, y >= 0: a bump on a sheet.
+        # A small landscape: a sheet with a 4 m step across it (a wall for the blocks).
         bpy.ops.mesh.primitive_grid_add(size=10, x_subdivisions=10, y_subdivisions=10,
                                         location=(6, 6, 0))
         sheet = bpy.context.active_object
-        sheet.data.vertices[60].co.z = 3.0
+        for v in sheet.data.vertices:
+            if v.co.x > 0.5:
+                v.co.z = 4.0
         made["amplify"] = timed("amplify", lambda: bpy.ops.rockvdb.amplify()).name
         bpy.context.view_layer.objects.active = sheet
         made["stacks"] = timed("stacks", lambda: bpy.ops.rockvdb.stacks()).name

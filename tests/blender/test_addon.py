@@ -72,10 +72,11 @@ def _table_rows():
     def rows(table, fn, prefix=""):
         taken = {p.name for p in inspect.signature(fn).parameters.values()
                  if p.kind == p.KEYWORD_ONLY}
-        auto = json.loads(_rockvdb.derive(table, "{}"))
-        return [(prefix + r["python"], dict(r, auto=auto[r["name"]]))
-                for r in json.loads(_rockvdb.schema(table))["params"]
-                if r["python"] in taken and r["name"] not in ("chunks", "chunk")]
+        schema = json.loads(_rockvdb.schema(table))["params"]
+        # the derived rows' values at the defaults (tables without any need no call)
+        auto = json.loads(_rockvdb.derive(table, "{}")) if any(r["derived"] for r in schema) else {}
+        return [(prefix + r["python"], dict(r, auto=auto.get(r["name"])))
+                for r in schema if r["python"] in taken and r["name"] not in ("chunks", "chunk")]
     return {
         "fractal_rock": rows("fractal_rock", rockvdb.fractal_rock),
         "fractal_scatter": rows("fractal_scatter", rockvdb.fractal_scatter),
@@ -161,6 +162,13 @@ def test_properties_equal_the_tables(report):
                     assert p["subtype"] == "FILE_PATH", (stage, name)
 
 
+def test_descriptions_are_one_plain_sentence(report):
+    """Each operator's tooltip is one sentence an artist reads: no paper citation, not cut."""
+    for stage, text in report["descriptions"].items():
+        assert text.endswith(".") and text.count(". ") == 0, (stage, text)
+        assert "§" not in text and "et al" not in text and len(text) < 120, (stage, text)
+
+
 def test_addon_no_default_written_twice():
     """The add-on's source names no stage row's default: its properties come from the tables
     (a number written beside a row name would be a second truth)."""
@@ -189,7 +197,7 @@ def test_results_hold_their_grids_meshed_and_tinted(report):
         assert r["volume_grids"] == names, name
         # real mesh data (saved in the .blend): nothing evaluated on the UI thread
         assert r["modifiers"] == [] and r["children"] == [] and r["mesh_users"] == 1, name
-        assert r["vertices"] > 1000, name
+        assert r["vertices"] > 300, name
         ids = [g for g in ("material", "block_id", "rock_id") if g in names]
         assert sorted(r["attributes"]) == sorted(ids), name
         assert r["tint"] == ids[:1], name
@@ -428,7 +436,7 @@ def test_bad_input_is_a_one_line_report_and_adds_nothing(report):
     bad = report["bad"]
     # a bad value is reported as typed (not clamped to the range first)
     assert bad["voxel_as_typed"].startswith("Error: rockvdb.fractal_rock: ")
-    assert "voxel_size must be in [1e-06, 1e+06] (got -1" in bad["voxel_as_typed"], bad["voxel_as_typed"]
+    assert "voxel_size must be in [1e-06, 1000000] (got -1" in bad["voxel_as_typed"], bad["voxel_as_typed"]
     assert "select a mesh object" in bad["pile_no_mesh"]
     assert "select a rockvdb result" in bad["detail_no_result"]
     assert "fractures: not valid JSON" in bad["bad_choice_json"]
@@ -516,7 +524,7 @@ def test_every_default_is_light_and_does_something(persisted, tmp_path):
     assert all(s == ["FINISHED"] for s in made["status"].values()), made["status"]
     R = made["results"]
     for stage, r in R.items():
-        assert 1000 < r["vertices"] <= 500_000, (stage, r["vertices"])
+        assert 200 < r["vertices"] <= 500_000, (stage, r["vertices"])
     assert len(R["fractal_scatter"]["ids"]["rock_id"]["values"]) >= 3      # rocks scattered
     assert len(R["block_tile"]["ids"]["block_id"]["values"]) > 30
     assert len(R["rock_pile"]["ids"]["rock_id"]["values"]) > 10
@@ -544,7 +552,7 @@ def test_results_survive_save_quit_and_reopen(persisted):
     r, _ = _reopen(d / "a" / "scene.blend")
     got = _by_stage(r["results"])
     for stage, want in made["results"].items():
-        assert got[stage]["vertices"] == want["vertices"] > 1000, stage
+        assert got[stage]["vertices"] == want["vertices"] > 200, stage
         assert got[stage]["ids"] == want["ids"], stage
         assert got[stage]["co_sum"] == want["co_sum"], stage
         assert got[stage]["cache_missing"] is None, stage
@@ -583,4 +591,4 @@ def test_unit_scale_is_applied(report, out):
     a, b = grids(out / "fractal_rock_cm.vdb"), grids(out / "fractal_rock.vdb")
     assert_bitwise_equal(a["surface"], b["surface"])
     assert np.allclose(np.array(u["dimensions"]) * 0.01, u["metre_dimensions"], rtol=1e-5)
-    assert max(u["metre_dimensions"]) > 1.0
+    assert max(u["metre_dimensions"]) > 0.5

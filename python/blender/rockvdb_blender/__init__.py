@@ -178,7 +178,7 @@ class _StageOperator:
 
     def draw(self, context):
         layout = self.layout
-        layout.prop(self, "quality", expand=True)
+        layout.row().prop(self, "quality", expand=True)
         for name in self.stage.extra:
             layout.prop(self, name)
         preview = self.quality == "PREVIEW"
@@ -252,7 +252,7 @@ class _StageOperator:
         """Blender's Unit Scale (metres per scene unit) other than 1: length fields hold scene
         units, the tables' defaults are metres, so a length field the call did not set starts
         at its default in scene units (the panel then shows the table's metres)."""
-        for p in self.bl_rna.properties:
+        for p in self.properties.bl_rna.properties:
             if p.type != "FLOAT" or p.unit != "LENGTH" or self.properties.is_property_set(p.identifier):
                 continue
             if p.array_length:

@@ -21,8 +21,8 @@ class Stage:
     extent(kw, inputs) -> the result's largest extent (m), which the Preview quality's rule
     reads (None: the stage has no voxel size of its own to coarsen, as Detail)."""
 
-    def __init__(self, name, label, icon, tables_, gather, run, extra=None, positional=(),
-                 extent=None):
+    def __init__(self, name, label, icon, description, tables_, gather, run, extra=None,
+                 positional=(), extent=None):
         self.name, self.label, self.icon = name, label, icon
         self.gather_fn, self.run_fn, self.extent_fn = gather, run, extent
         self.groups = [(t, tables.rows_of(t, f, prefix, positional), prefix)
@@ -31,8 +31,9 @@ class Stage:
         # above the table's rows: {name: bpy property}.
         self.extra = extra or {}
         self.summaries = [tables.table(t)["summary"] for t, _, _ in tables_]
-        # Blender's tooltip: one plain sentence (the first table's).
-        self.summary = tables.sentence(self.summaries[-1])
+        # Blender's tooltip: one plain sentence, what the artist gets (the tables' summaries,
+        # written for the CLI's --help, cite the papers).
+        self.summary = description
 
     def rows(self):
         return [r for _, rows, _ in self.groups for r in rows]
@@ -71,8 +72,9 @@ class Stage:
 # What stages read from the scene.
 
 def unit_scale(context):
-    """Blender's Unit Scale: metres per scene unit (rockvdb works in metres)."""
-    return float(context.scene.unit_settings.scale_length) or 1.0
+    """Blender's Unit Scale: metres per scene unit (rockvdb works in metres), as the decimal
+    it shows (Blender keeps it in 32 bits: 0.01 is 0.0099999998)."""
+    return tables.decimal(context.scene.unit_settings.scale_length) or 1.0
 
 
 def _mesh_arrays(obj, context, close_depth=None):
@@ -433,24 +435,29 @@ def _instances_property(what):
 
 STAGES = [
     Stage("fractal_rock", "Fractal Rock", "MESH_ICOSPHERE",
+          "Add a fractal rock: an icosahedron refined by random midpoint displacement.",
           [("fractal_rock", rockvdb.fractal_rock, "")], _gather_none, _run_fractal_rock,
           extent=_extent_rock),
     Stage("fractal_scatter", "Fractal Scatter", "PARTICLES",
+          "Scatter fractal rocks on the active mesh, or on the ground plane when none is selected.",
           [("fractal_scatter", rockvdb.fractal_scatter, "")], _gather_ground,
           _run_fractal_scatter, extent=_extent_rock,
           extra={"instances": _instances_property(
               "each its own mesh in its own frame, instanced on points at their positions and "
               "orientations (P, orient, pscale)")}),
     Stage("block_tile", "Block Tile", "MOD_EXPLODE",
+          "Add a tile of fractured rock blocks that repeats seamlessly.",
           [("block_tile", rockvdb.block_tile, "")], _gather_tile, _run_block_tile,
           extent=_extent_tile),
     Stage("rock_pile", "Rock Pile", "OUTLINER_OB_POINTCLOUD",
+          "Fill the active closed mesh with a pile of packed rocks.",
           [("rock_tiles", rockvdb.rock_tiles, "tiles_"), ("rock_pile", rockvdb.rock_pile, "")],
           _gather_support, _run_rock_pile, extent=_extent_mesh,
           extra={"instances": _instances_property(
               "the tile set's rocks the pile uses, each meshed in its own frame, instanced on "
               "one point per placed rock")}),
     Stage("amplify", "Amplify Terrain", "MOD_OCEAN",
+          "Cover the steep parts of the active terrain mesh with the blocks of the scene's Block Tiles.",
           [("amplify", rockvdb.amplify, "")], _gather_amplify, _run_amplify, extent=_extent_mesh,
           extra={
               "tiles": bpy.props.StringProperty(
@@ -465,6 +472,7 @@ STAGES = [
                           "from the world origin (the mesh at x, y >= 0): the exact distance "
                           "to the heightfield's triangles")])}),
     Stage("stacks", "Material Stacks", "MOD_DATA_TRANSFER",
+          "Turn the active terrain mesh into layers of sand, bedrock and rocks, settled at their repose angles.",
           [("arches", rockvdb.Stacks, "")], _gather_stacks, _run_stacks,
           positional=("terrain",),
           extra={
@@ -478,5 +486,6 @@ STAGES = [
                   description="Voxel size at which the active mesh becomes the terrain level set "
                   "when neither voxel size nor cell size is set")}),
     Stage("detail", "Detail", "MOD_DISPLACE",
+          "Add weathering and ridges to the surface of the active rockvdb result.",
           [("detail", rockvdb.detail, "")], _gather_result, _run_detail),
 ]

@@ -61,15 +61,6 @@ def rows_of(stage, function, prefix="", positional=()):
     return out
 
 
-def sentence(summary):
-    """A table's summary as one plain sentence: its first, without a paper citation."""
-    import re
-    text = re.split(r"(?<=[a-z)])[.:;] ", summary.strip() + " ")[0].strip().rstrip(".")
-    text = re.sub(r"\s*\([^)]*(§|et al|paper)[^)]*\)", "", text)
-    text = re.sub(r"\s*\((?:implicit blocks|arches|fractal-rocks)[^)]*\)", "", text)
-    return text + "."
-
-
 def _tooltip(row):
     text = row["help"]
     if row["unit"]:
@@ -93,9 +84,12 @@ def _limits(row, integer):
     return kw
 
 
-def _in_range(row, integer, value=0):
-    """@a value moved into the row's range (a widget's start for a row with no default)."""
+def _in_range(row, integer, value=None):
+    """@a value moved into the row's range; without one, a widget's start for a row with no
+    default: 0 or 1, whichever the range holds, else its floor."""
     lo, hi = row["min"], row["max"]
+    if value is None:
+        value = next((v for v in (0, 1) if _inside(row, v)), lo if lo is not None else 0)
     if lo is not None and (value < lo or (value == lo and row["min_open"])):
         value = lo + (1 if integer and row["min_open"] else 0)
         if not integer and row["min_open"]:
@@ -103,6 +97,12 @@ def _in_range(row, integer, value=0):
     if hi is not None and (value > hi or (value == hi and row["max_open"])):
         value = hi - (1 if integer and row["max_open"] else 0)
     return int(value) if integer else float(value)
+
+
+def _inside(row, v):
+    lo, hi = row["min"], row["max"]
+    return ((lo is None or v > lo or (v == lo and not row["min_open"])) and
+            (hi is None or v < hi or (v == hi and not row["max_open"])))
 
 
 def _subtype(row):

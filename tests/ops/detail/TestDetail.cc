@@ -354,7 +354,6 @@ TEST(DetailSkeleton, ATorusOfAPolylineHasRidgesAlongItAndItsParameters)
     const nlohmann::json skel = {{"polylines", {{{"points", pts}, {"closed", true}, {"radius", 1.6}, {"weight", 4.0},
                                                  {"amplitude", as}, {"frequency", fs}}}}};
     detail::DetailParams p;
-    p.warpAmplitude = 0.0; // Gabor only (the table's default warp is 2 cm)
     p.gabor.amplitude = 0.03;      // where no primitive reaches (nowhere on the torus)
     p.gabor.frequency = 5.0;
     p.gabor.bandwidth = 1.0;       // narrow: well-defined ridges
@@ -430,7 +429,6 @@ TEST(DetailSkeleton, NearASingularityTheAnisotropyFadesSmoothlyIntoIsotropicNois
     // within a patch) with the same segment as skeleton: at its poles W ∥ n. Measured by the angle β from the pole: anisotropic on the side, fading to
     // isotropic at the pole with the amplitude kept (the default: auto = isotropic here).
     detail::DetailParams p;
-    p.warpAmplitude = 0.0; // Gabor only (the table's default warp is 2 cm)
     p.gabor.amplitude = 0.03;
     p.gabor.frequency = 5.0;
     p.gabor.bandwidth = 1.0;
@@ -540,7 +538,6 @@ TEST(DetailSkeleton, AtTheTJunctionOfFig5bTheRidgesTurnAsTheSkeletonsBlend)
     const nlohmann::json skel = {{"segments", {{{"a", {-3, 0, 0}}, {"b", {3, 0, 0}}, {"radius", 2.0}},
                                                {{"a", {0, 0, 0}}, {"b", {0, 0, 3}}, {"radius", 2.0}}}}};
     detail::DetailParams p;
-    p.warpAmplitude = 0.0; // Gabor only (the table's default warp is 2 cm)
     p.gabor.amplitude = 0.02;
     p.gabor.frequency = 6.0;
     p.gabor.bandwidth = 1.0;
