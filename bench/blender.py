@@ -47,9 +47,13 @@ def clear():
 
 def landscape():
     addon_utils.enable("ant_landscape", default_set=True)
+    before = set(bpy.data.objects)
     bpy.ops.mesh.landscape_add(mesh_size_x=40, mesh_size_y=40, subdivision_x=128,
                                subdivision_y=128, noise_size=8.0, height=6.0)
-    return bpy.context.active_object
+    made = [o for o in bpy.data.objects if o not in before]
+    if len(made) != 1:
+        raise SystemExit(f"A.N.T. Landscape made {len(made)} objects")
+    return made[0]
 
 
 def timed(call):

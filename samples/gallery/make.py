@@ -317,8 +317,10 @@ def main():
                         os.path.join(ROOT, "samples", "gallery", "render.py"), "--",
                         os.path.join(OUT, "render_list.json"), OUT, str(w), str(h), str(spp)],
                        cwd=ROOT, env=env, capture_output=True, text=True)
-    if p.returncode != 0 or "Traceback" in p.stderr:
-        sys.exit(f"gallery: Blender failed: {p.stderr.strip().splitlines()[-1:] or p.returncode}")
+    # (Blender prints a script's traceback on stdout and may still exit 0)
+    if p.returncode != 0 or "Traceback" in p.stderr + p.stdout:
+        said = (p.stderr + p.stdout).strip().splitlines()
+        sys.exit(f"gallery: Blender failed: {[l for l in said if 'Error' in l][-1:] or p.returncode}")
     with open(os.path.join(OUT, "gallery.json"), "w") as f:
         json.dump(entries, f, indent=1)
     if _args.docs:

@@ -109,7 +109,7 @@ def render(entry):
             bpy.data.objects.remove(o)
     grids = pyopenvdb.readAll(entry["vdb"])[0]
     path = os.path.join(OUT, f".gallery_{entry['name']}.vdb")
-    prepared = results.prepare(grids, path)
+    prepared = results.prepare(grids, path, results.mesh_adaptivity("FINAL"))
     obj = results.build(bpy.context, "gallery", entry["name"], prepared, {})
     if entry.get("palette") and obj.get("rockvdb_ids"):
         obj.data.materials[0] = palette_material(entry["name"], obj["rockvdb_ids"][0], entry["palette"])

@@ -449,7 +449,8 @@ class VIEW3D_PT_rockvdb(bpy.types.Panel):
         obj = context.active_object
         if obj is not None and obj.get("rockvdb_stage"):
             box = layout.box()
-            box.label(text=f"{obj.name}: {obj['rockvdb_stage']} (rockvdb {obj['rockvdb_version']})")
+            box.label(text=obj.name, icon="MESH_DATA")
+            box.label(text=f"{obj['rockvdb_stage']}, rockvdb {obj['rockvdb_version']}")
             missing = results.missing_cache(obj)
             if missing:
                 alert = box.column()
@@ -457,9 +458,9 @@ class VIEW3D_PT_rockvdb(bpy.types.Panel):
                 alert.label(text="Grids' cache missing:", icon="ERROR")
                 alert.label(text=os.path.basename(missing))
                 alert.label(text="Regenerate makes it again (the mesh is kept)")
-            row = box.row(align=True)
-            row.operator("rockvdb.regenerate", icon="FILE_REFRESH")
-            sub = row.row(align=True)
+            col = box.column(align=True)
+            col.operator("rockvdb.regenerate", icon="FILE_REFRESH")
+            sub = col.row(align=True)
             sub.enabled = not missing
             sub.operator("rockvdb.export_vdb", icon="EXPORT")
 

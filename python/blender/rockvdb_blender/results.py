@@ -341,7 +341,8 @@ def build_steps(context, stage, label, prepared, operator_props, target=None):
     else:
         obj = _link(bpy.data.objects.new(label, me), collection)
         for o in context.view_layer.objects:
-            o.select_set(False)
+            if o is not None:  # (a base whose object was just removed, before Blender resyncs)
+                o.select_set(False)
         obj.select_set(True)
         context.view_layer.objects.active = obj
     _set_material(obj, attrs, weights)

@@ -172,8 +172,9 @@ def _active_mesh(context, optional=False, source=""):
     if obj is None or obj.type != "MESH" or obj.get("rockvdb_stage"):
         if optional:
             return None
-        raise ValueError("select a mesh object first (the active object is "
-                         + (f"'{obj.name}', a {obj.type.lower()}" if obj else "none") + ")")
+        what = ("none" if obj is None else f"'{obj.name}', a rockvdb result" if obj.get("rockvdb_stage")
+                else f"'{obj.name}', a {obj.type.lower()}")
+        raise ValueError(f"select a mesh object first (the active object is {what})")
     return obj
 
 

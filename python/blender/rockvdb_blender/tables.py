@@ -252,14 +252,19 @@ def show_derived(op, rows, values, scale=1.0):
 
 
 def draw_row(layout, op, row, enabled=True):
-    """One row: its field, with the Auto or Set box before it."""
-    if row["derived"] or row["default"] is None:
-        box = "auto_" if row["derived"] else "use_"
+    """One row: a derived row's field (greyed while its rule holds) with its Auto box on the
+    right; an unset row's Set box before its field; any other row its field."""
+    if row["derived"]:
+        split = layout.split(factor=0.78, align=True)
+        field = split.row(align=True)
+        field.enabled = enabled and not getattr(op, "auto_" + row["prop"])
+        field.prop(op, row["prop"])
+        split.prop(op, "auto_" + row["prop"], text="Auto")
+    elif row["default"] is None:
         line = layout.row(align=True)
-        line.prop(op, box + row["prop"], text="" if box == "use_" else "Auto", toggle=box == "auto_")
+        line.prop(op, "use_" + row["prop"], text="")
         sub = line.row(align=True)
-        on = getattr(op, box + row["prop"])
-        sub.enabled = enabled and (not on if box == "auto_" else on)
+        sub.enabled = enabled and getattr(op, "use_" + row["prop"])
         sub.prop(op, row["prop"])
     else:
         line = layout.row()
