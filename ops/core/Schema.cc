@@ -226,16 +226,19 @@ std::string ParamInfo::groupName() const
     return resolution ? "Resolution" : "Shape";
 }
 
-// The preview rule's two numbers (measured on the 2-core machine, issue 55): 20 m block tile
-// at defaults, fractal rock, rock pile, amplified 40 m landscape.
+// The preview rule's numbers (measured on the 2-core machine, issue 55, bench/blender.py): the
+// 20 m block tile at its defaults in 1.8 s with 251 k vertices (5.3 M at Final); a 40 m
+// landscape amplified at 128 voxels across kept 1.8 k vertices and lost its blocks, hence the
+// cap at 3 final voxels (its blocks' ~1 m faces keep 7+ voxels).
 const double kPreviewVoxelsAcross = 128.0;
+const double kPreviewCoarsest = 3.0;
 const double kPreviewAdaptivity = 0.5;
 
 double previewVoxelSize(double finalVoxel, double extent)
 {
     require(std::isfinite(finalVoxel) && finalVoxel > 0, "preview", "voxel size", "> 0", finalVoxel);
     require(std::isfinite(extent) && extent >= 0, "preview", "extent", ">= 0", extent);
-    return std::max(finalVoxel, extent / kPreviewVoxelsAcross);
+    return std::min(kPreviewCoarsest * finalVoxel, std::max(finalVoxel, extent / kPreviewVoxelsAcross));
 }
 
 json SchemaBase::coerce(const ParamInfo& info, const json& v) const

@@ -109,11 +109,13 @@ ParamInfo maxMemoryRow(std::string help = "Refuse work estimated above this (0 =
 
 /// @brief Preview quality: the rule that makes a quick look of any stage (the Blender add-on's
 /// default quality; Final is the tables' defaults, the CLI's). The same parameters baked at
-/// a coarser voxel: at most kPreviewVoxelsAcross voxels across the result's largest extent
-/// @a extent (m), never finer than @a finalVoxel (m), and meshed with kPreviewAdaptivity. Only
-/// resolution changes, never the look: the same blocks, the same rocks.
+/// a coarser voxel: kPreviewVoxelsAcross voxels across the result's largest extent @a extent
+/// (m), never finer than @a finalVoxel (m) nor coarser than kPreviewCoarsest times it, and
+/// meshed with kPreviewAdaptivity. Only resolution changes, never the look: the same blocks,
+/// the same rocks, and features of a few final voxels still resolved.
 double previewVoxelSize(double finalVoxel, double extent);
 extern const double kPreviewVoxelsAcross;
+extern const double kPreviewCoarsest;
 extern const double kPreviewAdaptivity;
 /// The gradient warp's rows (implicit blocks §4.2), in order: warp-amplitude, warp-relief,
 /// warp-scale, warp-octaves, warp-sharpness. Stages differ in two defaults: the amplitude and

@@ -131,4 +131,5 @@ PYBIND11_MODULE(_rockvdb, m)
           "Preview quality: the voxel size for a result of largest extent @a extent (m)");
     m.attr("PREVIEW_ADAPTIVITY") = kPreviewAdaptivity;
     m.attr("PREVIEW_VOXELS_ACROSS") = kPreviewVoxelsAcross;
+    m.attr("PREVIEW_COARSEST") = kPreviewCoarsest;
 }

@@ -335,8 +335,8 @@ def _group_key(group):
 
 QUALITY_ITEMS = [
     ("PREVIEW", "Preview", "The same parameters at a coarser voxel and a lighter mesh (the rule "
-     "beside rockvdb's tables: at most PREVIEW_VOXELS_ACROSS voxels across the result): the same "
-     "blocks and rocks in seconds"),
+     "beside rockvdb's tables: PREVIEW_VOXELS_ACROSS voxels across the result, at most "
+     "PREVIEW_COARSEST times the Final voxel): the same blocks and rocks in seconds"),
     ("FINAL", "Final", "The stage's own voxel size and vdb_mesh's mesh: the CLI's defaults, the "
      "papers' figures' resolution"),
 ]
@@ -348,7 +348,8 @@ def _make_operator(stage):
         ann.update(tables.annotations(rows))
     ann["quality"] = bpy.props.EnumProperty(
         name="Quality", items=[(k, n, d.replace("PREVIEW_VOXELS_ACROSS",
-                                                 f"{rockvdb._rockvdb.PREVIEW_VOXELS_ACROSS:g}"))
+                                                 f"{rockvdb._rockvdb.PREVIEW_VOXELS_ACROSS:g}")
+                                .replace("PREVIEW_COARSEST", f"{rockvdb._rockvdb.PREVIEW_COARSEST:g}"))
                                for k, n, d in QUALITY_ITEMS],
         default="PREVIEW", description="Preview: seconds; Final: the CLI's resolution")
     ann["preview_voxel"] = bpy.props.FloatProperty(options={"HIDDEN", "SKIP_SAVE"}, default=0.0)
