@@ -57,7 +57,8 @@ struct Toy
             t.member(row("range", ParamType::Reals, json::array({-1.0, 2.0}), Range::closed(-10, 10), 2),
                      &Toy::range);
             t.member(row("axis", ParamType::Reals, nullptr, Range::any(), 3), &Toy::axis);
-            t.member(row("spacing", ParamType::Real, 0.0, Range::atLeast(0)), &Toy::spacing);
+            // (the derived default 0 lies outside the range: it stands for the rule)
+            t.member(row("spacing", ParamType::Real, 0.0, Range::above(0)), &Toy::spacing);
             t.derived("spacing", "0.1 x tile-size", [](Toy& p) { p.spacing = 0.1 * p.size; });
             t.rule([](const Toy& p) {
                 if (p.range[0] > p.range[1]) fail<ValueError>("toy: range needs min <= max");
@@ -163,6 +164,46 @@ TEST(Schema, DerivedDefaultsAreRulesOfTheTable)
     EXPECT_EQ(row["help"], "help (0 = 0.1 x tile-size)");
     EXPECT_TRUE(Toy::schema().describe()["params"][0]["derived"].is_null());
     EXPECT_THROW(Schema<Toy>("t", "").derived("nope", "x", [](Toy&) {}), std::logic_error);
+}
+
+TEST(Schema, ADerivedRowsSentinelIsItsRuleNotAValue)
+{
+    // The default 0 stands for the rule, outside the row's range (> 0), which is what a user
+    // may give: front-ends show the rule's value beside an Auto box, never the 0.
+    EXPECT_NO_THROW(Toy::schema().fromJson({{"spacing", 0.0}}));
+    EXPECT_EQ(message({{"spacing", -1.0}}), "toy: spacing must be > 0 (got -1.0)");
+    const json values = Toy::schema().derivedValues({{"tile-size", 30.0}});
+    EXPECT_DOUBLE_EQ(values["spacing"].get<double>(), 3.0);
+    EXPECT_EQ(values["n"], 5); // every row, canonical
+    EXPECT_DOUBLE_EQ(Toy::schema().derivedValues({{"spacing", 2.0}})["spacing"].get<double>(), 2.0);
+    EXPECT_THROW(Toy::schema().derivedValues({{"n", 2}}), ValueError);
+}
+
+TEST(Schema, GroupsAndFileRowsForFrontEnds)
+{
+    Schema<Toy> s = Toy::schema();
+    s.group("Surface", {"spacing", "fill"}).files({"mode"});
+    const json rows = s.describe()["params"];
+    EXPECT_EQ(rows[6]["group"], "Surface");
+    EXPECT_EQ(rows[2]["group"], "Surface");
+    EXPECT_EQ(rows[0]["group"], "Shape"); // the default group
+    EXPECT_EQ(rows[3]["file"], true);
+    EXPECT_EQ(rows[0]["file"], false);
+    EXPECT_THROW(s.group("Surface", {"nope"}), std::logic_error);
+    EXPECT_THROW(s.files({"nope"}), std::logic_error);
+    // A resolution row is in Resolution unless its table says otherwise.
+    EXPECT_EQ(voxelSizeRow(0.1).groupName(), "Resolution");
+}
+
+TEST(Schema, PreviewVoxelFollowsTheExtentWithinItsBounds)
+{
+    // kPreviewVoxelsAcross across the extent, never finer than the final voxel, never coarser
+    // than kPreviewCoarsest of them.
+    EXPECT_DOUBLE_EQ(previewVoxelSize(0.01, 2.0), 2.0 / kPreviewVoxelsAcross);  // a rock
+    EXPECT_DOUBLE_EQ(previewVoxelSize(0.05, 1.0), 0.05);                         // small: final
+    EXPECT_DOUBLE_EQ(previewVoxelSize(0.05, 1000.0), kPreviewCoarsest * 0.05);   // a big terrain
+    EXPECT_THROW(previewVoxelSize(0.0, 1.0), ValueError);
+    EXPECT_THROW(previewVoxelSize(0.05, -1.0), ValueError);
 }
 
 TEST(Schema, DescribeIsWhatInterfacesRead)
