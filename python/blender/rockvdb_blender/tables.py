@@ -85,17 +85,18 @@ def _limits(row, integer):
 
 
 def _in_range(row, integer, value=None):
-    """@a value moved into the row's range; without one, a widget's start for a row with no
-    default: 0 or 1, whichever the range holds, else its floor."""
-    lo, hi = row["min"], row["max"]
-    if value is None:
-        value = next((v for v in (0, 1) if _inside(row, v)), lo if lo is not None else 0)
-    if lo is not None and (value < lo or (value == lo and row["min_open"])):
-        value = lo + (1 if integer and row["min_open"] else 0)
-        if not integer and row["min_open"]:
-            value = lo + (abs(lo) * 1e-3 or 1e-3) if hi is None or hi > lo + 1e-3 else (lo + hi) / 2
-    if hi is not None and (value > hi or (value == hi and row["max_open"])):
-        value = hi - (1 if integer and row["max_open"] else 0)
+    """@a value when the row's range holds it; else (and without one: a row with no default) a
+    widget's start inside the range: 0 or 1 when it holds them, else next to its floor."""
+    if value is None or not _inside(row, value):
+        value = next((v for v in (0, 1) if _inside(row, v)), None)
+        lo, hi = row["min"], row["max"]
+        if value is None:
+            if not row["min_open"]:
+                value = lo
+            elif integer:
+                value = lo + 1
+            else:
+                value = (lo + hi) / 2 if hi is not None else lo + 1
     return int(value) if integer else float(value)
 
 
