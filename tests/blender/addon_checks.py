@@ -289,6 +289,11 @@ try:
     bpy.context.view_layer.objects.active = pile
     bpy.ops.rockvdb.regenerate()
     report["regenerate_pile_same_object"] = bpy.context.active_object == pile
+    # The same tile rows: the tile set is the earlier file (a hard link), not made again.
+    tiles = [json.loads(o["rockvdb_params"])["pile"]["tiles"] for o in (pile,)]
+    first = json.loads(R["rock_pile"]["rockvdb_params"])["pile"]["tiles"]
+    report["regenerate_pile_tiles"] = {"new_name": tiles[0] != first,
+                                       "same_file": os.path.samefile(tiles[0], first)}
     shutil.copy(results.cache_file(pile["rockvdb_cache"]), os.path.join(OUT, "regen_pile_after.vdb"))
 
     # Export the rock: its grids with their provenance.

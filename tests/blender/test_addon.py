@@ -401,8 +401,10 @@ def test_regenerate_in_place_gives_the_same_bits(report, out):
 
 
 def test_regenerate_reads_the_stored_input_object(report, out):
-    """A pile regenerated while the pile itself is active reads its cube again: same bits."""
+    """A pile regenerated while the pile itself is active reads its cube again: same bits. Its
+    tile rows did not change, so its tile set is the first one's file (linked, not remade)."""
     assert report["regenerate_pile_same_object"]
+    assert report["regenerate_pile_tiles"] == {"new_name": True, "same_file": True}
     a, b = grids(out / "regen_pile_before.vdb"), grids(out / "regen_pile_after.vdb")
     assert sorted(a) == sorted(b) == ["rock_id", "surface"]
     for g in a:
