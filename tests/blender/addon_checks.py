@@ -178,6 +178,19 @@ try:
     R["fractal_rock"] = result("fractal_rock", rock)
     bpy.ops.rockvdb.fractal_rock(quality="FINAL")
     R["fractal_rock_final"] = result("fractal_rock_final", bpy.context.active_object)
+    # The same call again (what the redo panel does when a group opens): the result is the
+    # last one's, not baked again; its own cache file, the same bytes.
+    works = []
+    real_work = Run._work
+    Run._work = lambda self: (works.append(1), real_work(self))[1]
+    bpy.ops.rockvdb.fractal_rock(quality="FINAL")
+    again = bpy.context.active_object
+    bpy.ops.rockvdb.fractal_rock(quality="FINAL", seed=1)
+    Run._work = real_work
+    first = results.cache_file(bpy.data.objects[R["fractal_rock_final"]["name"]]["rockvdb_cache"])
+    report["same_call"] = {"bakes": len(works), "own_file": results.cache_file(again["rockvdb_cache"]) != first,
+                           "same_bytes": open(results.cache_file(again["rockvdb_cache"]), "rb").read() == open(first, "rb").read(),
+                           "vertices": len(again.data.vertices) == R["fractal_rock_final"]["vertices"]}
     bpy.ops.rockvdb.fractal_rock(seed=5, roughness=0.3)
     R["fractal_rock_seed5"] = result("fractal_rock_seed5", bpy.context.active_object)
 

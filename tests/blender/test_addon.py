@@ -169,6 +169,12 @@ def test_descriptions_are_one_plain_sentence(report):
         assert "§" not in text and "et al" not in text and len(text) < 120, (stage, text)
 
 
+def test_the_same_call_again_reuses_its_result(report):
+    """The redo panel re-runs the operator when a group opens or closes: an unchanged call takes
+    the last result (one bake for two calls; a changed seed bakes), in a file of its own."""
+    assert report["same_call"] == {"bakes": 1, "own_file": True, "same_bytes": True, "vertices": True}
+
+
 def test_addon_no_default_written_twice():
     """The add-on's source names no stage row's default: its properties come from the tables
     (a number written beside a row name would be a second truth)."""

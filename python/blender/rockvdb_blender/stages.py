@@ -31,7 +31,6 @@ class Stage:
         # The add-on's own properties (how a scene object becomes the stage's input), drawn
         # above the table's rows: {name: bpy property}.
         self.extra = extra or {}
-        self.summaries = [tables.table(t)["summary"] for t, _, _ in tables_]
         # Blender's tooltip: one plain sentence, what the artist gets (the tables' summaries,
         # written for the CLI's --help, cite the papers).
         self.summary = description
