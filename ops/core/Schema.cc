@@ -200,23 +200,28 @@ const ParamInfo* SchemaBase::find(const std::string& name) const
     return nullptr;
 }
 
+namespace {
+
+/// Row @a name of @a rows (a table being built), else logic_error naming @a op and @a why.
+ParamInfo& rowNamed(std::vector<ParamInfo>& rows, const std::string& name, const std::string& op,
+                    const char* why)
+{
+    auto it = std::find_if(rows.begin(), rows.end(), [&](const ParamInfo& p) { return p.name == name; });
+    if (it == rows.end()) throw std::logic_error(op + ": no row '" + name + "' to " + why);
+    return *it;
+}
+
+} // namespace
+
 SchemaBase& SchemaBase::group(const std::string& group, const std::vector<std::string>& names)
 {
-    for (const auto& name : names) {
-        auto it = std::find_if(mInfo.begin(), mInfo.end(), [&](const ParamInfo& p) { return p.name == name; });
-        if (it == mInfo.end()) throw std::logic_error(mOp + ": no row '" + name + "' to group");
-        it->group = group;
-    }
+    for (const auto& name : names) rowNamed(mInfo, name, mOp, "group").group = group;
     return *this;
 }
 
 SchemaBase& SchemaBase::files(const std::vector<std::string>& names)
 {
-    for (const auto& name : names) {
-        auto it = std::find_if(mInfo.begin(), mInfo.end(), [&](const ParamInfo& p) { return p.name == name; });
-        if (it == mInfo.end()) throw std::logic_error(mOp + ": no row '" + name + "' to mark as a file");
-        it->file = true;
-    }
+    for (const auto& name : names) rowNamed(mInfo, name, mOp, "mark as a file").file = true;
     return *this;
 }
 

@@ -186,9 +186,18 @@ try:
     bpy.ops.rockvdb.fractal_rock(quality="FINAL")
     again = bpy.context.active_object
     bpy.ops.rockvdb.fractal_rock(quality="FINAL", seed=1)
+    # A scene file edited between two calls: baked again (three calls, two bakes).
+    none_selected()
+    scene_works = len(works)
+    bpy.ops.rockvdb.stacks(scene=SCENE)
+    bpy.ops.rockvdb.stacks(scene=SCENE)
+    st = os.stat(SCENE)
+    os.utime(SCENE, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+    bpy.ops.rockvdb.stacks(scene=SCENE)
+    scene_bakes = len(works) - scene_works
     Run._work = real_work
     first = results.cache_file(bpy.data.objects[R["fractal_rock_final"]["name"]]["rockvdb_cache"])
-    report["same_call"] = {"bakes": len(works), "own_file": results.cache_file(again["rockvdb_cache"]) != first,
+    report["same_call"] = {"bakes": len(works) - scene_bakes, "scene_file_bakes": scene_bakes, "own_file": results.cache_file(again["rockvdb_cache"]) != first,
                            "same_bytes": open(results.cache_file(again["rockvdb_cache"]), "rb").read() == open(first, "rb").read(),
                            "vertices": len(again.data.vertices) == R["fractal_rock_final"]["vertices"]}
     bpy.ops.rockvdb.fractal_rock(seed=5, roughness=0.3)

@@ -138,15 +138,29 @@ _last = {}
 
 def _call_key(stage, kw, inputs):
     """What makes a call's result: its keywords and its inputs (meshes and heights by their
-    bytes, other files by their names), not the files it writes itself (in the cache folder)."""
+    bytes, a file named anywhere by its name, size and modification time: a scene or fracture
+    file edited since counts), not the files it writes itself (in the cache folder)."""
     import hashlib
     h = hashlib.sha1(json.dumps(kw, sort_keys=True, default=str).encode())
     own = results.cache_dir()
+
+    def stamp(v):
+        if isinstance(v, str) and os.path.isfile(v):
+            st = os.stat(v)
+            h.update(f"{v}:{st.st_size}:{st.st_mtime_ns}".encode())
+        elif isinstance(v, dict):
+            for x in v.values():
+                stamp(x)
+        elif isinstance(v, (list, tuple)):
+            for x in v:
+                stamp(x)
+    stamp(kw)
     for k in sorted(inputs):
         v = inputs[k]
         if isinstance(v, str) and v.startswith(own):
             continue
         h.update(k.encode())
+        stamp(v)
         for a in (v if isinstance(v, tuple) else (v,)):
             h.update(a.tobytes() if hasattr(a, "tobytes") else repr(a).encode())
     return stage.name + ":" + h.hexdigest()

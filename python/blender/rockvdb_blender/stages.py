@@ -276,6 +276,7 @@ def _gather_support(op, context):
     # The tile set is saved beside it too, and the pile reads it from there: the pile's
     # provenance then names both files, and vdb_rockpile --params replays it.
     tiles = results.cache_path(obj.name + "_rocks")[:-4] + ".tiles.vdb"
+    # (the mesh too: what the redo panel's memo compares, the files being this call's own)
     return {"support": path, "tiles": tiles, "source": obj.name, "instances": op.instances,
             "mesh": (pts, tris)}
 
@@ -438,7 +439,7 @@ def _extent_tile(stage, kw, inputs):
 
 
 def _extent_mesh(stage, kw, inputs):
-    """The input mesh's (a terrain's, a support's) largest extent; a heightfield's."""
+    """The input mesh's (a terrain's) largest extent; a heightfield's."""
     if "mesh" in inputs:
         pts = inputs["mesh"][0]
         return float((pts.max(0) - pts.min(0)).max())
@@ -473,7 +474,7 @@ STAGES = [
     Stage("rock_pile", "Rock Pile", "OUTLINER_OB_POINTCLOUD",
           "Fill the active closed mesh with a pile of packed rocks.",
           [("rock_tiles", rockvdb.rock_tiles, "tiles_"), ("rock_pile", rockvdb.rock_pile, "")],
-          _gather_support, _run_rock_pile, extent=_extent_mesh,
+          _gather_support, _run_rock_pile,
           extra={"instances": _instances_property(
               "the tile set's rocks the pile uses, each meshed in its own frame, instanced on "
               "one point per placed rock")}),

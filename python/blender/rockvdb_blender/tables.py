@@ -45,8 +45,8 @@ def derived_values(stage, given=None):
 def rows_of(stage, function, prefix="", positional=()):
     """The rows of @a stage's table that @a function (a rockvdb stage function) takes as
     keywords (and the @a positional ones it takes as rows), in table order, each with "prop":
-    the property's name (prefix + python name), "stage": the table, and for a derived row
-    "auto": its rule's value at the table's defaults."""
+    the property's name (prefix + python name), and for a derived row "auto": its rule's
+    value at the table's defaults."""
     import inspect
     taken = {p.name for p in inspect.signature(function).parameters.values()
              if p.kind == p.KEYWORD_ONLY} | set(positional)
@@ -54,7 +54,7 @@ def rows_of(stage, function, prefix="", positional=()):
     out = []
     for row in table(stage)["params"]:
         if row["python"] in taken and row["name"] not in SKIPPED:
-            extra = {"prop": prefix + row["python"], "stage": stage}
+            extra = {"prop": prefix + row["python"]}
             if row["derived"]:
                 extra["auto"] = defaults.get(row["name"])
             out.append(dict(row, **extra))
@@ -252,25 +252,23 @@ def show_derived(op, rows, values, scale=1.0):
             pass
 
 
-def draw_row(layout, op, row, enabled=True):
+def draw_row(layout, op, row):
     """One row: a derived row's field (greyed while its rule holds) with its Auto box on the
     right; an unset row's Set box before its field; any other row its field."""
     if row["derived"]:
         split = layout.split(factor=0.78, align=True)
         field = split.row(align=True)
-        field.enabled = enabled and not getattr(op, "auto_" + row["prop"])
+        field.enabled = not getattr(op, "auto_" + row["prop"])
         field.prop(op, row["prop"])
         split.prop(op, "auto_" + row["prop"], text="Auto")
     elif row["default"] is None:
         line = layout.row(align=True)
         line.prop(op, "use_" + row["prop"], text="")
         sub = line.row(align=True)
-        sub.enabled = enabled and getattr(op, "use_" + row["prop"])
+        sub.enabled = getattr(op, "use_" + row["prop"])
         sub.prop(op, row["prop"])
     else:
-        line = layout.row()
-        line.enabled = enabled
-        line.prop(op, row["prop"])
+        layout.prop(op, row["prop"])
 
 
 def groups(rows):
