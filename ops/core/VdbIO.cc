@@ -394,10 +394,16 @@ void rememberWritten(const std::string& bytes)
 
 bool writtenHere(const std::string& bytes)
 {
+    {
+        std::lock_guard<std::mutex> lock(gWrittenMutex);
+        if (gWritten.empty()) return false; // (a tool that only reads hashes nothing)
+    }
     const auto key = fingerprint(bytes);
     std::lock_guard<std::mutex> lock(gWrittenMutex);
     return gWritten.count(key) != 0;
 }
+
+std::atomic<size_t> gReadsChecked{0};
 
 } // namespace
 
@@ -625,6 +631,8 @@ void probeVdb(const std::string& bytes, const std::string& name)
 
 void setReadInterrupt(bool (*check)()) { gReadInterrupt.store(check); }
 
+size_t readsChecked() { return gReadsChecked.load(); }
+
 openvdb::GridPtrVecPtr readGrids(const std::string& path)
 {
     initialize();
@@ -673,7 +681,10 @@ openvdb::GridPtrVecPtr readGrids(const std::string& path)
         fail<IoError>("cannot read '", name, "': VDB file format version ", format, " is newer than ",
                       "this OpenVDB reads (", openvdb::OPENVDB_FILE_VERSION, " or earlier)");
     }
-    if (!writtenHere(bytes)) probeVdb(bytes, name);
+    if (!writtenHere(bytes)) {
+        probeVdb(bytes, name);
+        ++gReadsChecked;
+    }
     try {
         return parseVdb(bytes, name);
     } catch (const std::bad_alloc&) {

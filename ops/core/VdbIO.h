@@ -36,10 +36,14 @@ void writeGrids(const std::string& path, const openvdb::GridCPtrVec& grids);
 
 /// @brief Read every grid of @a path ("-" = stdin), fully loaded (no delayed loading). The
 /// bytes are parsed first in a child process capped in memory and CPU time (a corrupt file
-/// can crash OpenVDB's reader, ask it for gigabytes or loop it for ever).
+/// can crash OpenVDB's reader, ask it for gigabytes or loop it for ever), unless they are
+/// bytes writeGrids serialised in this process (same size and 64-bit hash).
 /// @throw IoError for a missing, non-VDB, truncated or corrupt file; Interrupted when the
 /// check given to setReadInterrupt says so while the child parses.
 openvdb::GridPtrVecPtr readGrids(const std::string& path);
+
+/// @brief How many reads this process has checked in a child so far (tests).
+size_t readsChecked();
 
 /// @brief A check readGrids polls every 50 ms while its child parses: true gives up (the
 /// child is killed, Interrupted thrown). Python's Ctrl-C; null (the default) never gives up.

@@ -90,7 +90,9 @@ def _in_range(row, integer, value=None):
     if value is None or not _inside(row, value):
         value = next((v for v in (0, 1) if _inside(row, v)), None)
         lo, hi = row["min"], row["max"]
-        if value is None:
+        if value is None and lo is None:  # (a range with a ceiling only)
+            value = hi - 1 if row["max_open"] else hi
+        elif value is None:
             if not row["min_open"]:
                 value = lo
             elif integer:

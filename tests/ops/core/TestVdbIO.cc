@@ -100,13 +100,22 @@ TEST(VdbIO, OnlyBytesThisProcessWroteSkipTheProbe)
     const std::string path = tmp("ours_then_theirs.vdb");
     auto g = smallSphere();
     writeGrids(path, {g});
+    const size_t checked = readsChecked();
     EXPECT_EQ(readLevelSet(path)->activeVoxelCount(), g->activeVoxelCount());
+    EXPECT_EQ(readsChecked(), checked) << "our own bytes went through the child";
     std::ifstream in(std::string(ROCKVDB_SOURCE_DIR) + "/tests/fuzz/regressions/vdb/endless-read",
                      std::ios::binary);
     ASSERT_TRUE(in);
     const std::string theirs((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     { std::ofstream(path, std::ios::binary | std::ios::trunc) << theirs; }
     EXPECT_THROW(readGrids(path), IoError);
+    // Our bytes again, now as another program wrote them (OpenVDB's io::File): checked.
+    {
+        openvdb::io::File f(path);
+        f.write(openvdb::GridCPtrVec{g});
+    }
+    EXPECT_EQ(readLevelSet(path)->activeVoxelCount(), g->activeVoxelCount());
+    EXPECT_EQ(readsChecked(), checked + 1);
 }
 
 TEST(VdbIO, ANewerFormatVersionIsRefusedInOneLine)
