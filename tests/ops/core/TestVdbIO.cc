@@ -241,3 +241,35 @@ TEST(Mesh, UpAxisRotatesAndRoundTrips)
     EXPECT_EQ(upAxisFromString("y"), UpAxis::Y);
     EXPECT_THROW(upAxisFromString("x"), ValueError);
 }
+
+// The header's UUID comes from the file's own bytes: the same grids write the same file (a
+// chunk a scheduler ran twice at once left a record whose CRC-32 named the other run's file,
+// when OpenVDB wrote a random UUID per file), other grids another UUID, and OpenVDB reads it.
+TEST(VdbIO, TheSameGridsWriteTheSameBytes)
+{
+    auto slurp = [](const std::string& p) {
+        std::ifstream f(p, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(f), {});
+    };
+    auto g = smallSphere();
+    writeGrids(tmp("same_a.vdb"), {g});
+    writeGrids(tmp("same_b.vdb"), {g->deepCopy()});
+    const std::string a = slurp(tmp("same_a.vdb")), b = slurp(tmp("same_b.vdb"));
+    ASSERT_GT(a.size(), 57u);
+    EXPECT_EQ(a, b);
+    auto h = g->deepCopy();
+    h->tree().setValueOn(openvdb::Coord(0, 0, 10), 0.05f);
+    writeGrids(tmp("same_c.vdb"), {h});
+    const std::string c = slurp(tmp("same_c.vdb"));
+    EXPECT_NE(a.substr(21, 36), c.substr(21, 36));
+    const std::string uuid = a.substr(21, 36);
+    EXPECT_EQ(uuid[14], '8'); // version 8 (custom)
+    EXPECT_NE(std::string("89ab").find(uuid[19]), std::string::npos); // RFC variant
+    openvdb::io::File file(tmp("same_a.vdb"));
+    file.open();
+    EXPECT_TRUE(file.isIdentical(uuid));
+    EXPECT_EQ(file.getUniqueTag(), uuid);
+    auto back = openvdb::gridPtrCast<openvdb::FloatGrid>(file.readGrid("surface"));
+    ASSERT_TRUE(back);
+    EXPECT_EQ(back->activeVoxelCount(), g->activeVoxelCount());
+}
