@@ -29,7 +29,6 @@ using json = nlohmann::json;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kGaborTrackerSteps = 3;
 constexpr int kMaxWidenVoxels = 64;
 
@@ -244,12 +243,12 @@ public:
             mDmax = std::max(mD, intensity(a, r));
             mAmax = std::max(mA, a);
         }
-        const double alpha = g.tiltDeg * kPi / 180.0, theta = g.tiltAzimuthDeg * kPi / 180.0;
+        const double alpha = g.tiltDeg * M_PI / 180.0, theta = g.tiltAzimuthDeg * M_PI / 180.0;
         mCosA = float(std::cos(alpha));
         mSinA = float(std::sin(alpha));
         mCosT = float(std::cos(theta));
         mSinT = float(std::sin(theta));
-        const double w = g.orientationDeg * kPi / 180.0;
+        const double w = g.orientationDeg * M_PI / 180.0;
         mCosW = float(std::cos(w));
         mSinW = float(std::sin(w));
         mSingular = g.singular;
@@ -285,7 +284,7 @@ public:
         const double a = mG.bandwidth > 0 ? mG.bandwidth : mG.frequency / 2;
         const double f = std::max({mG.frequency, mBlend.frequency, mSkeletonParams ? mDir.maxFrequency() : 0.0});
         return mInput->lipschitz() +
-               double(mDmax) * (6.0 / double(mR > 0 ? std::min(mR, mRmax) : mRmax) + 2.0 * kPi * (f + a));
+               double(mDmax) * (6.0 / double(mR > 0 ? std::min(mR, mRmax) : mRmax) + 2.0 * M_PI * (f + a));
     }
 
     static float falloff(double R, double A) { return float(R > 0 ? R : 12.0 * A); }
@@ -366,7 +365,7 @@ private:
                 R = falloff(mG.falloff, A);
                 D = intensity(A, R);
                 baseTilt = float(at.tilt);
-                const float al = float(at.tilt * kPi / 180);
+                const float al = float(at.tilt * M_PI / 180);
                 cosA = std::cos(al);
                 sinA = std::sin(al);
             }
@@ -376,8 +375,8 @@ private:
                 A = lerp(A0, float(mBlend.gaborAmplitude), wp);
                 R = lerp(R0, falloff(mBlend.falloff, mBlend.gaborAmplitude), wp);
                 D = intensity(A, R);
-                const float al = float(lerp(baseTilt, float(mBlend.tiltDeg), wp) * kPi / 180);
-                const float th = float(lerp(float(mG.tiltAzimuthDeg), float(mBlend.tiltAzimuthDeg), wp) * kPi / 180);
+                const float al = float(lerp(baseTilt, float(mBlend.tiltDeg), wp) * M_PI / 180);
+                const float th = float(lerp(float(mG.tiltAzimuthDeg), float(mBlend.tiltAzimuthDeg), wp) * M_PI / 180);
                 cosA = std::cos(al);
                 sinA = std::sin(al);
                 cosT = std::cos(th);
@@ -416,7 +415,7 @@ private:
             }
             if (mMask) {
                 const float ws = (*mMask)(s.x[j], s.y[j], s.z[j]);
-                const double w0 = mG.orientationDeg * kPi / 90.0, w1 = mBlend.orientationDeg * kPi / 90.0;
+                const double w0 = mG.orientationDeg * M_PI / 90.0, w1 = mBlend.orientationDeg * M_PI / 90.0;
                 const float c2 = lerp(float(std::cos(w0)), float(std::cos(w1)), ws);
                 const float s2 = lerp(float(std::sin(w0)), float(std::sin(w1)), ws);
                 const float half = 0.5f * std::atan2(s2, c2);
@@ -522,7 +521,7 @@ private:
             const float mean = 0.5f * (a + d), rad = std::sqrt(0.25f * (a - d) * (a - d) + c * c);
             const float k1 = mean + rad, k2 = mean - rad;
             float phi = 0.5f * std::atan2(2.0f * c, a - d); // direction of k1
-            if (std::abs(k2) > std::abs(k1)) phi += float(kPi / 2);
+            if (std::abs(k2) > std::abs(k1)) phi += float(M_PI / 2);
             const Vec3f W = e1 * std::cos(phi) + e2 * std::sin(phi);
             w.ox[i] = W[0];
             w.oy[i] = W[1];

@@ -12,9 +12,8 @@ namespace rockvdb {
 namespace detail {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 // exp(-π a² r²) = 5% at the truncation radius.
-const double kTruncation = std::sqrt(-std::log(0.05) / kPi);
+const double kTruncation = std::sqrt(-std::log(0.05) / M_PI);
 
 // Knuth's Poisson sampler on counter-based uniforms (means up to ~61 for 256 impulses per
 // kernel; the cap is far beyond any count with a real probability, it only bounds the loop).
@@ -36,11 +35,11 @@ GaborNoise::GaborNoise(double frequency, double bandwidth, double impulses, uint
 {
     mR = kTruncation / mA;
     // λ impulses per m³ such that a kernel ball holds `impulses` on average; cells of edge r.
-    const double lambda = impulses / (4.0 / 3.0 * kPi * mR * mR * mR);
+    const double lambda = impulses / (4.0 / 3.0 * M_PI * mR * mR * mR);
     mMeanPerCell = lambda * mR * mR * mR;
     // Var n = λ E[w²] ∫ g² = λ/3 · ½ (2a²)^(-3/2) (1 + exp(-2π F0²/a²)) (untruncated kernel).
     mSigma = std::sqrt(lambda / 6.0 * std::pow(2.0 * mA * mA, -1.5) *
-                       (1.0 + std::exp(-2.0 * kPi * mF * mF / (mA * mA))));
+                       (1.0 + std::exp(-2.0 * M_PI * mF * mF / (mA * mA))));
 }
 
 void GaborNoise::impulses(const Vec3f& lo, const Vec3f& hi, std::vector<GaborImpulse>& out) const
@@ -71,7 +70,7 @@ void GaborNoise::impulses(const Vec3f& lo, const Vec3f& hi, std::vector<GaborImp
                     if (double(ex * ex + ey * ey + ez * ez) >= r * r) continue;
                     g.w = float(2.0 * u(3) - 1.0);
                     // Uniform direction on the sphere (isotropic noise).
-                    const double cz = 2.0 * u(4) - 1.0, phi = 2.0 * kPi * u(5);
+                    const double cz = 2.0 * u(4) - 1.0, phi = 2.0 * M_PI * u(5);
                     const double sz = std::sqrt(std::max(0.0, 1.0 - cz * cz));
                     g.ox = float(sz * std::cos(phi));
                     g.oy = float(sz * std::sin(phi));
@@ -143,7 +142,7 @@ void GaborNoise::evalBlock(const std::vector<GaborImpulse>& imp, int n, const fl
                            const float* iso, float* out) const
 {
     const float r2 = float(mR * mR);
-    const float env = float(-kPi * mA * mA);
+    const float env = float(-M_PI * mA * mA);
     const float f0 = float(mF); // cycles per metre: cos(2π f0 d·o) = cosTurns(f0 d·o)
     for (int i = 0; i < n; ++i) out[i] = 0.0f;
     bool anyIso = false;

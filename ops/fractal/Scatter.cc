@@ -18,7 +18,7 @@ namespace fractal {
 
 namespace {
 
-enum Stream : uint64_t { kCandidate = 0x5ca7, kRockSeed = 0x5ca8, kDensity = 0x5ca9 };
+enum ScatterStream : uint64_t { kCandidate = 0x5ca7, kRockSeed = 0x5ca8, kDensity = 0x5ca9 };
 
 class PlaneGround : public Ground
 {

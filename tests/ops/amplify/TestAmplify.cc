@@ -88,7 +88,7 @@ Scene scene(bool flat = false, const amplify::Strata* strata = nullptr, double h
     return s;
 }
 
-BakeSettings settings()
+BakeSettings amplifySettings()
 {
     BakeSettings b;
     b.voxelSize = 0.1;
@@ -110,8 +110,8 @@ TEST(Amplify, BlocksOnTheCliffOnlyAndTheTerrainStaysInside)
     EXPECT_EQ(s.stats.blockBytes, blocks::tileFieldBytes(*smallTile()));
     EXPECT_GT(s.stats.blockBytes, 4.0 * double(relief::tableTexels(smallTile()->params.relief, 0.0f, 10.0f)));
     EXPECT_LT(s.stats.blockBytes, 4e6);
-    auto r = bake(*s.amplified, settings());
-    auto bare = bake(*s.terrain, settings()).surface;
+    auto r = bake(*s.amplified, amplifySettings());
+    auto bare = bake(*s.terrain, amplifySettings()).surface;
     // Slope rule: no block voxels over the plateau or the valley floor (blocks on the cliff
     // may overhang its rims by their own size, < 3.5 m here).
     size_t onCliff = 0;
@@ -134,7 +134,7 @@ TEST(Amplify, ChunksAndThreadsGiveTheWholeBakeBitwise)
 {
     initialize();
     Scene s = scene();
-    BakeSettings whole = settings();
+    BakeSettings whole = amplifySettings();
     openvdb::FloatGrid::Ptr one, two;
     {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
@@ -184,7 +184,7 @@ TEST(Amplify, StrataChooseTheTileByElevationAlsoTilted)
                            {"layers", {{{"tile", "equi"}, {"top", 10.0}}, {{"tile", "tab"}}}}},
             {"equi", "tab"});
         Scene s = scene(false, &st, 20.0);
-        auto r = bake(*s.amplified, settings());
+        auto r = bake(*s.amplified, amplifySettings());
         size_t counts[2] = {0, 0};
         for (auto it = r.attribute->cbeginValueOn(); it; ++it) {
             if (*it < 0) continue;
@@ -225,7 +225,7 @@ TEST(Amplify, ABlockStraddlingACellFaceIsComplete)
     amplify::AmplifyStats stats;
     auto presence = amplify::computePresence(*terrain, *tile, rules, stats);
     const double s = tile->size();
-    BakeSettings b = settings();
+    BakeSettings b = amplifySettings();
     b.withAttribute = false;
     std::vector<openvdb::Coord> probe;
     for (int ix = 0; ix <= 3 && probe.empty(); ++ix)
@@ -276,9 +276,9 @@ TEST(Amplify, CarvingReplacesTheSkinNearBlocksOnly)
     amplify::AmplifyStats a, b;
     auto plain = amplify::amplifiedTerrain(terrain, {smallTile()}, rules, a);
     auto carved = amplify::amplifiedTerrain(terrain, {smallTile()}, rules, b, nullptr, 0.15);
-    auto P = bake(*plain, settings());
-    auto C = bake(*carved, settings());
-    auto bare = bake(*terrain, settings()).surface;
+    auto P = bake(*plain, amplifySettings());
+    auto C = bake(*carved, amplifySettings());
+    auto bare = bake(*terrain, amplifySettings()).surface;
     auto pacc = P.surface->getConstAccessor();
     auto cacc = C.surface->getConstAccessor();
     // Carved: voxels inside the bare terrain that are now open (the fractures between
@@ -340,7 +340,7 @@ size_t normGradFailures(const openvdb::FloatGrid& g)
 void expectSameAsSingleBake(const amplify::AmplifiedParts& parts, const char* what,
                             double voxelSize = 0.1)
 {
-    BakeSettings s = settings();
+    BakeSettings s = amplifySettings();
     s.voxelSize = voxelSize;
     amplify::AmplifyStats st;
     const amplify::AmplifyResult split = amplify::bakeAmplified(parts, s, st);
@@ -422,7 +422,7 @@ TEST(Amplify, PartsBakedApartAreTheSameAtOneAndTwoThreadsAndInChunks)
 {
     initialize();
     Scene s = scene();
-    const BakeSettings whole = settings();
+    const BakeSettings whole = amplifySettings();
     amplify::AmplifyResult one, two;
     amplify::AmplifyStats st;
     {

@@ -26,7 +26,7 @@ using rockvdb::random::uniform;
 
 namespace {
 
-StackGeometry geometry(int nx, int ny, double cell, double quantum = 0.01)
+StackGeometry editsGeometry(int nx, int ny, double cell, double quantum = 0.01)
 {
     return test::stackGeometry(nx, ny, cell, quantum);
 }
@@ -36,7 +36,7 @@ StackGeometry geometry(int nx, int ny, double cell, double quantum = 0.01)
 Stacks hill(int n = 80, double sand = 0.0)
 {
     Task task;
-    return Stacks::build(geometry(n, n, 0.5), [&](int i, int j, std::vector<Layer>& layers) {
+    return Stacks::build(editsGeometry(n, n, 0.5), [&](int i, int j, std::vector<Layer>& layers) {
         const double x = (i + 0.5) * 0.5 - n * 0.25, y = (j + 0.5) * 0.5 - n * 0.25;
         const double h = 5.0 + 3.0 * std::exp(-(x * x + y * y) / 30.0);
         layers.push_back(Layer{Material::Bedrock, uint32_t(std::lround(h / 0.01))});
@@ -343,7 +343,7 @@ namespace {
 Stacks ridge()
 {
     Task task;
-    return Stacks::build(geometry(60, 40, 0.5), [&](int i, int, std::vector<Layer>& layers) {
+    return Stacks::build(editsGeometry(60, 40, 0.5), [&](int i, int, std::vector<Layer>& layers) {
         const double x = (i + 0.5) * 0.5;
         const double h = 5.0 + 6.0 * std::max(0.0, 1.0 - std::abs(x - 15.0) / 6.0);
         layers.push_back(Layer{Material::Bedrock, uint32_t(std::lround(h / 0.01))});
@@ -489,7 +489,7 @@ TEST(Weights, TheVisibleFacesOfEachMaterialInTheCube)
 {
     // Bedrock up to 5 m everywhere, 0.5 m of sand on the half x < 10 (40 x 20 stacks of 0.5 m).
     Task task;
-    const Stacks s = Stacks::build(geometry(40, 20, 0.5), [&](int i, int, std::vector<Layer>& layers) {
+    const Stacks s = Stacks::build(editsGeometry(40, 20, 0.5), [&](int i, int, std::vector<Layer>& layers) {
         layers.push_back(Layer{Material::Bedrock, 500});
         if (i < 20) layers.push_back(Layer{Material::Sand, 50});
     }, task);
@@ -569,7 +569,7 @@ TEST(Erode, AStrokeErodesAContinuousBandAlongItsSegmentsAndNothingElse)
     // Flat bedrock at 5 m (30 x 20 m); a stroke of three points 10 m apart at the ground's
     // height, R = 1 m: spheres at the points alone would leave 8 m gaps between them.
     Task task;
-    Stacks s = Stacks::build(geometry(60, 40, 0.5), [](int, int, std::vector<Layer>& layers) {
+    Stacks s = Stacks::build(editsGeometry(60, 40, 0.5), [](int, int, std::vector<Layer>& layers) {
         layers.push_back(Layer{Material::Bedrock, 500});
     }, task);
     const std::vector<Vec3d> stroke = {{5, 10, 5}, {15, 10, 5}, {25, 13, 5}};
@@ -640,7 +640,7 @@ TEST(Crack, NodesIn3DCutAlongAVerticalWallAndUnderAnOverhang)
     const json profile = {{-0.5, 0.5}, {0.5, 0.5}, {0.0, -1.5}};
     // A wall facing +x at x = 10 m: bedrock to 10 m on its left, to 2 m on its right. The
     // graph runs 0.3 m in front of it at 6 m up: a horizontal groove cut into the face.
-    Stacks wall = Stacks::build(geometry(40, 40, 0.5), [](int i, int, std::vector<Layer>& layers) {
+    Stacks wall = Stacks::build(editsGeometry(40, 40, 0.5), [](int i, int, std::vector<Layer>& layers) {
         layers.push_back(Layer{Material::Bedrock, i < 20 ? 1000u : 200u});
     }, task);
     const EditStats e = applyEdit(wall, {{"tool", "crack"}, {"nodes", {{10.3, 4.0, 6.0}, {10.3, 16.0, 6.0}}},
@@ -658,7 +658,7 @@ TEST(Crack, NodesIn3DCutAlongAVerticalWallAndUnderAnOverhang)
     }
     // An overhang: a slab 5..8 m over a floor at 2 m; the graph 0.3 m under the slab's
     // underside cuts up into it (not down into the floor, 2.7 m away).
-    Stacks over = Stacks::build(geometry(40, 40, 0.5), [](int i, int j, std::vector<Layer>& layers) {
+    Stacks over = Stacks::build(editsGeometry(40, 40, 0.5), [](int i, int j, std::vector<Layer>& layers) {
         layers.push_back(Layer{Material::Bedrock, 200});
         if (i >= 6 && i < 34 && j >= 6 && j < 34) {
             layers.push_back(Layer{Material::Air, 300});

@@ -34,7 +34,7 @@ FloatGrid::Ptr ids(const FloatGrid& surface, const IdOf& idOf)
     return g;
 }
 
-double phiAt(const FloatGrid& g, const Vec3d& p)
+double cutPhiAt(const FloatGrid& g, const Vec3d& p)
 {
     auto acc = g.getConstAccessor();
     return openvdb::tools::BoxSampler::sample(acc, g.transform().worldToIndex(p));
@@ -52,8 +52,8 @@ TEST(Cut, ARockApartKeepsItsBandBitForBit)
     Task task;
     const CutResult c = cutId(*s, *id, 2, 1u << 26, task);
     EXPECT_FALSE(c.rebuilt);
-    EXPECT_GT(phiAt(*c.grid, Vec3d(0, 0, 0)), 0.0);   // rock 1 is gone
-    EXPECT_LT(phiAt(*c.grid, Vec3d(2, 0, 0)), 0.0);   // rock 2 is there
+    EXPECT_GT(cutPhiAt(*c.grid, Vec3d(0, 0, 0)), 0.0);   // rock 1 is gone
+    EXPECT_LT(cutPhiAt(*c.grid, Vec3d(2, 0, 0)), 0.0);   // rock 2 is there
     EXPECT_EQ(c.grid->getGridClass(), openvdb::GRID_LEVEL_SET);
     EXPECT_EQ(c.grid->background(), s->background());
     auto in = s->getConstAccessor();
@@ -78,16 +78,16 @@ TEST(Cut, FusedBlocksArePartedWhereTheirIdsMeet)
     Task task;
     const CutResult c = cutId(*g, *id, 7, 1u << 26, task);
     EXPECT_TRUE(c.rebuilt);
-    EXPECT_LT(phiAt(*c.grid, Vec3d(0.5, 0.5, 0.5)), 0.0);
-    EXPECT_GT(phiAt(*c.grid, Vec3d(1.5, 0.5, 0.5)), 0.0);
+    EXPECT_LT(cutPhiAt(*c.grid, Vec3d(0.5, 0.5, 0.5)), 0.0);
+    EXPECT_GT(cutPhiAt(*c.grid, Vec3d(1.5, 0.5, 0.5)), 0.0);
     // the cut face lies at x = 1 within a voxel, and the rest of block 7 is where it was
-    EXPECT_NEAR(phiAt(*c.grid, Vec3d(0.9, 0.5, 0.5)), -0.1, 1.5 * h);
-    EXPECT_NEAR(phiAt(*c.grid, Vec3d(1.1, 0.5, 0.5)), 0.1, 1.5 * h);
-    EXPECT_NEAR(phiAt(*c.grid, Vec3d(0.5, 0.5, 1.0)), 0.0, 0.5 * h);
-    EXPECT_NEAR(phiAt(*c.grid, Vec3d(0.0, 0.5, 0.5)), 0.0, 0.5 * h);
+    EXPECT_NEAR(cutPhiAt(*c.grid, Vec3d(0.9, 0.5, 0.5)), -0.1, 1.5 * h);
+    EXPECT_NEAR(cutPhiAt(*c.grid, Vec3d(1.1, 0.5, 0.5)), 0.1, 1.5 * h);
+    EXPECT_NEAR(cutPhiAt(*c.grid, Vec3d(0.5, 0.5, 1.0)), 0.0, 0.5 * h);
+    EXPECT_NEAR(cutPhiAt(*c.grid, Vec3d(0.0, 0.5, 0.5)), 0.0, 0.5 * h);
     const CutResult other = cutId(*g, *id, 9, 1u << 26, task);
-    EXPECT_GT(phiAt(*other.grid, Vec3d(0.5, 0.5, 0.5)), 0.0);
-    EXPECT_LT(phiAt(*other.grid, Vec3d(1.5, 0.5, 0.5)), 0.0);
+    EXPECT_GT(cutPhiAt(*other.grid, Vec3d(0.5, 0.5, 0.5)), 0.0);
+    EXPECT_LT(cutPhiAt(*other.grid, Vec3d(1.5, 0.5, 0.5)), 0.0);
 }
 
 TEST(Cut, AnIdThatIsNotThereIsNamed)
@@ -121,12 +121,12 @@ TEST(Cut, AThinLayerBetweenTwoBigBlocksKeepsItsInside)
     const CutResult c = cutId(*g, *id, 1, 1u << 26, task);
     EXPECT_TRUE(c.rebuilt);
     for (const Vec3d xy : {Vec3d(2, 2, 0), Vec3d(0.3, 0.3, 0), Vec3d(3.7, 0.4, 0), Vec3d(1.1, 3.3, 0)}) {
-        EXPECT_LT(phiAt(*c.grid, xy + Vec3d(0, 0, 1.35)), -0.1) << xy;
+        EXPECT_LT(cutPhiAt(*c.grid, xy + Vec3d(0, 0, 1.35)), -0.1) << xy;
         // the faces lie half way between the last voxel centre of one id and the first of the
         // next (centres at multiples of h: layer 1 holds z = 1.20 ... 1.45)
-        EXPECT_NEAR(phiAt(*c.grid, xy + Vec3d(0, 0, 1.175)), 0.0, 0.25 * h) << xy;
-        EXPECT_NEAR(phiAt(*c.grid, xy + Vec3d(0, 0, 1.475)), 0.0, 0.25 * h) << xy;
-        EXPECT_GT(phiAt(*c.grid, xy + Vec3d(0, 0, 0.6)), 0.0) << xy;
-        EXPECT_GT(phiAt(*c.grid, xy + Vec3d(0, 0, 2.3)), 0.0) << xy;
+        EXPECT_NEAR(cutPhiAt(*c.grid, xy + Vec3d(0, 0, 1.175)), 0.0, 0.25 * h) << xy;
+        EXPECT_NEAR(cutPhiAt(*c.grid, xy + Vec3d(0, 0, 1.475)), 0.0, 0.25 * h) << xy;
+        EXPECT_GT(cutPhiAt(*c.grid, xy + Vec3d(0, 0, 0.6)), 0.0) << xy;
+        EXPECT_GT(cutPhiAt(*c.grid, xy + Vec3d(0, 0, 2.3)), 0.0) << xy;
     }
 }

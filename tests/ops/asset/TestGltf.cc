@@ -36,7 +36,7 @@ struct Built
     TriMesh hull;
 };
 
-Built build()
+Built builtSphere()
 {
     // a sphere of radius 1 centred at z = 2: its top at z = 3 must become y = 3
     auto g = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0, 0.5f, 2), 0.04f, 3.0f);
@@ -88,7 +88,7 @@ std::string glb(const Built& b, int bits = 8, bool collision = false)
 
 TEST(Gltf, GlbReadsBackWithLodsAttributesYUpAndProvenance)
 {
-    const Built b = build();
+    const Built b = builtSphere();
     const std::string bytes = glb(b);
     tinygltf::Model m;
     ASSERT_TRUE(load(bytes, m));
@@ -158,7 +158,7 @@ TEST(Gltf, GlbReadsBackWithLodsAttributesYUpAndProvenance)
 
 TEST(Gltf, SixteenBitMapsAndACollisionHull)
 {
-    const Built b = build();
+    const Built b = builtSphere();
     const std::string bytes = glb(b, 16, true);
     tinygltf::Model m;
     ASSERT_TRUE(load(bytes, m));
@@ -183,16 +183,16 @@ TEST(Gltf, SixteenBitMapsAndACollisionHull)
 
 TEST(Gltf, SameAssetSameBytes)
 {
-    const Built b = build();
+    const Built b = builtSphere();
     EXPECT_EQ(glb(b), glb(b));
-    EXPECT_EQ(glb(b), glb(build()));
+    EXPECT_EQ(glb(b), glb(builtSphere()));
     GltfAsset empty;
     EXPECT_THROW(writeGlb(empty), ValueError);
 }
 
 TEST(Gltf, AssetsShareAFileEachCentredOnItsPivotAndInstanced)
 {
-    const Built b = build();
+    const Built b = builtSphere();
     GltfAsset one, two;
     one.name = "a";
     two.name = "b";

@@ -57,7 +57,7 @@ double signedVolume(const TriMesh& m)
     return v;
 }
 
-FloatGrid::Ptr sphere(float r, float dx)
+FloatGrid::Ptr lodSphere(float r, float dx)
 {
     return openvdb::tools::createLevelSetSphere<FloatGrid>(r, openvdb::Vec3f(0.1f, -0.2f, 0.05f), dx, 3.0f);
 }
@@ -67,7 +67,7 @@ FloatGrid::Ptr sphere(float r, float dx)
 TEST(Lods, SurfaceMeshIsClosedOutwardAndOnTheSurface)
 {
     const float dx = 0.02f;
-    auto g = sphere(1.0f, dx);
+    auto g = lodSphere(1.0f, dx);
     const TriMesh m = surfaceMesh(*g);
     const Topology top = topology(m);
     EXPECT_TRUE(top.closedManifold);
@@ -87,7 +87,7 @@ TEST(Lods, SurfaceMeshIsClosedOutwardAndOnTheSurface)
 TEST(Lods, LevelsMeetTheirBudgetsKeepTheTopologyAndStayNearTheSurface)
 {
     const float dx = 0.02f;
-    auto g = sphere(1.0f, dx);
+    auto g = lodSphere(1.0f, dx);
     const TriMesh full = surfaceMesh(*g);
     ASSERT_GT(full.triangles(), 50000u);
     Task task;
@@ -128,7 +128,7 @@ TEST(Lods, LevelsMeetTheirBudgetsKeepTheTopologyAndStayNearTheSurface)
 TEST(Lods, TheErrorIsMeasuredBothWaysAndBeyondTheBand)
 {
     const float dx = 0.04f;
-    auto g = sphere(1.0f, dx);
+    auto g = lodSphere(1.0f, dx);
     const TriMesh full = surfaceMesh(*g);
     const openvdb::Vec3d c(0.1, -0.2, 0.05);
     // The surface scaled by 1.2 about its centre: 0.2 m out, far beyond the band (3 dx = 0.12 m)
@@ -171,7 +171,7 @@ TEST(Lods, TheErrorIsMeasuredBothWaysAndBeyondTheBand)
 
 TEST(Lods, TheSameInputGivesTheSameLevels)
 {
-    auto g = sphere(0.5f, 0.02f);
+    auto g = lodSphere(0.5f, 0.02f);
     const TriMesh full = surfaceMesh(*g);
     Task task;
     const auto a = makeLods(full, {2000, 300}, task), b = makeLods(full, {2000, 300}, task);
@@ -183,7 +183,7 @@ TEST(Lods, TheSameInputGivesTheSameLevels)
 
 TEST(Lods, BadBudgetsAndGridsAreRefused)
 {
-    auto g = sphere(0.5f, 0.05f);
+    auto g = lodSphere(0.5f, 0.05f);
     const TriMesh full = surfaceMesh(*g);
     Task task;
     EXPECT_THROW(makeLods(full, {0}, task), ValueError);

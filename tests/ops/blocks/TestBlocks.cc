@@ -31,7 +31,7 @@ using namespace rockvdb::blocks;
 namespace {
 
 // A small, quick tile (10 m, ~4 600 points).
-BlockTileParams small(BlockType type, uint64_t seed = 3)
+BlockTileParams smallBlocks(BlockType type, uint64_t seed = 3)
 {
     BlockTileParams p;
     p.type = type;
@@ -86,7 +86,7 @@ double median(std::vector<double> v)
     return v[v.size() / 2];
 }
 
-BakeSettings settings(double dx)
+BakeSettings blockSettings(double dx)
 {
     BakeSettings s;
     s.voxelSize = dx;
@@ -180,7 +180,7 @@ TEST(Sampling, PoissonBoxIsMaximalInItsBoxAtThePeriodicDensity)
 TEST(Blocks, TileFieldIsPeriodic)
 {
     initialize();
-    BlockTileParams p = small(BlockType::Equidimensional);
+    BlockTileParams p = smallBlocks(BlockType::Equidimensional);
     p.relief.amplitude = 0.05;
     auto tile = make(p);
     TileFieldOptions o;
@@ -243,7 +243,7 @@ TEST(Blocks, BlocksAreConvexAndDisjoint)
 {
     initialize();
     for (double amp : {0.0, 0.05}) {
-        BlockTileParams p = small(BlockType::Polyhedral);
+        BlockTileParams p = smallBlocks(BlockType::Polyhedral);
         p.relief.amplitude = amp;
         auto tile = make(p);
         ASSERT_GT(tile->blocks.size(), 10u);
@@ -267,7 +267,7 @@ TEST(Blocks, NoDiscSeparatesTwoPointsOfACluster)
     // §4.1's visibility, on the clusters as split (with fill, a small cluster then joins a
     // neighbour across its fracture by design: see NoClusterBecomesAVoid).
     for (BlockType t : {BlockType::Equidimensional, BlockType::Tabular}) {
-        BlockTileParams p = small(t);
+        BlockTileParams p = smallBlocks(t);
         p.fill = false;
         auto tile = make(p);
         const double s = tile->size();
@@ -425,7 +425,7 @@ TEST(Blocks, TypeSignatures)
 
 TEST(Blocks, UserDiscSplitsABlockAndAuthoredBoxIsOneBlock)
 {
-    BlockTileParams p = small(BlockType::Equidimensional, 5);
+    BlockTileParams p = smallBlocks(BlockType::Equidimensional, 5);
     auto base = make(p);
     // The largest block, and a user disc through its centroid.
     size_t big = 0;
@@ -523,7 +523,7 @@ BlockTileParams withAuthored(BlockTileParams p, const char* json)
 // (id 0), its neighbours grow up to it and stand exactly the fracture width w away.
 TEST(Blocks, AuthoredSphereIsOneBlockAndItsNeighboursStandFractureWidthAway)
 {
-    BlockTileParams p = small(BlockType::Equidimensional, 5);
+    BlockTileParams p = smallBlocks(BlockType::Equidimensional, 5);
     p.relief.amplitude = 0; // the sphere exactly
     p.fractureWidth = 0.05;
     p = withAuthored(p, R"([{"type": "sphere", "center": [5, 5, 5], "radius": 1.6}])");
@@ -585,7 +585,7 @@ TEST(Blocks, AuthoredSmoothUnionIsTheExpressionsField)
     const char* expr = R"({"type": "union", "smooth": 1.0, "children": [
         {"type": "sphere", "center": [4, 5, 5], "radius": 1},
         {"type": "sphere", "center": [6.2, 5, 5], "radius": 1}]})";
-    BlockTileParams p = small(BlockType::Equidimensional, 5);
+    BlockTileParams p = smallBlocks(BlockType::Equidimensional, 5);
     p.relief.amplitude = 0;
     p = withAuthored(p, (std::string("[") + expr + "]").c_str());
     auto t = make(p);
@@ -609,7 +609,7 @@ TEST(Blocks, AuthoredSmoothUnionIsTheExpressionsField)
 
 TEST(Blocks, AuthoredExpressionsThatAreNotBoundedBlocksAreRefused)
 {
-    const BlockTileParams p = small(BlockType::Equidimensional, 5);
+    const BlockTileParams p = smallBlocks(BlockType::Equidimensional, 5);
     auto refused = [&](const char* json, const char* says) {
         try {
             make(withAuthored(p, json));
@@ -641,7 +641,7 @@ TEST(Blocks, AuthoredExpressionsThatAreNotBoundedBlocksAreRefused)
 
 TEST(Blocks, ZeroAmplitudeIsTheSmoothPolytope)
 {
-    BlockTileParams p = small(BlockType::Rhombohedral);
+    BlockTileParams p = smallBlocks(BlockType::Rhombohedral);
     p.relief.amplitude = 0.0;
     auto tile = make(p);
     for (size_t j = 0; j < std::min<size_t>(tile->blocks.size(), 8); ++j) {
@@ -666,7 +666,7 @@ TEST(Blocks, WarpMovesTheSurfaceAtMostTheAmplitudeWithoutFragments)
 {
     initialize();
     const double amp = 0.08, dx = 0.04;
-    BlockTileParams p = small(BlockType::Equidimensional, 8);
+    BlockTileParams p = smallBlocks(BlockType::Equidimensional, 8);
     p.relief.amplitude = amp;
     p.relief.scale = 1.0;
     BlockTileParams flat = p;
@@ -676,8 +676,8 @@ TEST(Blocks, WarpMovesTheSurfaceAtMostTheAmplitudeWithoutFragments)
     ASSERT_EQ(warped->blocks.size(), plain->blocks.size());
     double maxMove = 0;
     for (size_t j = 0; j < 3; ++j) {
-        auto g = bake(*blockField(warped, j), settings(dx)).surface;
-        auto h = bake(*blockField(plain, j), settings(dx)).surface;
+        auto g = bake(*blockField(warped, j), blockSettings(dx)).surface;
+        auto h = bake(*blockField(plain, j), blockSettings(dx)).surface;
         EXPECT_EQ(openvdb::tools::checkLevelSet(*g, 8), "") << "block " << j;
         // Zero crossings of the warped block lie within amp (+ a voxel) of the plain one.
         auto hf = blockField(plain, j);
@@ -701,10 +701,10 @@ TEST(Blocks, WarpMovesTheSurfaceAtMostTheAmplitudeWithoutFragments)
 TEST(Blocks, DeterministicAcrossThreadsAndThroughTheTileFile)
 {
     initialize();
-    BlockTileParams p = small(BlockType::Tabular, 4);
+    BlockTileParams p = smallBlocks(BlockType::Tabular, 4);
     auto tile = make(p);
     auto f = tileField(tile, TileFieldOptions{});
-    BakeSettings s = settings(0.1);
+    BakeSettings s = blockSettings(0.1);
     s.withAttribute = true;
     openvdb::FloatGrid::Ptr one, two;
     {
@@ -755,13 +755,13 @@ TEST(Blocks, DerivedDefaultsScaleWithTheTileAndTheType)
 TEST(Blocks, BadParametersAreClearErrors)
 {
     EXPECT_THROW(blockTypeFromString("granite"), ValueError);
-    BlockTileParams p = small(BlockType::Equidimensional);
+    BlockTileParams p = smallBlocks(BlockType::Equidimensional);
     p.pointRadius = 6.0; // >= tile / 2
     EXPECT_THROW(generateTile(p), ValueError);
-    p = small(BlockType::Equidimensional);
+    p = smallBlocks(BlockType::Equidimensional);
     p.neighbourRadius = 0.3; // <= point radius
     EXPECT_THROW(generateTile(p), ValueError);
-    p = small(BlockType::Equidimensional);
+    p = smallBlocks(BlockType::Equidimensional);
     p.discRadiusMin = -1;
     p.discRadiusMax = -2;
     p.resolveDefaults(); // negative = default, so make it explicit
@@ -778,7 +778,7 @@ TEST(Blocks, DegenerateClustersBecomePointsSegmentsAndThickPolygons)
     // With min_points 1 the tiny clusters stay: 1 point → a point primitive, 2 → a segment,
     // 3 coplanar → a thick polygon. Points and segments hold their points half a point
     // radius deep; a thick polygon, its points despite the rounding.
-    BlockTileParams p = small(BlockType::Polyhedral, 6);
+    BlockTileParams p = smallBlocks(BlockType::Polyhedral, 6);
     p.fill = false; // the hull-only reading keeps them as the paper makes them
     p.minPoints = 1;
     p.relief.amplitude = 0.0;
@@ -813,11 +813,11 @@ TEST(Blocks, CellCulledTileFieldEqualsTheGenericUnionBitwise)
     // The tile field visits only blocks whose cells and bounds can reach a batch, and prunes
     // planes per batch; baked, it must give exactly the union of all its block fields.
     initialize();
-    BlockTileParams p = small(BlockType::Rhombohedral, 12);
+    BlockTileParams p = smallBlocks(BlockType::Rhombohedral, 12);
     auto tile = make(p);
     std::vector<FieldPtr> parts;
     for (size_t j = 0; j < tile->blocks.size(); ++j) parts.push_back(blockField(tile, j));
-    BakeSettings s = settings(0.05);
+    BakeSettings s = blockSettings(0.05);
     s.region = BBoxd(Vec3d(3), Vec3d(6.2)); // inside the tile: home copies only
     auto a = bake(*tileField(tile, TileFieldOptions{}), s).surface;
     auto b = bake(*csg(CsgOp::Union, parts), s).surface;
@@ -900,7 +900,7 @@ TEST(Blocks, FracturesAreNeverNarrowerThanTheirWidthAndMostFacingFacesAreExactly
     // facets (seed 3); the rest face a wider gap that the fill did not close (up to 3w; warp off:
     // it moves each surface by up to A). Facets with no rock within 3w face a void.
     initialize();
-    BlockTileParams p = small(BlockType::Equidimensional);
+    BlockTileParams p = smallBlocks(BlockType::Equidimensional);
     p.fractureWidth = 0.05;
     p.relief.amplitude = 0;
     auto tile = make(p);

@@ -23,7 +23,7 @@ using openvdb::FloatGrid;
 
 namespace {
 
-BakeSettings settings(double dx, double hw = 3.0)
+BakeSettings bakeSettings(double dx, double hw = 3.0)
 {
     BakeSettings s;
     s.voxelSize = dx;
@@ -39,7 +39,7 @@ TEST(Bake, SphereMatchesCreateLevelSetSphere)
     initialize();
     const double dx = 0.05, R = 1.5; // 30 voxels
     const Vec3d c(0.3, -0.2, 0.1);
-    auto ours = bake(*sphere(c, R), settings(dx)).surface;
+    auto ours = bake(*sphere(c, R), bakeSettings(dx)).surface;
     auto ref = openvdb::tools::createLevelSetSphere<FloatGrid>(float(R), Vec3f(c), float(dx), 3.0f);
 
     EXPECT_EQ(ours->getGridClass(), openvdb::GRID_LEVEL_SET);
@@ -70,7 +70,7 @@ TEST(Bake, SphereAreaAndVolumeMatchFormula)
 {
     initialize();
     const double R = 1.0, dx = 0.025;
-    auto g = bake(*sphere(Vec3d(0), R), settings(dx)).surface;
+    auto g = bake(*sphere(Vec3d(0), R), bakeSettings(dx)).surface;
     openvdb::tools::LevelSetMeasure<FloatGrid> m(*g);
     EXPECT_NEAR(m.area(true), 4 * M_PI * R * R, 0.01 * 4 * M_PI * R * R);
     EXPECT_NEAR(m.volume(true), 4.0 / 3.0 * M_PI * R * R * R, 0.01 * 4.0 / 3.0 * M_PI);
@@ -86,7 +86,7 @@ TEST(Bake, RoundedBoxAreaAndVolumeMatchFormula)
                         4 * M_PI * r * r;
     const double vol = ai * bi * ci + 2 * r * (ai * bi + bi * ci + ci * ai) +
                        M_PI * r * r * (ai + bi + ci) + 4.0 / 3.0 * M_PI * r * r * r;
-    auto g = bake(*box(Vec3d(0.1, 0.2, 0.3), Vec3d(a, b, c) * 0.5, r), settings(0.02)).surface;
+    auto g = bake(*box(Vec3d(0.1, 0.2, 0.3), Vec3d(a, b, c) * 0.5, r), bakeSettings(0.02)).surface;
     openvdb::tools::LevelSetMeasure<FloatGrid> m(*g);
     EXPECT_NEAR(m.volume(true), vol, 0.01 * vol);
     EXPECT_NEAR(m.area(true), area, 0.01 * area);
@@ -98,7 +98,7 @@ TEST(Bake, DeterministicAcrossThreadCounts)
     // A warped, renormalised field exercises every code path.
     auto f = warp(unite(sphere(Vec3d(0), 1.0), box(Vec3d(0.8, 0, 0), Vec3d(0.5), 0.1), 0.2),
                   noiseDisplacement(0.08, 2.0, 3, 42));
-    BakeSettings s = settings(0.04);
+    BakeSettings s = bakeSettings(0.04);
     s.withAttribute = true;
     FloatGrid::Ptr one, two;
     {
@@ -117,8 +117,8 @@ TEST(Bake, CostFollowsSurfaceNotVolume)
 {
     initialize();
     // Doubling the radius multiplies evaluations by ~4 (area), not ~8 (volume).
-    auto r1 = bake(*sphere(Vec3d(0), 1.0), settings(0.05));
-    auto r2 = bake(*sphere(Vec3d(0), 2.0), settings(0.05));
+    auto r1 = bake(*sphere(Vec3d(0), 1.0), bakeSettings(0.05));
+    auto r2 = bake(*sphere(Vec3d(0), 2.0), bakeSettings(0.05));
     const double ratio = double(r2.stats.fieldEvaluations) / double(r1.stats.fieldEvaluations);
     EXPECT_GT(ratio, 3.0);
     EXPECT_LT(ratio, 5.5);
@@ -132,14 +132,14 @@ TEST(Bake, OutputsAreWellFormedLevelSets)
     // ±background, |∇φ| = 1 at the zero crossing) on a plain bake, a region-clipped bake and
     // a renormalised warped bake.
     const double dx = 0.05;
-    auto plain = bake(*sphere(Vec3d(0.1, 0.2, -0.3), 1.2), settings(dx)).surface;
+    auto plain = bake(*sphere(Vec3d(0.1, 0.2, -0.3), 1.2), bakeSettings(dx)).surface;
     EXPECT_EQ(openvdb::tools::checkLevelSet(*plain, 9), "");
-    BakeSettings clipped = settings(dx);
+    BakeSettings clipped = bakeSettings(dx);
     clipped.region = BBoxd(Vec3d(-2, -2, -2), Vec3d(0.33, 2, 2)); // not leaf-aligned
     auto clip = bake(*sphere(Vec3d(0.1, 0.2, -0.3), 1.2), clipped).surface;
     EXPECT_EQ(openvdb::tools::checkLevelSet(*clip, 8), "");
     auto warped = bake(*warp(sphere(Vec3d(0), 1.0), noiseDisplacement(0.08, 2.0, 3, 5)),
-                       settings(dx)).surface;
+                       bakeSettings(dx)).surface;
     EXPECT_EQ(openvdb::tools::checkLevelSet(*warped, 8), "");
 }
 
@@ -149,7 +149,7 @@ TEST(Bake, InsideTilesAreFilledAcrossInternalNodes)
     // A sphere of 200 voxels centred on the origin spans eight level-2 nodes and holds whole
     // level-1 nodes inside: its centre is an inside tile (-background), far points outside.
     const double dx = 0.01;
-    auto g = bake(*sphere(Vec3d(0), 2.0), settings(dx)).surface;
+    auto g = bake(*sphere(Vec3d(0), 2.0), bakeSettings(dx)).surface;
     auto acc = g->getConstAccessor();
     const float bg = g->background();
     for (const auto& ijk : {openvdb::Coord(0, 0, 0), openvdb::Coord(-1, -1, -1),
@@ -174,7 +174,7 @@ TEST(Bake, LeafAlignedChunksEqualWholeBake)
     initialize();
     const double dx = 0.05;
     auto f = warp(sphere(Vec3d(0), 1.0), noiseDisplacement(0.05, 2.0, 2, 3));
-    BakeSettings whole = settings(dx);
+    BakeSettings whole = bakeSettings(dx);
     auto full = bake(*f, whole).surface;
     // Split at x = 0 (a multiple of 8 voxels): [-2, 0) and [0, 2).
     BakeSettings left = whole, right = whole;
@@ -198,7 +198,7 @@ TEST(Bake, AttributeGridFollowsNearestTaggedPrimitive)
 {
     initialize();
     auto f = unite(tag(sphere(Vec3d(-1, 0, 0), 0.6), 7), tag(sphere(Vec3d(1, 0, 0), 0.6), 9));
-    BakeSettings s = settings(0.05);
+    BakeSettings s = bakeSettings(0.05);
     s.withAttribute = true;
     s.attributeName = "block_id";
     auto r = bake(*f, s);
@@ -229,7 +229,7 @@ TEST(Bake, RenormalisationRestoresDistance)
         bool exact() const override { return false; }
     } scaled;
     scaled.c = f;
-    BakeSettings s = settings(0.05);
+    BakeSettings s = bakeSettings(0.05);
     auto g = bake(scaled, s).surface;
     auto ref = bake(*f, s).surface;
     EXPECT_NEAR(double(g->activeVoxelCount()) / double(ref->activeVoxelCount()), 1.0, 0.01);
@@ -246,7 +246,7 @@ TEST(Bake, BadSettingsAreRejected)
 {
     auto s = sphere(Vec3d(0), 1.0);
     for (double dx : {0.0, -1.0, std::nan("")}) {
-        BakeSettings bs = settings(dx);
+        BakeSettings bs = bakeSettings(dx);
         try {
             bake(*s, bs);
             FAIL() << "voxel size " << dx << " accepted";
@@ -254,16 +254,16 @@ TEST(Bake, BadSettingsAreRejected)
             EXPECT_NE(std::string(e.what()).find("voxel size"), std::string::npos) << e.what();
         }
     }
-    BakeSettings hw = settings(0.1, 0.5);
+    BakeSettings hw = bakeSettings(0.1, 0.5);
     EXPECT_THROW(bake(*s, hw), ValueError);
     // Unbounded field without a region.
-    EXPECT_THROW(bake(*halfSpace(Vec3d(0), Vec3d(0, 0, 1)), settings(0.1)), ValueError);
+    EXPECT_THROW(bake(*halfSpace(Vec3d(0), Vec3d(0, 0, 1)), bakeSettings(0.1)), ValueError);
 }
 
 TEST(Bake, HugeResolutionRefusedWithEstimate)
 {
     auto s = sphere(Vec3d(0), 1000.0);
-    BakeSettings bs = settings(1e-4);
+    BakeSettings bs = bakeSettings(1e-4);
     try {
         bake(*s, bs);
         FAIL() << "accepted";
@@ -277,7 +277,7 @@ TEST(Bake, HugeResolutionRefusedWithEstimate)
 TEST(Bake, PlaneWithRegionIsExact)
 {
     initialize();
-    BakeSettings s = settings(0.1);
+    BakeSettings s = bakeSettings(0.1);
     s.region = BBoxd(Vec3d(-1), Vec3d(1));
     const Vec3d n = Vec3d(1, 2, 2).unit();
     auto g = bake(*halfSpace(Vec3d(0.05, 0, 0), n), s).surface;

@@ -24,7 +24,7 @@ double volume(const FloatGrid& g)
     openvdb::tools::LevelSetMeasure<FloatGrid> m(g);
     return m.volume(true);
 }
-BakeSettings settings(double dx)
+BakeSettings csgSettings(double dx)
 {
     BakeSettings s;
     s.voxelSize = dx;
@@ -63,8 +63,8 @@ TEST(Smooth, IntersectionRoundsEdgesOfAPolytope)
             n[a] = s;
             cube.push_back({n, 0.5});
         }
-    auto hard = bake(*convexPolytope(cube, 0.0), settings(0.02)).surface;
-    auto soft = bake(*convexPolytope(cube, 0.25), settings(0.02)).surface;
+    auto hard = bake(*convexPolytope(cube, 0.0), csgSettings(0.02)).surface;
+    auto soft = bake(*convexPolytope(cube, 0.25), csgSettings(0.02)).surface;
     EXPECT_NEAR(volume(*hard), 1.0, 0.01);
     EXPECT_LT(volume(*soft), volume(*hard) - 0.01);
     EXPECT_GT(volume(*soft), 0.8);
@@ -181,7 +181,7 @@ TEST(Warp, DisplacementStaysWithinBoundAndZeroAmplitudeIsIdentity)
     EXPECT_GT(w->lipschitz(), 1.0);
     EXPECT_FALSE(w->exact());
     // Baked surface stays within max|δ| of the sphere.
-    auto g = bake(*w, settings(0.03)).surface;
+    auto g = bake(*w, csgSettings(0.03)).surface;
     double maxDev = 0;
     for (auto it = g->cbeginValueOn(); it; ++it) {
         if (std::abs(*it) > 0.5 * 0.03) continue;
@@ -195,7 +195,7 @@ TEST(Warp, DisplacementStaysWithinBoundAndZeroAmplitudeIsIdentity)
 TEST(GridCsg, IdentitiesOnGrids)
 {
     initialize();
-    BakeSettings s = settings(0.04);
+    BakeSettings s = csgSettings(0.04);
     auto a = bake(*sphere(Vec3d(-0.3, 0, 0), 0.7), s).surface;
     auto b = bake(*sphere(Vec3d(0.3, 0, 0), 0.7), s).surface;
     const double va = volume(*a), vb = volume(*b);

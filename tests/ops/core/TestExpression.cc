@@ -16,7 +16,7 @@ using nlohmann::json;
 
 namespace {
 
-FieldPtr build(const std::string& text)
+FieldPtr parseField(const std::string& text)
 {
     return fieldFromJsonText(text, ExpressionContext());
 }
@@ -31,7 +31,7 @@ Vec3d point(int i)
 std::string errorOf(const std::string& text)
 {
     try {
-        build(text);
+        parseField(text);
     } catch (const ValueError& e) {
         return e.what();
     }
@@ -42,9 +42,9 @@ std::string errorOf(const std::string& text)
 
 TEST(Expression, SphereBoxAndCapsuleAreTheirDistances)
 {
-    auto sphere = build(R"({"type": "sphere", "center": [0.5, 0, -0.25], "radius": 0.75})");
-    auto box = build(R"({"type": "box", "center": [0, 0, 0], "size": [2, 1, 0.5]})");
-    auto capsule = build(R"({"type": "capsule", "a": [-1, 0, 0], "b": [1, 0, 0], "radius": 0.3})");
+    auto sphere = parseField(R"({"type": "sphere", "center": [0.5, 0, -0.25], "radius": 0.75})");
+    auto box = parseField(R"({"type": "box", "center": [0, 0, 0], "size": [2, 1, 0.5]})");
+    auto capsule = parseField(R"({"type": "capsule", "a": [-1, 0, 0], "b": [1, 0, 0], "radius": 0.3})");
     for (int i = 0; i < 500; ++i) {
         const Vec3d p = point(i);
         EXPECT_NEAR(sphere->eval(p), (p - Vec3d(0.5, 0, -0.25)).length() - 0.75, 1e-5);
@@ -65,10 +65,10 @@ TEST(Expression, CsgIsMinMaxAndDifference)
 {
     const std::string a = R"({"type": "sphere", "center": [-0.4, 0, 0], "radius": 0.7})";
     const std::string b = R"({"type": "sphere", "center": [0.4, 0, 0], "radius": 0.6})";
-    auto fa = build(a), fb = build(b);
-    auto u = build(R"({"type": "union", "children": [)" + a + "," + b + "]}");
-    auto n = build(R"({"type": "intersection", "children": [)" + a + "," + b + "]}");
-    auto d = build(R"({"type": "difference", "children": [)" + a + "," + b + "]}");
+    auto fa = parseField(a), fb = parseField(b);
+    auto u = parseField(R"({"type": "union", "children": [)" + a + "," + b + "]}");
+    auto n = parseField(R"({"type": "intersection", "children": [)" + a + "," + b + "]}");
+    auto d = parseField(R"({"type": "difference", "children": [)" + a + "," + b + "]}");
     for (int i = 0; i < 500; ++i) {
         const Vec3d p = point(i);
         const float va = fa->eval(p), vb = fb->eval(p);
@@ -77,7 +77,7 @@ TEST(Expression, CsgIsMinMaxAndDifference)
         EXPECT_FLOAT_EQ(d->eval(p), std::max(va, -vb));
     }
     // A smooth union adds material where both are near (a fillet): never above the hard one.
-    auto s = build(R"({"type": "union", "smooth": 0.3, "children": [)" + a + "," + b + "]}");
+    auto s = parseField(R"({"type": "union", "smooth": 0.3, "children": [)" + a + "," + b + "]}");
     int below = 0;
     for (int i = 0; i < 500; ++i) {
         const Vec3d p = point(i);
@@ -89,9 +89,9 @@ TEST(Expression, CsgIsMinMaxAndDifference)
 
 TEST(Expression, TransformMovesRotatesAndScalesDistances)
 {
-    auto f = build(R"({"type": "transform", "translate": [1, 2, 3], "rotate": [0, 0, 90], "scale": 2,
+    auto f = parseField(R"({"type": "transform", "translate": [1, 2, 3], "rotate": [0, 0, 90], "scale": 2,
                        "child": {"type": "box", "center": [0, 0, 0], "size": [1, 0.5, 0.25]}})");
-    auto ref = build(R"({"type": "box", "center": [0, 0, 0], "size": [1, 0.5, 0.25]})");
+    auto ref = parseField(R"({"type": "box", "center": [0, 0, 0], "size": [1, 0.5, 0.25]})");
     for (int i = 0; i < 300; ++i) {
         const Vec3d p = point(i) * 2.0 + Vec3d(1, 2, 3);
         // World → local: undo the translation, the 90° turn about z, then the scale.
@@ -103,7 +103,7 @@ TEST(Expression, TransformMovesRotatesAndScalesDistances)
 
 TEST(Expression, IdTagsReachTheAttribute)
 {
-    auto f = build(R"({"type": "union", "children": [
+    auto f = parseField(R"({"type": "union", "children": [
         {"type": "sphere", "center": [-1, 0, 0], "radius": 0.5, "id": 7},
         {"type": "sphere", "center": [1, 0, 0], "radius": 0.5, "id": 11}]})");
     float id = 0;

@@ -26,7 +26,7 @@ BakeResult bakeAt(const FieldPtr& f, double dx, bool ids = false)
     return bake(*f, s);
 }
 
-PreviewSettings small()
+PreviewSettings smallPreview()
 {
     PreviewSettings s;
     s.width = 160;
@@ -43,9 +43,9 @@ TEST(Preview, FramingFollowsTheBoundsAndPixelsRepeat)
     auto g1 = bakeAt(sphere(Vec3d(0), 1.0), 0.05).surface;
     auto g2 = bakeAt(sphere(Vec3d(0), 2.0), 0.1).surface; // the same sphere in voxels
     auto g3 = bakeAt(sphere(Vec3d(5, -3, 2), 1.0), 0.05).surface;
-    const auto p1 = renderPreview(*g1, small(), nullptr, &a);
-    renderPreview(*g2, small(), nullptr, &b);
-    renderPreview(*g3, small(), nullptr, &m);
+    const auto p1 = renderPreview(*g1, smallPreview(), nullptr, &a);
+    renderPreview(*g2, smallPreview(), nullptr, &b);
+    renderPreview(*g3, smallPreview(), nullptr, &m);
     ASSERT_EQ(p1.size(), size_t(160 * 120 * 3));
     EXPECT_EQ(a.pixels, size_t(160 * 120));
     // The sphere fills a good part of the frame but not all of it (sky at the corners).
@@ -56,13 +56,13 @@ TEST(Preview, FramingFollowsTheBoundsAndPixelsRepeat)
     EXPECT_NEAR(double(b.surfacePixels), double(a.surfacePixels), 0.01 * double(a.surfacePixels));
     EXPECT_NEAR(double(m.surfacePixels), double(a.surfacePixels), 0.08 * double(a.surfacePixels));
     // Zooming in covers more.
-    PreviewSettings zoom = small();
+    PreviewSettings zoom = smallPreview();
     zoom.zoom = 1.5;
     PreviewStats c;
     renderPreview(*g1, zoom, nullptr, &c);
     EXPECT_GT(c.surfacePixels, a.surfacePixels * 3 / 2);
     // The same call, the same bytes.
-    EXPECT_EQ(renderPreview(*g1, small()), p1);
+    EXPECT_EQ(renderPreview(*g1, smallPreview()), p1);
 }
 
 TEST(Preview, IdsTintWhatTheyCover)
@@ -70,7 +70,7 @@ TEST(Preview, IdsTintWhatTheyCover)
     initialize();
     auto f = unite(tag(sphere(Vec3d(-1.2, 0, 0), 0.8), 3), tag(sphere(Vec3d(1.2, 0, 0), 0.8), 5));
     auto r = bakeAt(f, 0.05, true);
-    PreviewSettings s = small();
+    PreviewSettings s = smallPreview();
     s.azimuth = 90; // looking along -y: the two spheres side by side
     s.elevation = 0;
     s.palette = parsePalette("3=#ff0000,5=#0000ff");
@@ -100,13 +100,13 @@ TEST(Preview, BadSettingsAndPalettesAreRefused)
 {
     initialize();
     auto g = bakeAt(sphere(Vec3d(0), 1.0), 0.1).surface;
-    PreviewSettings s = small();
+    PreviewSettings s = smallPreview();
     s.width = 0;
     EXPECT_THROW(renderPreview(*g, s), ValueError);
-    s = small();
+    s = smallPreview();
     s.fov = 180;
     EXPECT_THROW(renderPreview(*g, s), ValueError);
-    s = small();
+    s = smallPreview();
     s.elevation = std::nan("");
     EXPECT_THROW(renderPreview(*g, s), ValueError);
     EXPECT_THROW(parsePalette("3=red"), ValueError);
@@ -157,10 +157,10 @@ TEST(Preview, TextureBlendsTheMaterialsByTheirWeights)
         w->setName(name);
         return w;
     };
-    PreviewSettings s = small();
+    PreviewSettings s = smallPreview();
     s.texture = true;
     auto mean = [&](const std::vector<PreviewMaterial>& m, PreviewStats* st) {
-        const auto plain = renderPreview(*g, small());
+        const auto plain = renderPreview(*g, smallPreview());
         const auto rgb = renderPreview(*g, s, nullptr, st, &m);
         std::array<double, 3> sum{{0, 0, 0}};
         size_t n = 0;

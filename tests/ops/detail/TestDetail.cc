@@ -24,7 +24,7 @@ using namespace rockvdb;
 
 namespace {
 
-openvdb::FloatGrid::Ptr sphere(float dx)
+openvdb::FloatGrid::Ptr detailSphere(float dx)
 {
     return openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0), dx);
 }
@@ -57,7 +57,7 @@ TEST(Detail, ResultsAreValidNarrowBandLevelSets)
 {
     initialize();
     const float dx = 0.02f;
-    auto in = sphere(dx);
+    auto in = detailSphere(dx);
     BakeSettings s;
     s.voxelSize = dx;
     for (const char* opts : {R"({"warp-amplitude": 0.05, "warp-scale": 0.8})",
@@ -82,7 +82,7 @@ TEST(Detail, CandidateMaskChangesNothing)
     // all lie beyond that distance of the input, some where the widened input knows no
     // distance at all (their values are bounds that fake band voxels).
     const float dx = 0.02f;
-    auto in = sphere(dx);
+    auto in = detailSphere(dx);
     size_t strays = 0; // voxels the whole bake faked from bounds (the mask must drop them)
     for (const char* opts : {R"({"warp-amplitude": 0.04})", R"({"warp-amplitude": 0.08})"}) {
         const auto p = detail::DetailParams::fromJson(nlohmann::json::parse(opts));
@@ -138,7 +138,7 @@ TEST(Detail, IdsAreCarriedFromTheNearestInputSurfacePointForEveryGrid)
     // warp) carries its half's id in each grid; the grids agree everywhere and every voxel
     // has an id.
     const float dx = 0.02f;
-    auto in = sphere(dx);
+    auto in = detailSphere(dx);
     auto half = [&](float bg, int dilate, float offset) {
         auto g = openvdb::FloatGrid::create(bg);
         g->setTransform(in->transform().copy());

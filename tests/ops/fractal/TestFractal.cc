@@ -25,7 +25,7 @@ namespace {
 
 const std::array<Vec3d, 3> kIdentity = {Vec3d(1, 0, 0), Vec3d(0, 1, 0), Vec3d(0, 0, 1)};
 
-RockMesh build(int levels, Method method, uint64_t seed = 3, double hUp = 0.3, double hDown = 0.8,
+RockMesh shapeRock(int levels, Method method, uint64_t seed = 3, double hUp = 0.3, double hDown = 0.8,
                Vec3d extent = Vec3d(1), const std::array<Vec3d, 3>& R = kIdentity)
 {
     RockShape s;
@@ -79,7 +79,7 @@ TEST(FractalRock, ClosedCrackFreeWithThePapersTriangleCounts)
 {
     for (Method method : {Method::Interpolating, Method::Approximating, Method::Midpoint}) {
         for (int L = 0; L <= 4; ++L) {
-            const RockMesh m = build(L, method);
+            const RockMesh m = shapeRock(L, method);
             const double expected = method == Method::Midpoint ? 20 * std::pow(4, L) : 20 * std::pow(16, L);
             ASSERT_EQ(double(m.triangles.size()), expected) << methodName(method) << " " << L;
             EXPECT_EQ(double(m.triangles.size()), triangleCount(L, method));
@@ -87,7 +87,7 @@ TEST(FractalRock, ClosedCrackFreeWithThePapersTriangleCounts)
         }
     }
     // The paper's sequence: 20 → 320 → 5 120 → 81 920.
-    EXPECT_EQ(build(3, Method::Interpolating).triangles.size(), 81920u);
+    EXPECT_EQ(shapeRock(3, Method::Interpolating).triangles.size(), 81920u);
 }
 
 TEST(FractalRock, DisplacementIsAFunctionOfTheEdgeNotTheOrder)
@@ -96,7 +96,7 @@ TEST(FractalRock, DisplacementIsAFunctionOfTheEdgeNotTheOrder)
     // at the same position bit for bit (the displacement of an edge never depends on which
     // face computed it or when).
     for (Method method : {Method::Interpolating, Method::Midpoint}) {
-        const RockMesh a = build(2, method), b = build(3, method);
+        const RockMesh a = shapeRock(2, method), b = shapeRock(3, method);
         ASSERT_LT(a.points.size(), b.points.size());
         for (size_t i = 0; i < a.points.size(); ++i) {
             ASSERT_EQ(std::memcmp(&a.points[i], &b.points[i], sizeof(Vec3d)), 0) << i;
@@ -109,16 +109,16 @@ TEST(FractalRock, DeterministicAcrossThreadsAndSeedsDiffer)
     RockMesh one, two;
     {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
-        one = build(3, Method::Approximating, 11);
+        one = shapeRock(3, Method::Approximating, 11);
     }
     {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
-        two = build(3, Method::Approximating, 11);
+        two = shapeRock(3, Method::Approximating, 11);
     }
     ASSERT_EQ(one.points.size(), two.points.size());
     EXPECT_EQ(std::memcmp(one.points.data(), two.points.data(), one.points.size() * sizeof(Vec3d)), 0);
     EXPECT_EQ(std::memcmp(one.triangles.data(), two.triangles.data(), one.triangles.size() * sizeof(openvdb::Vec3I)), 0);
-    const RockMesh other = build(3, Method::Approximating, 12);
+    const RockMesh other = shapeRock(3, Method::Approximating, 12);
     double moved = 0;
     for (size_t i = 0; i < one.points.size(); ++i) moved += (one.points[i] - other.points[i]).length();
     EXPECT_GT(moved / double(one.points.size()), 0.01);
@@ -143,9 +143,9 @@ TEST(FractalRock, RoughTopsAndSmoothBottomsFollowH)
     };
     for (Method method : {Method::Interpolating, Method::Midpoint}) {
         const int L = method == Method::Midpoint ? 5 : 3;
-        const RockMesh m = build(L, method, 5, 0.2, 0.9);
+        const RockMesh m = shapeRock(L, method, 5, 0.2, 0.9);
         EXPECT_GT(roughness(m, true), 1.3 * roughness(m, false)) << methodName(method);
-        const RockMesh swapped = build(L, method, 5, 0.9, 0.2);
+        const RockMesh swapped = shapeRock(L, method, 5, 0.9, 0.2);
         EXPECT_GT(roughness(swapped, false), 1.3 * roughness(swapped, true)) << methodName(method);
     }
 }

@@ -23,7 +23,7 @@ using openvdb::Coord;
 
 namespace {
 
-RockTileParams small()
+RockTileParams smallTiles()
 {
     RockTileParams p;
     p.n = 5;
@@ -45,7 +45,7 @@ bool sameRock(const Rock& a, const Rock& b)
 
 // The principal extents of a rock's solid voxels, largest first (square roots of the
 // covariance eigenvalues); zeros for rocks too small to measure.
-std::array<double, 3> extents(const Rock& r)
+std::array<double, 3> rockExtents(const Rock& r)
 {
     std::vector<openvdb::Vec3d> pts;
     for (int x = 0; x < r.dims[0]; ++x)
@@ -77,7 +77,7 @@ std::array<double, 3> extents(const Rock& r)
 TEST(RockTiles, RocksStraddlingASharedFaceAreTheSameFromEitherCube)
 {
     initialize();
-    const RockTileParams p = small();
+    const RockTileParams p = smallTiles();
     const int n = p.n;
     // Cube (0,0,0) under colouring A and its +x neighbour (1,0,0) under colouring B: they agree
     // on the 4 vertices of the shared face x = 1 and nowhere else is B forced to agree.
@@ -118,7 +118,7 @@ TEST(RockTiles, RocksStraddlingASharedFaceAreTheSameFromEitherCube)
 TEST(RockTiles, ContactsLieOnBothRocksAndNoVoxelIsInTwoRocks)
 {
     initialize();
-    const RockTileParams p = small();
+    const RockTileParams p = smallTiles();
     const Colouring col = randomColouring(5);
     const auto rocks = cubeRocks(p, Coord(0), col);
     // Keys name rock content (a region recurs); the seed position names the copy.
@@ -176,7 +176,7 @@ TEST(RockTiles, ContactsLieOnBothRocksAndNoVoxelIsInTwoRocks)
 TEST(RockTiles, ErosionRemovesVolumeButKeepsContacts)
 {
     initialize();
-    RockTileParams p = small();
+    RockTileParams p = smallTiles();
     const Colouring col = randomColouring(9);
     for (int steps : {0, 6}) {
         p.erosionSteps = steps;
@@ -198,7 +198,7 @@ TEST(RockTiles, ErosionRemovesVolumeButKeepsContacts)
     // Periodic tiles (arches §5): the Gaussian resistance of width r (the Poisson disk
     // radius, half the seed spacing) still lets the rocks erode: ~0.79 of the cells remain
     // (with r the full spacing, 0.97: the cells' voxel staircase stays).
-    RockTileParams q = small();
+    RockTileParams q = smallTiles();
     q.tiling = Tiling::Periodic;
     q.n = 4;
     q.voxelsPerCell = 10;
@@ -217,7 +217,7 @@ TEST(RockTiles, ErosionRemovesVolumeButKeepsContacts)
 TEST(RockTiles, AnisotropicDistanceMakesFlatRocks)
 {
     initialize();
-    RockTileParams p = small();
+    RockTileParams p = smallTiles();
     p.voxelsPerCell = 10;
     p.anisotropyJitter = 0;
     const Colouring col = randomColouring(2);
@@ -227,7 +227,7 @@ TEST(RockTiles, AnisotropicDistanceMakesFlatRocks)
         p.anisotropy = aniso;
         std::vector<double> thin, mid;
         for (const Rock& r : cubeRocks(p, Coord(0), col)) {
-            const auto e = extents(r);
+            const auto e = rockExtents(r);
             if (e[0] <= 0) continue;
             thin.push_back(e[2] / e[0]);
             mid.push_back(e[1] / e[0]);
@@ -249,7 +249,7 @@ TEST(RockTiles, AnisotropicDistanceMakesFlatRocks)
 TEST(RockTiles, DeterministicAcrossThreadCounts)
 {
     initialize();
-    RockTileParams p = small();
+    RockTileParams p = smallTiles();
     p.n = 4;
     TileSet one, two;
     {
@@ -270,7 +270,7 @@ TEST(RockTiles, DeterministicAcrossThreadCounts)
 TEST(RockTiles, LevelSetsAreDistancesToTheSampledSurface)
 {
     initialize();
-    const RockTileParams p = small();
+    const RockTileParams p = smallTiles();
     const auto rocks = cubeRocks(p, Coord(0), randomColouring(4));
     const double dx = p.voxelSize(), hw = 3.0;
     // The surface r = ρ − ½ = 0 sampled where it crosses the voxel edges, found here
@@ -325,7 +325,7 @@ TEST(RockTiles, LevelSetsAreDistancesToTheSampledSurface)
     EXPECT_LT(worst, 0.25) << "max error, voxels";
 
     // The library holds each rock's level set bit for bit, at the slot its metadata names.
-    RockTileParams q = small();
+    RockTileParams q = smallTiles();
     q.n = 4;
     const TileSet set = generateTiles(q);
     const auto library = libraryGrid(set, hw);
@@ -414,7 +414,7 @@ double correlation(const std::vector<float>& s, int size, int lag, int margin)
 TEST(RockPile, AnchorsAreInsideTheSupport)
 {
     initialize();
-    RockTileParams p = small();
+    RockTileParams p = smallTiles();
     const TileSet set = generateTiles(p);
     const auto support = sphere(Vec3d(0.3, -0.2, 0.1), 1.3);
     PileParams pp;
@@ -443,7 +443,7 @@ TEST(RockPile, PlacedRocksNeverShareAVoxel)
     // several features and must be placed once) - no solid voxel (rho > 1/2) of one placed
     // rock is a solid voxel of another.
     initialize();
-    const TileSet set = generateTiles(small());
+    const TileSet set = generateTiles(smallTiles());
     const auto support = box(Vec3d(0.1, -0.2, 0.0), Vec3d(1.6, 1.3, 0.7));
     PileParams pp;
     pp.dropDeep = false; // the core's rocks too
@@ -482,10 +482,10 @@ TEST(RockPile, PeriodicTilingRepeatsAndAperiodicDoesNot)
         return std::make_pair(correlation(s, size, span, margin),
                               correlation(s, size, span / 2, margin));
     };
-    RockTileParams periodic = small();
+    RockTileParams periodic = smallTiles();
     periodic.tiling = Tiling::Periodic;
     periodic.n = 4;
-    RockTileParams aperiodic = small();
+    RockTileParams aperiodic = smallTiles();
     aperiodic.n = 4;
     const auto per = lagCorrelation(periodic), aper = lagCorrelation(aperiodic);
     EXPECT_GT(per.first, 0.9);          // the pattern repeats at the tile period
@@ -496,7 +496,7 @@ TEST(RockPile, PeriodicTilingRepeatsAndAperiodicDoesNot)
 TEST(RockPile, DeterministicAcrossThreads)
 {
     initialize();
-    const TileSet set = generateTiles(small());
+    const TileSet set = generateTiles(smallTiles());
     const auto support = sphere(Vec3d(0.0), 0.9);
     PileParams pp;
     pp.seed = 4;
@@ -526,7 +526,7 @@ TEST(RockPile, DeterministicAcrossThreads)
 TEST(RockPile, InstancePointsCopyTheLibraryOntoThePile)
 {
     initialize();
-    const TileSet set = generateTiles(small());
+    const TileSet set = generateTiles(smallTiles());
     PileParams pp;
     const Pile pile = buildPile(set, selectRocks(set, *sphere(Vec3d(0.0), 0.9), pp), pp);
     const auto& instances = pile.instances;
