@@ -173,27 +173,6 @@ openvdb::GridCPtrVec fileOrder(const openvdb::GridCPtrVec& grids)
     return out;
 }
 
-// 64 bits of a byte string, 8 bytes a step (a multiply-xorshift mix per word; FNV-1a's loop
-// a byte a step took 40 ms on a 24 MB tile set). Stable across runs, machines and builds.
-uint64_t mixHash(std::string_view bytes, uint64_t seed)
-{
-    auto mix = [](uint64_t h) {
-        h ^= h >> 33; h *= 0xff51afd7ed558ccdull;
-        h ^= h >> 33; h *= 0xc4ceb9fe1a85ec53ull;
-        return h ^ (h >> 33);
-    };
-    uint64_t h = mix(seed ^ bytes.size());
-    size_t i = 0;
-    for (; i + 8 <= bytes.size(); i += 8) {
-        uint64_t w;
-        std::memcpy(&w, bytes.data() + i, 8);
-        h = mix(h ^ w) + 0x9e3779b97f4a7c15ull;
-    }
-    uint64_t tail = 0;
-    std::memcpy(&tail, bytes.data() + i, bytes.size() - i);
-    return mix(h ^ tail ^ (uint64_t(bytes.size() - i) << 56));
-}
-
 // OpenVDB's header (io::Archive::writeHeader, file format >= 219): magic (8 bytes), format
 // version (4), library major and minor (4 + 4), grid-offsets flag (1), then the archive's UUID
 // as 36 characters, a random one per write.
@@ -209,28 +188,56 @@ bool looksLikeUuid(std::string_view s)
     return true;
 }
 
+// 128 bits of a file's bytes but its UUID field, as an RFC 9562 version-8 (custom) UUID; ""
+// when the bytes do not start with the header above. One pass, 8 bytes a step in two lanes
+// (a multiply-xorshift mix per word; FNV-1a a byte a step took 40 ms on a 24 MB tile set).
+// Stable across runs, machines and builds.
+std::string contentTag(std::string_view bytes)
+{
+    if (bytes.size() < kUuidAt + kUuidLength || !looksLikeUuid(bytes.substr(kUuidAt, kUuidLength))) {
+        return {};
+    }
+    auto mix = [](uint64_t h) {
+        h ^= h >> 33; h *= 0xff51afd7ed558ccdull;
+        h ^= h >> 33; h *= 0xc4ceb9fe1a85ec53ull;
+        return h ^ (h >> 33);
+    };
+    uint64_t hi = mix(1 ^ bytes.size()), lo = mix(2 ^ bytes.size());
+    auto eat = [&](std::string_view part) {
+        size_t i = 0;
+        for (; i + 8 <= part.size(); i += 8) {
+            uint64_t w;
+            std::memcpy(&w, part.data() + i, 8);
+            hi = mix(hi ^ w) + 0x9e3779b97f4a7c15ull;
+            lo = mix(lo ^ w ^ 0x94d049bb133111ebull);
+        }
+        uint64_t tail = 0;
+        std::memcpy(&tail, part.data() + i, part.size() - i);
+        tail ^= uint64_t(part.size() - i) << 56;
+        hi = mix(hi ^ tail);
+        lo = mix(lo ^ tail ^ 0x94d049bb133111ebull);
+    };
+    eat(bytes.substr(0, kUuidAt));
+    eat(bytes.substr(kUuidAt + kUuidLength));
+    hi = (hi & ~0xf000ull) | 0x8000ull;                        // version 8
+    lo = (lo & 0x3fffffffffffffffull) | 0x8000000000000000ull; // variant 10
+    char text[kUuidLength + 1];
+    std::snprintf(text, sizeof text, "%08x-%04x-%04x-%04x-%012llx", unsigned(hi >> 32),
+                  unsigned((hi >> 16) & 0xffff), unsigned(hi & 0xffff), unsigned(lo >> 48),
+                  static_cast<unsigned long long>(lo & 0xffffffffffffull));
+    return std::string(text, kUuidLength);
+}
+
 // The header's UUID made from the rest of the file: the same grids give the same bytes, so a
 // file is reproducible as its grids are. A chunk that a scheduler ran twice at once (a worker
 // taken for dead under load) then writes its file twice with the same bytes, where a random
 // UUID let one run's record hold the CRC-32 of a file the other run renamed over it. Readers
 // that use the UUID (OpenVDB's Archive::isIdentical, delayed-load caches) take two files with
-// one UUID for the same file, which they are. An RFC 9562 version-8 (custom) UUID.
+// one UUID for the same file, which they are.
 void contentUuid(std::string& bytes)
 {
-    if (bytes.size() < kUuidAt + kUuidLength ||
-        !looksLikeUuid(std::string_view(bytes).substr(kUuidAt, kUuidLength))) {
-        return; // (not the header this OpenVDB writes: left as written)
-    }
-    std::string rest = bytes.substr(0, kUuidAt);
-    const std::string_view body = std::string_view(bytes).substr(kUuidAt + kUuidLength);
-    uint64_t hi = mixHash(body, mixHash(rest, 1)), lo = mixHash(body, mixHash(rest, 2));
-    hi = (hi & ~0xf000ull) | 0x8000ull;                             // version 8
-    lo = (lo & 0x3fffffffffffffffull) | 0x8000000000000000ull;      // variant 10
-    char text[kUuidLength + 1];
-    std::snprintf(text, sizeof text, "%08x-%04x-%04x-%04x-%012llx", unsigned(hi >> 32),
-                  unsigned((hi >> 16) & 0xffff), unsigned(hi & 0xffff), unsigned(lo >> 48),
-                  static_cast<unsigned long long>(lo & 0xffffffffffffull));
-    bytes.replace(kUuidAt, kUuidLength, text, kUuidLength);
+    const std::string tag = contentTag(bytes);
+    if (!tag.empty()) bytes.replace(kUuidAt, kUuidLength, tag); // (else: left as written)
 }
 
 std::string serialise(const openvdb::GridCPtrVec& grids)
@@ -436,35 +443,31 @@ void writeFileAtomic(const std::string& path, const std::string& bytes)
 
 namespace {
 
-// What this process serialised itself (writeGrids): each file's size and a 64-bit hash of its
-// bytes. Bytes equal to those came from OpenVDB's own writer here, so reading them back needs
-// no forked probe (readGrids): a rock pile made in Blender from the session's tile set read
+// What this process serialised itself (writeGrids): each file's size and content UUID (the
+// header's, made from the rest of its bytes). Bytes of that size whose UUID is theirs and
+// matches their content came from OpenVDB's own writer here, so reading them back needs no
+// forked probe (readGrids): a rock pile made in Blender from the session's tile set read
 // 24 MB through the probe, 1.1 of its 3.6 s. A file changed since (edited, truncated, another
 // program's) has other bytes and is probed as any file.
 std::mutex gWrittenMutex;
-std::set<std::pair<size_t, size_t>> gWritten;
-
-std::pair<size_t, size_t> fingerprint(const std::string& bytes)
-{
-    return {bytes.size(), std::hash<std::string_view>()(bytes)};
-}
+std::set<std::pair<size_t, std::string>> gWritten;
 
 void rememberWritten(const std::string& bytes)
 {
-    const auto key = fingerprint(bytes);
+    if (bytes.size() < kUuidAt + kUuidLength) return;
     std::lock_guard<std::mutex> lock(gWrittenMutex);
-    gWritten.insert(key);
+    gWritten.emplace(bytes.size(), bytes.substr(kUuidAt, kUuidLength));
 }
 
 bool writtenHere(const std::string& bytes)
 {
+    if (bytes.size() < kUuidAt + kUuidLength) return false;
     {
         std::lock_guard<std::mutex> lock(gWrittenMutex);
-        if (gWritten.empty()) return false; // (a tool that only reads hashes nothing)
+        // (a tool that only reads, or bytes of a size and UUID never written, hash nothing)
+        if (!gWritten.count({bytes.size(), bytes.substr(kUuidAt, kUuidLength)})) return false;
     }
-    const auto key = fingerprint(bytes);
-    std::lock_guard<std::mutex> lock(gWrittenMutex);
-    return gWritten.count(key) != 0;
+    return contentTag(bytes) == std::string_view(bytes).substr(kUuidAt, kUuidLength);
 }
 
 std::atomic<size_t> gReadsChecked{0};

@@ -37,7 +37,7 @@ void writeGrids(const std::string& path, const openvdb::GridCPtrVec& grids);
 /// @brief Read every grid of @a path ("-" = stdin), fully loaded (no delayed loading). The
 /// bytes are parsed first in a child process capped in memory and CPU time (a corrupt file
 /// can crash OpenVDB's reader, ask it for gigabytes or loop it for ever), unless they are
-/// bytes writeGrids serialised in this process (same size and 64-bit hash).
+/// bytes writeGrids serialised in this process (same size and content UUID, which matches).
 /// @throw IoError for a missing, non-VDB, truncated or corrupt file; Interrupted when the
 /// check given to setReadInterrupt says so while the child parses.
 openvdb::GridPtrVecPtr readGrids(const std::string& path);
